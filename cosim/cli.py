@@ -1,0 +1,75 @@
+"""The ``cosim`` command line: a thin layer that parses arguments and calls one library function per command."""
+
+import argparse
+import sys
+
+from cosim.errors import CosimError
+
+__all__ = ["main"]
+
+
+def _cmd_build(args):
+    from cosim.compile import build_all, build_fmu
+
+    if args.file is None:
+        if args.model is not None:
+            raise CosimError("--model needs a FILE: cosim build FILE.mo --model Pkg.Model")
+        for line in build_all(models_toml=args.models, out_dir=args.out, force=args.force):
+            print(line)
+        return 0
+    if args.model is None:
+        raise CosimError(f"{args.file}: name the model to build with --model Pkg.Model")
+    path = build_fmu(args.file, args.model, out_dir=args.out or "fmus")
+    print(f"built {path}")
+    return 0
+
+
+def _add_build(sub):
+    p = sub.add_parser(
+        "build",
+        help="compile Modelica models to FMI 3.0 Model-Exchange FMUs",
+        description=(
+            "Compile Modelica to FMI 3.0 Model-Exchange FMUs. With FILE and --model, build that model to "
+            "OUT/<Model>.fmu. With no FILE, build every model listed in modelica/models.toml, skipping those "
+            "whose sources and compiler version are unchanged."
+        ),
+    )
+    p.add_argument("file", nargs="?", help="Modelica source file (.mo)")
+    p.add_argument("--model", help="full name of the model to build, e.g. Gripper.GripperPlant")
+    p.add_argument("--out", help="output directory (default: fmus/, or the one models.toml names)")
+    p.add_argument("--models", default="modelica/models.toml", help="model list used when no FILE is given")
+    p.add_argument("--force", action="store_true", help="rebuild even when up to date")
+    p.set_defaults(func=_cmd_build)
+
+
+# Each command adds its parser here; keep one function per command.
+_COMMANDS = [_add_build]
+
+
+def make_parser():
+    """Build the argument parser with every subcommand."""
+    parser = argparse.ArgumentParser(prog="cosim", description=__doc__.split(":")[0] + ".")
+    from cosim import __version__
+
+    parser.add_argument("--version", action="version", version=f"cosim {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for add in _COMMANDS:
+        add(sub)
+    return parser
+
+
+def main(argv=None):
+    """Run the CLI; returns the exit status (0 success, 2 bad input or a failed step, 130 interrupted)."""
+    parser = make_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    try:
+        return args.func(args)
+    except CosimError as err:
+        print(f"cosim {args.command}: error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"cosim {args.command}: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,70 @@
+"""The typed errors of cosim: callers tell failures apart by type, not by message text."""
+
+__all__ = [
+    "CosimError",
+    "ModelicaError",
+    "UnsupportedConstructError",
+    "StructureError",
+    "BuildError",
+    "ConfigError",
+    "FmiCallError",
+]
+
+
+class CosimError(Exception):
+    """Base of every error cosim raises on purpose; the CLI turns it into exit code 2."""
+
+
+class ModelicaError(CosimError, ValueError):
+    """A Modelica source cannot be parsed or flattened (syntax, unknown model, missing file).
+
+    Parameters
+    ----------
+    message : str
+        What went wrong.
+    file : str, optional
+        The source file, when known.
+    line : int, optional
+        The 1-based line in ``file``, when known.
+    """
+
+    def __init__(self, message, file=None, line=None):
+        self.file = file
+        self.line = line
+        where = ""
+        if file is not None:
+            where = f"{file}:{line}: " if line is not None else f"{file}: "
+        super().__init__(f"{where}{message}")
+
+
+class UnsupportedConstructError(ModelicaError):
+    """The model uses a construct the compiler does not lower (``when``, ``pre``, discrete variables...)."""
+
+
+class StructureError(ModelicaError):
+    """The model is under- or over-determined, or its equations cannot be made explicit."""
+
+
+class BuildError(CosimError, RuntimeError):
+    """Exporting, compiling or packing the FMU failed."""
+
+
+class ConfigError(CosimError, ValueError):
+    """A run config or job file is invalid; the message names the file, line and key."""
+
+
+class FmiCallError(CosimError, RuntimeError):
+    """An FMI function returned a status worse than warning.
+
+    Parameters
+    ----------
+    function : str
+        The FMI function name, e.g. ``fmi3DoStep``.
+    status : str
+        The status label returned.
+    """
+
+    def __init__(self, function, status, detail=""):
+        self.function = function
+        self.status = status
+        super().__init__(f"{function} returned {status}{': ' + detail if detail else ''}")
