@@ -1,0 +1,1 @@
+"""Python controllers the co-simulation master runs: see ``controllers.base.Controller`` for the interface."""
