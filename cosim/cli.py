@@ -42,8 +42,14 @@ def _add_build(sub):
     p.set_defaults(func=_cmd_build)
 
 
+def _add_haptic(sub):
+    from cosim.analysis.haptic_cli import add_haptic_parser
+
+    add_haptic_parser(sub)
+
+
 # Each command adds its parser here; keep one function per command.
-_COMMANDS = [_add_build]
+_COMMANDS = [_add_build, _add_haptic]
 
 
 def make_parser():
