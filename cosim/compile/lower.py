@@ -1,0 +1,371 @@
+"""Lower a translated DAE to an explicit ODE: parameter resolution, index reduction of redundant states
+(dummy derivatives), causalisation (one-unknown equations first, then strongly connected blocks solved
+symbolically when linear and by a generated Newton rootfinder when not)."""
+
+import graphlib
+
+import casadi as ca
+import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
+
+from cosim.compile.model import LoweredModel, ModelVariable
+from cosim.errors import StructureError
+
+__all__ = ["lower_system"]
+
+# Which redundant state to demote first when a constraint ties states together.
+_DEMOTE_ORDER = {"never": 0, "avoid": 1, "default": 2, "prefer": 3, "always": 4}
+
+
+def _names(expr):
+    return {s.name() for s in ca.symvar(expr)}
+
+
+def _depends(expr, names):
+    return not _names(expr).isdisjoint(names)
+
+
+def _is_zero(expr):
+    expr = ca.simplify(expr)
+    return expr.is_zero() or (expr.is_constant() and float(ca.evalf(expr)) == 0.0)
+
+
+def _evaluate(expr, where):
+    if not expr.is_constant() and ca.symvar(expr):
+        names = ", ".join(sorted(_names(expr)))
+        raise StructureError(f"{where}: value depends on {names}, which are not parameters with values")
+    return float(ca.evalf(expr))
+
+
+def _file_line(location):
+    file, _, line = location.rpartition(":")
+    return (file, int(line)) if file and line.isdigit() else (location, None)
+
+
+class _Parameters:
+    """Split parameters into tunable ones (free symbols in the FMU), dependent ones (substituted, so they
+    follow the tunable ones) and constants (Integer, Boolean, non-tunable: evaluated at build time)."""
+
+    def __init__(self, system):
+        params = system.by_role("parameter", "constant")
+        param_names = {p.name for p in params}
+        self.notes = []
+        self.free = []
+        dependent = {}
+        for p in params:
+            value = p.binding if p.binding is not None else p.start
+            structural = p.kind != "real" or p.role == "constant" or not p.tunable
+            if value is None:
+                value = ca.SX(0.0)
+                self.notes.append(f"{p.location}: parameter {p.name} has no value; using 0")
+            if not structural and not _depends(value, param_names):
+                self.free.append(p)
+            dependent[p.name] = (p, value)
+        free_names = {p.name for p in self.free}
+        self.defaults = {p.name: _evaluate(dependent[p.name][1], p.location) for p in self.free}
+        # Resolve dependent bindings to expressions of the free parameters only.
+        resolved = {}
+        syms = {p.name: p.sym for p in params}
+        pending = {n: v for n, (p, v) in dependent.items() if n not in free_names}
+        for _ in range(len(pending) + 1):
+            if not pending:
+                break
+            done = {}
+            for name, expr in pending.items():
+                unresolved = _names(expr) & set(pending)
+                if not unresolved:
+                    done[name] = expr
+            if not done:
+                cycle = ", ".join(sorted(pending))
+                p = dependent[next(iter(pending))][0]
+                raise StructureError(f"parameter bindings form a cycle: {cycle}", *_file_line(p.location))
+            for name, expr in done.items():
+                del pending[name]
+                resolved[name] = expr
+            for name in pending:
+                inner = [n for n in _names(pending[name]) if n in resolved]
+                if inner:
+                    pending[name] = ca.substitute(
+                        pending[name], ca.vertcat(*[syms[n] for n in inner]),
+                        ca.vertcat(*[resolved[n] for n in inner]))
+        self.constants = {}
+        free_syms = ca.vertcat(*[p.sym for p in self.free]) if self.free else ca.SX(0, 1)
+        free_vals = ca.vertcat(*[self.defaults[p.name] for p in self.free]) if self.free else ca.SX(0, 1)
+        self.subs_from, self.subs_to = [], []
+        for name, expr in resolved.items():
+            p = dependent[name][0]
+            structural = p.kind != "real" or p.role == "constant" or not p.tunable
+            if structural:
+                value = _evaluate(ca.substitute(expr, free_syms, free_vals), p.location)
+                self.constants[name] = int(value) if p.kind != "real" else value
+                expr = ca.SX(value)
+            self.subs_from.append(syms[name])
+            self.subs_to.append(expr)
+        # Constants inside dependent expressions are numbers now.
+        if self.subs_from:
+            const_from = [syms[n] for n in self.constants]
+            const_to = [ca.SX(v) for v in self.constants.values()]
+            if const_from:
+                self.subs_to = list(ca.substitute(self.subs_to, const_from, const_to))
+
+    def substitute(self, expr):
+        if not self.subs_from or expr is None:
+            return expr
+        return ca.substitute(expr, ca.vertcat(*self.subs_from), ca.vertcat(*self.subs_to))
+
+
+class _Blocks:
+    """Result of causalising a square system: solved expressions, nonlinear blocks, leftover constraints."""
+
+    def __init__(self):
+        self.solved = {}        # unknown name -> expression in knowns and nonlinear-block symbols
+        self.nonlinear = []     # (unknown symbols, residual expressions, locations)
+        self.constraints = []   # (expression in knowns, location)
+
+
+def _causalise(equations, unknowns, state_names, input_names):
+    """Solve ``0 = equations`` for ``unknowns`` (SX symbols) in terms of everything else."""
+    result = _Blocks()
+    index = {u.name(): u for u in unknowns}
+    exprs = [e for e, _ in equations]
+    locs = [loc for _, loc in equations]
+    pending = list(range(len(exprs)))
+
+    def refresh(i):
+        names = _names(exprs[i])
+        done = [n for n in names if n in result.solved]
+        if done:
+            exprs[i] = ca.substitute(exprs[i], ca.vertcat(*[index[n] for n in done]),
+                                     ca.vertcat(*[result.solved[n] for n in done]))
+            names = _names(exprs[i])
+        return [n for n in names if n in index and n not in result.solved]
+
+    progress = True
+    while progress:
+        progress = False
+        remaining = []
+        for i in pending:
+            open_unknowns = refresh(i)
+            if not open_unknowns:
+                if _is_zero(exprs[i]):
+                    continue
+                if _depends(exprs[i], state_names):
+                    result.constraints.append((exprs[i], locs[i]))
+                    continue
+                raise StructureError(
+                    f"equation has no unknown left to determine (over-determined or inconsistent): "
+                    f"0 = {exprs[i]}", *_file_line(locs[i]))
+            if len(open_unknowns) == 1:
+                u = index[open_unknowns[0]]
+                a = ca.jacobian(exprs[i], u)
+                if not ca.depends_on(a, u) and not _is_zero(a):
+                    result.solved[u.name()] = ca.simplify(-ca.substitute(exprs[i], u, 0) / a)
+                    progress = True
+                    continue
+            remaining.append(i)
+        pending = remaining
+    if result.constraints or not pending:
+        return result
+    _solve_blocks(result, pending, exprs, locs, index, refresh)
+    return result
+
+
+def _solve_blocks(result, pending, exprs, locs, index, refresh):
+    """Match the remaining equations to unknowns, order their strongly connected blocks and solve each."""
+    incidence = {i: refresh(i) for i in pending}
+    cols = sorted({n for ns in incidence.values() for n in ns})
+    if len(cols) != len(pending):
+        where = "; ".join(locs[i] for i in pending[:6])
+        raise StructureError(
+            f"{len(pending)} coupled equations for {len(cols)} unknowns ({', '.join(cols[:8])}) at {where}")
+    col_of = {n: k for k, n in enumerate(cols)}
+    rows, colidx = [], []
+    for r, i in enumerate(pending):
+        for n in incidence[i]:
+            rows.append(r)
+            colidx.append(col_of[n])
+    graph = csr_matrix((np.ones(len(rows)), (rows, colidx)), shape=(len(pending), len(cols)))
+    match = maximum_bipartite_matching(graph, perm_type="column")
+    if (match < 0).any():
+        bad = [locs[pending[r]] for r in np.flatnonzero(match < 0)]
+        raise StructureError(
+            "the equations are structurally singular (some unknown is determined twice and another not at all); "
+            f"check the equations at {', '.join(bad[:6])}", *_file_line(bad[0]))
+    row_of_col = {int(c): r for r, c in enumerate(match)}
+    dep_rows, dep_cols = [], []
+    for r, i in enumerate(pending):
+        for n in incidence[i]:
+            dep_rows.append(r)
+            dep_cols.append(row_of_col[col_of[n]])
+    deps = csr_matrix((np.ones(len(dep_rows)), (dep_rows, dep_cols)), shape=(len(pending),) * 2)
+    n_comp, labels = connected_components(deps, directed=True, connection="strong")
+    order = graphlib.TopologicalSorter({c: set() for c in range(n_comp)})
+    for r, c in zip(dep_rows, dep_cols):
+        if labels[r] != labels[c]:
+            order.add(int(labels[r]), int(labels[c]))
+    for comp in order.static_order():
+        members = [r for r in range(len(pending)) if labels[r] == comp]
+        for r in members:
+            refresh(pending[r])
+        unknowns = ca.vertcat(*[index[cols[match[r]]] for r in members])
+        residual = ca.vertcat(*[exprs[pending[r]] for r in members])
+        jac = ca.jacobian(residual, unknowns)
+        if not ca.depends_on(jac, unknowns):
+            rhs = -ca.substitute(residual, unknowns, ca.SX.zeros(unknowns.shape))
+            solution = rhs / jac if unknowns.numel() == 1 else ca.solve(jac, rhs)
+            for k in range(unknowns.numel()):
+                result.solved[unknowns[k].name()] = ca.simplify(solution[k])
+        else:
+            result.nonlinear.append((unknowns, residual, [locs[pending[r]] for r in members]))
+            for k in range(unknowns.numel()):
+                result.solved[unknowns[k].name()] = unknowns[k]
+
+
+def _pick_state_to_demote(constraint, states, demoted):
+    candidates = [k for k, s in enumerate(states) if k not in demoted and ca.depends_on(constraint, s.sym)]
+    return min(candidates, key=lambda k: (_DEMOTE_ORDER.get(states[k].state_select.lower(), 2), -k))
+
+
+def lower_system(system):
+    """Lower a :class:`~cosim.compile.translate.DaeSystem` to a :class:`LoweredModel`.
+
+    Raises
+    ------
+    StructureError
+        The equations cannot be made explicit: over- or under-determined, structurally singular, or a
+        constraint between states that involves an input (it would need the input's derivative).
+    """
+    params = _Parameters(system)
+    notes = list(params.notes)
+    states = system.by_role("state")
+    algebraics = [v for v in system.variables if v.role in ("algebraic", "output")]
+    inputs = system.by_role("input")
+    equations = [(params.substitute(e.residual), e.location) for e in system.equations]
+    state_names = {s.name for s in states}
+    input_names = {u.name for u in inputs}
+    ders = [system.derivatives[s.name] for s in states]
+    demoted, extra = [], []
+    for _ in range(len(states) + 1):
+        unknowns = ders + [z.sym for z in algebraics] + [states[k].sym for k in demoted]
+        active_names = {s.name for k, s in enumerate(states) if k not in demoted}
+        blocks = _causalise(equations + extra, unknowns, active_names, input_names)
+        if not blocks.constraints:
+            break
+        for g, loc in blocks.constraints:
+            if _depends(g, input_names):
+                raise StructureError(
+                    f"a constraint between states involves an input ({g}); it would need the input's derivative",
+                    *_file_line(loc))
+            k = _pick_state_to_demote(g, states, demoted)
+            demoted.append(k)
+            dg = ca.mtimes(ca.jacobian(g, ca.vertcat(*[s.sym for s in states])), ca.vertcat(*ders))
+            dg += ca.jacobian(g, system.time)
+            extra.append((dg, loc))
+            notes.append(f"{loc}: constraint 0 = {g} ties states together; {states[k].name} is computed from it "
+                         f"(index reduction)")
+    active = [s for k, s in enumerate(states) if k not in demoted]
+    solved = blocks.solved
+
+    active_names = {s.name for s in active}
+
+    def value_of(var):
+        return var.sym if var.name in active_names else solved[var.sym.name()]
+
+    outputs = [v for v in system.variables if v.causality == "output"]
+    observed = [v for v in algebraics + [states[k] for k in demoted] if v.causality != "output"]
+    X = ca.vertcat(*[s.sym for s in active]) if active else ca.SX(0, 1)
+    U = ca.vertcat(*[u.sym for u in inputs]) if inputs else ca.SX(0, 1)
+    P = ca.vertcat(*[p.sym for p in params.free]) if params.free else ca.SX(0, 1)
+    T = system.time
+    xdot = ca.vertcat(*[solved[system.derivatives[s.name].name()] for s in active]) if active else ca.SX(0, 1)
+    y = ca.vertcat(*[value_of(v) for v in outputs]) if outputs else ca.SX(0, 1)
+    obs = ca.vertcat(*[value_of(v) for v in observed]) if observed else ca.SX(0, 1)
+    known = {s.name for s in active} | input_names | {p.name for p in params.free} | {T.name()}
+    block_names = {u.name() for vs, _, _ in blocks.nonlinear for u in ca.vertsplit(vs)}
+    for expr, what in ((xdot, "state derivatives"), (y, "outputs")):
+        stray = _names(expr) - known - block_names
+        if stray:
+            raise StructureError(f"{system.name}: {what} still depend on {', '.join(sorted(stray))} after lowering")
+    ode, out, observe = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, system)
+    if blocks.nonlinear:
+        for vs, _, locs in blocks.nonlinear:
+            notes.append(f"nonlinear algebraic loop in {', '.join(u.name() for u in ca.vertsplit(vs))} "
+                         f"(equations at {', '.join(sorted(set(locs)))}) solved by Newton's method")
+    x0, x0_notes = _initial_state(system, params, active, P)
+    notes += x0_notes
+    p_defaults = [params.defaults[p.name] for p in params.free]
+    x0_values = np.array(x0(p_defaults), dtype=float).ravel() if active else np.zeros(0)
+    return LoweredModel(
+        name=system.name,
+        states=tuple(ModelVariable(s.name, s.unit, s.description, float(v)) for s, v in zip(active, x0_values)),
+        inputs=tuple(ModelVariable(u.name, u.unit, u.description, _start(u)) for u in inputs),
+        outputs=tuple(ModelVariable(v.name, v.unit, v.description, _start(v)) for v in outputs),
+        parameters=tuple(ModelVariable(p.name, p.unit, p.description, params.defaults[p.name])
+                         for p in params.free),
+        ode=ode, out=out, observe=observe,
+        observed=tuple(ModelVariable(v.name, v.unit, v.description, _start(v)) for v in observed),
+        x0=x0, constants=dict(params.constants), notes=tuple(notes),
+    )
+
+
+def _start(var):
+    if var.start is None or not var.start.is_constant():
+        return 0.0
+    return float(ca.evalf(var.start))
+
+
+def _functions(X, U, P, T, xdot, y, obs, nonlinear, system):
+    """CasADi functions of (x, u, p, t); nonlinear blocks become Newton rootfinders (C code can be generated)."""
+    names = ["x", "u", "p", "t"]
+    if not nonlinear:
+        return (ca.Function("ode", [X, U, P, T], [xdot], names, ["xdot"]),
+                ca.Function("out", [X, U, P, T], [y], names, ["y"]),
+                ca.Function("observe", [X, U, P, T], [obs], names, ["v"]))
+    block_syms = [vs for vs, _, _ in nonlinear]
+    explicit = ca.Function("explicit", [X, U, P, T, *block_syms], [xdot, y, obs])
+    Xm, Um, Pm, Tm = (ca.MX.sym(n, s.shape[0]) for n, s in zip(names, (X, U, P, T)))
+    solved = []
+    for k, (vs, residual, _) in enumerate(nonlinear):
+        context = ca.vertcat(X, U, P, T, *block_syms[:k])
+        G = ca.Function(f"loop{k}", [vs, context], [residual])
+        solver = ca.rootfinder(f"newton{k}", "newton", G,
+                               {"abstol": 1e-12, "max_iter": 50, "error_on_fail": False})
+        guess = [_start(_var_named(system, u.name())) for u in ca.vertsplit(vs)]
+        solved.append(solver(ca.DM(guess), ca.vertcat(Xm, Um, Pm, Tm, *solved)))
+    xd, yy, oo = explicit(Xm, Um, Pm, Tm, *solved)
+    return (ca.Function("ode", [Xm, Um, Pm, Tm], [xd], names, ["xdot"]),
+            ca.Function("out", [Xm, Um, Pm, Tm], [yy], names, ["y"]),
+            ca.Function("observe", [Xm, Um, Pm, Tm], [oo], names, ["v"]))
+
+
+def _var_named(system, name):
+    return next(v for v in system.variables if v.name == name)
+
+
+def _initial_state(system, params, active, P):
+    """x0(p) from start values, overridden by initial equations (which may involve only states and parameters)."""
+    notes = []
+    starts = {}
+    for s in active:
+        start = params.substitute(s.start) if s.start is not None else ca.SX(0.0)
+        starts[s.name] = start
+        if _depends(start, {p.name for p in params.free}):
+            notes.append(f"{s.location}: start of {s.name} depends on parameters; the FMU uses its value at the "
+                         "default parameters (set the state to change it)")
+    if system.initial_equations:
+        targets = [s.sym for s in active if _names(ca.vertcat(*[e.residual for e in system.initial_equations]))
+                   & {s.name}]
+        eqs = [(params.substitute(e.residual), e.location) for e in system.initial_equations]
+        blocks = _causalise(eqs, targets, set(), set())
+        if blocks.nonlinear or blocks.constraints:
+            raise StructureError("initial equations must determine the states they mention, explicitly",
+                                 *_file_line(eqs[0][1]))
+        for s in targets:
+            starts[s.name()] = blocks.solved[s.name()]
+    X0 = ca.vertcat(*[starts[s.name] for s in active]) if active else ca.SX(0, 1)
+    others = _names(X0) - {p.name for p in params.free}
+    if others:
+        raise StructureError(f"{system.name}: start values depend on {', '.join(sorted(others))}, which are not "
+                             "parameters")
+    return ca.Function("x0", [P], [X0], ["p"], ["x0"]), notes

@@ -1,0 +1,98 @@
+"""The lowered model: the public, explicit form of a Modelica model that the FMU, calibration and diagnosis share."""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["ModelVariable", "LoweredModel"]
+
+
+@dataclass(frozen=True)
+class ModelVariable:
+    """A variable of the lowered model.
+
+    Attributes
+    ----------
+    name : str
+        Flat Modelica name.
+    unit : str
+        Modelica unit string ('' when undeclared).
+    description : str
+        The declaration's description string.
+    start : float
+        Start value (parameters: the default; states: the initial value at default parameters).
+    """
+
+    name: str
+    unit: str = ""
+    description: str = ""
+    start: float = 0.0
+
+
+@dataclass(frozen=True)
+class LoweredModel:
+    """An explicit ODE ``der(x) = f(x, u, p, t)`` with outputs ``y = h(x, u, p, t)``.
+
+    Attributes
+    ----------
+    name : str
+        Full Modelica model name.
+    states, inputs, outputs, parameters : tuple of ModelVariable
+        In the order of the function arguments and results. ``parameters`` are the tunable ones; parameters
+        bound to other parameters are substituted and so follow them.
+    ode : casadi.Function
+        ``ode(x, u, p, t) -> xdot``.
+    out : casadi.Function
+        ``out(x, u, p, t) -> y``.
+    observe : casadi.Function
+        ``observe(x, u, p, t) -> v``: every other continuous variable, named in ``observed``.
+    observed : tuple of ModelVariable
+        The variables ``observe`` returns, in order.
+    x0 : casadi.Function
+        ``x0(p) -> x`` initial states from start values and initial equations.
+    constants : dict
+        Integer and non-tunable parameters, evaluated at build time (name -> value).
+    notes : tuple of str
+        What the lowering did that a user may want to know (demoted states, nonlinear blocks, frozen starts).
+    """
+
+    name: str
+    states: tuple
+    inputs: tuple
+    outputs: tuple
+    parameters: tuple
+    ode: object
+    out: object
+    observe: object
+    observed: tuple
+    x0: object
+    constants: dict = field(default_factory=dict)
+    notes: tuple = ()
+
+    @property
+    def parameter_values(self):
+        """Default values of the tunable parameters, as an array in ``parameters`` order."""
+        return np.array([p.start for p in self.parameters], dtype=float)
+
+    def initial_state(self, p=None):
+        """Initial state vector for parameter values ``p`` (default: the model's defaults)."""
+        p = self.parameter_values if p is None else np.asarray(p, dtype=float)
+        return np.array(self.x0(p), dtype=float).ravel()
+
+    def derivatives(self, x, u, p=None, t=0.0):
+        """Evaluate ``der(x)`` numerically; arrays in, array out."""
+        p = self.parameter_values if p is None else p
+        return np.array(self.ode(x, u, p, t), dtype=float).ravel()
+
+    def output_values(self, x, u, p=None, t=0.0):
+        """Evaluate the outputs numerically; arrays in, array out."""
+        p = self.parameter_values if p is None else p
+        return np.array(self.out(x, u, p, t), dtype=float).ravel()
+
+    def index(self, group, name):
+        """Position of variable ``name`` in ``group`` ('states', 'inputs', 'outputs', 'parameters', 'observed')."""
+        names = [v.name for v in getattr(self, group)]
+        try:
+            return names.index(name)
+        except ValueError:
+            raise KeyError(f"{self.name} has no {group[:-1]} named {name!r}; it has {', '.join(names)}") from None

@@ -1,0 +1,331 @@
+"""Translate rumoca's DAE IR into CasADi SX expressions: variables by role, residual equations with their
+source lines, user functions inlined. Constructs the compiler does not support are rejected here, with the
+file and line where they appear."""
+
+import warnings
+from dataclasses import dataclass, field
+
+import casadi as ca
+
+from cosim.errors import UnsupportedConstructError
+
+__all__ = ["Variable", "Equation", "DaeSystem", "translate"]
+
+_BINARY = {
+    "add": lambda a, b: a + b,
+    "subtract": lambda a, b: a - b,
+    "multiply": lambda a, b: a * b,
+    "divide": lambda a, b: a / b,
+    "power": lambda a, b: a**b,
+    "greater": lambda a, b: a > b,
+    "greater_equal": lambda a, b: a >= b,
+    "less": lambda a, b: a < b,
+    "less_equal": lambda a, b: a <= b,
+    "equal": lambda a, b: a == b,
+    "not_equal": lambda a, b: a != b,
+    "and": ca.logic_and,
+    "or": ca.logic_or,
+}
+_BUILTIN_1 = {
+    "abs": ca.fabs, "sign": ca.sign, "sqrt": ca.sqrt, "exp": ca.exp, "log": ca.log, "log10": ca.log10,
+    "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos, "atan": ca.atan,
+    "sinh": ca.sinh, "cosh": ca.cosh, "tanh": ca.tanh,
+}
+_BUILTIN_2 = {"min": ca.fmin, "max": ca.fmax, "atan2": ca.atan2}
+# Event structures rumoca fills for constructs with discrete semantics, and how a user wrote them.
+_EVENT_TABLES = {
+    "discrete_real_equations": "when-equation (discrete equations)",
+    "discrete_value_owners": "discrete variable assignment",
+    "model_event_transactions": "when-equation",
+    "event_actions": "reinit or when-equation action",
+    "previous_values": "pre()",
+    "clocks": "clocked construct (sample, Clock)",
+    "clock_ownerships": "clocked construct (sample, Clock)",
+    "time_events": "time event (sample)",
+    "delays": "delay()",
+}
+_STRUCTURAL_ROLES = {"state", "algebraic", "input", "output", "parameter", "constant"}
+
+
+@dataclass
+class Variable:
+    """One flat Modelica variable.
+
+    Attributes
+    ----------
+    name : str
+        Flat name, e.g. ``motor.w``.
+    role : str
+        ``state``, ``algebraic``, ``input``, ``output``, ``parameter`` or ``constant``.
+    kind : str
+        Value type: ``real``, ``integer`` or ``boolean``.
+    sym : casadi.SX
+        The variable's symbol.
+    start, binding : casadi.SX or None
+        The start attribute and the declaration binding, as expressions.
+    """
+
+    name: str
+    role: str
+    kind: str
+    sym: object
+    unit: str = ""
+    description: str = ""
+    start: object = None
+    binding: object = None
+    fixed: bool = False
+    tunable: bool = True
+    state_select: str = "Default"
+    causality: str = "local"
+    location: str = ""
+
+
+@dataclass
+class Equation:
+    """A residual equation ``0 = residual`` and where it was written."""
+
+    residual: object
+    location: str
+
+
+@dataclass
+class DaeSystem:
+    """The model as CasADi symbols and residuals, before causalisation."""
+
+    name: str
+    variables: list
+    derivatives: dict  # state name -> SX symbol of der(state)
+    time: object
+    equations: list
+    initial_equations: list
+    warnings: list = field(default_factory=list)
+
+    def by_role(self, *roles):
+        return [v for v in self.variables if v.role in roles]
+
+
+def _span_of(entry):
+    """Find the first source span inside an IR entry (they nest under 'provenance')."""
+    if isinstance(entry, dict):
+        if "span" in entry and isinstance(entry["span"], dict):
+            return entry["span"]
+        for value in entry.values():
+            span = _span_of(value)
+            if span:
+                return span
+    elif isinstance(entry, list):
+        for value in entry:
+            span = _span_of(value)
+            if span:
+                return span
+    return None
+
+
+class _Translator:
+    def __init__(self, flat):
+        self.flat = flat
+        storage = flat.ir["storage"]
+        self.storage = storage
+        exprs = storage["expressions"]
+        self.nodes = exprs["nodes"]
+        self.provenance = exprs.get("provenance", [])
+        self.operands = self._operand_table(exprs["operands"])
+        self.value_types = [vt["scalar"] for vt in storage["value_types"]]
+        self.time = ca.SX.sym("time")
+        self.syms = []
+        self.der_syms = {}
+        self.memo = {}
+
+    def where(self, node_id):
+        prov = self.provenance[node_id] if node_id < len(self.provenance) else None
+        return self.flat.locate(_span_of(prov))
+
+    def unsupported(self, what, span_holder):
+        raise UnsupportedConstructError(
+            f"{what} is not supported: plant models are continuous; put discrete logic in a Python controller "
+            "(see docs/compiler.md)",
+            *self._file_line(self.flat.locate(_span_of(span_holder))),
+        )
+
+    @staticmethod
+    def _file_line(location):
+        file, _, line = location.rpartition(":")
+        if file and line.isdigit():
+            return file, int(line)
+        return location, None
+
+    def _operand_table(self, operands):
+        """Variadic nodes take their operands from one flat array, in node order."""
+        table, pos = {}, 0
+        for i, node in enumerate(self.nodes):
+            (kind, body), = node.items()
+            count = body.get("operand_count", 0) if isinstance(body, dict) else 0
+            if count:
+                table[i] = operands[pos:pos + count]
+                pos += count
+        if pos != len(operands):
+            raise UnsupportedConstructError(
+                f"rumoca IR of {self.flat.name} has {len(operands)} operands but its nodes consume {pos}: "
+                "a construct the compiler does not understand", str(self.flat.path))
+        return table
+
+    # -- expressions ---------------------------------------------------------
+    def expr(self, node_id, ctx=None):
+        key = (node_id, id(ctx))
+        if key not in self.memo:
+            self.memo[key] = self._expr(node_id, ctx)
+        return self.memo[key]
+
+    def _expr(self, i, ctx):
+        node = self.nodes[i]
+        (kind, body), = node.items()
+        if kind == "literal":
+            (_, value), = body.items()
+            return ca.SX(float(value))
+        if kind == "coordinate":
+            return self._coordinate(i, body, ctx)
+        if kind == "unary":
+            a = self.expr(body["operand"], ctx)
+            if body["operator"] == "negate":
+                return -a
+            if body["operator"] == "not":
+                return ca.logic_not(a)
+            if body["operator"] == "plus":
+                return a
+        elif kind == "binary":
+            op = _BINARY.get(body["operator"])
+            if op is not None:
+                return op(self.expr(body["lhs"], ctx), self.expr(body["rhs"], ctx))
+        elif kind == "builtin":
+            return self._builtin(i, body["builtin"], ctx)
+        elif kind == "conditional":
+            args = [self.expr(j, ctx) for j in self.operands[i]]
+            result = args[-1]
+            for c, e in reversed(list(zip(args[:-1:2], args[1:-1:2]))):
+                result = ca.if_else(c, e, result)
+            return result
+        elif kind == "call":
+            return self._call(i, body, ctx)
+        elif kind == "function_value":
+            return ctx["values"][body["definition_ordinal"]]
+        what = body.get("operator") or body.get("builtin") if isinstance(body, dict) else None
+        self.unsupported(f"the construct {kind}{' ' + what if what else ''}", self.provenance[i])
+
+    def _coordinate(self, i, body, ctx):
+        if body == "time":
+            return self.time
+        (ref, index), = body.items()
+        if ref in ("state", "algebraic", "input", "parameter", "output", "constant"):
+            return self.syms[index]
+        if ref == "derivative":
+            return self.der_syms[index]
+        if ref == "function_parameter":
+            return ctx["args"][index["ordinal"]]
+        self.unsupported(f"a reference to a {ref} variable", self.provenance[i])
+
+    def _builtin(self, i, name, ctx):
+        args = [self.expr(j, ctx) for j in self.operands[i]]
+        if name in ("no_event", "noEvent"):
+            return args[0]
+        if name == "smooth":
+            return args[-1]
+        if name == "homotopy":
+            return args[0]
+        if name in _BUILTIN_1 and len(args) == 1:
+            return _BUILTIN_1[name](args[0])
+        if name in _BUILTIN_2 and len(args) == 2:
+            return _BUILTIN_2[name](args[0], args[1])
+        self.unsupported(f"the built-in {name}()", self.provenance[i])
+
+    def _call(self, i, body, ctx):
+        owner = body["owner"]
+        key = ("call", owner, id(ctx))
+        if key not in self.memo:
+            args = [self.expr(j, ctx) for j in self.operands[owner]]
+            self.memo[key] = self._inline(body["function"], args, owner)
+        return self.memo[key][body["output"]]
+
+    def _inline(self, index, args, call_node):
+        function = self.storage["functions"][index]
+        if function.get("external"):
+            self.unsupported(f"the external function {function['name']}", function)
+        n_out = len(function["outputs"])
+        fctx = {"args": args, "values": []}
+        final = [None] * n_out
+        for statement in function["statements"]:
+            (kind, body), = statement.items()
+            if kind != "assignment":
+                self.unsupported(f"the '{kind}' statement in function {function['name']}", statement)
+            value = self.expr(body["rhs"], fctx)
+            fctx["values"].append(value)
+            if body["target"] < n_out:
+                final[body["target"]] = value
+        for k, value in enumerate(final):
+            if value is None:
+                self.unsupported(
+                    f"function {function['name']} leaving output {function['outputs'][k]['name']} unassigned",
+                    function)
+        return final
+
+    # -- variables and equations ----------------------------------------------
+    def run(self):
+        storage = self.storage
+        for table, what in _EVENT_TABLES.items():
+            if storage.get(table):
+                self.unsupported(what, storage[table][0])
+        raw = storage["variables"]
+        for v in raw:
+            if v["role"] not in _STRUCTURAL_ROLES:
+                self.unsupported(f"the {v['role'].replace('_', ' ')} variable {v['name']}", v)
+        self.syms = [ca.SX.sym(v["name"]) for v in raw]
+        self.der_syms = {i: ca.SX.sym(f"der({v['name']})") for i, v in enumerate(raw) if v["role"] == "state"}
+        system_warnings = []
+        for rel in storage.get("relations", []):
+            if "quotient_owner" in rel:
+                self.unsupported("mod/div/rem", storage.get("conditions", [rel]))
+            system_warnings.append(
+                f"{self.flat.locate(_span_of(rel))}: 'if' without noEvent is evaluated without events")
+        variables = []
+        for i, v in enumerate(raw):
+            a = v["attributes"]
+            variables.append(Variable(
+                name=v["name"],
+                role=v["role"],
+                kind=self.value_types[v["value_type"]],
+                sym=self.syms[i],
+                unit=a.get("unit") or "",
+                description=a.get("description") or "",
+                start=None if a.get("start") is None else self.expr(a["start"]),
+                binding=None if a.get("binding") is None else self.expr(a["binding"]),
+                fixed=bool(a.get("fixed")) and a.get("fixed") not in ([False], [None]),
+                tunable=bool(a.get("is_tunable", True)),
+                state_select=a.get("state_select") or "Default",
+                causality=a.get("causality") or "local",
+                location=self.flat.locate(_span_of(v.get("declaration"))),
+            ))
+        equations = [self._equation(op) for op in storage["continuous_equation_operations"]]
+        initial = [self._equation(op) for op in storage.get("initialization_equation_operations", [])]
+        derivatives = {raw[i]["name"]: s for i, s in self.der_syms.items()}
+        return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, system_warnings)
+
+    def _equation(self, operation):
+        (kind, body), = operation.items()
+        if kind != "residual":
+            self.unsupported(f"the equation form '{kind}'", operation)
+        return Equation(self.expr(body["residual"]), self.flat.locate(_span_of(body.get("provenance"))))
+
+
+def translate(flat):
+    """Translate a :class:`~cosim.compile.frontend.FlatModel` into a :class:`DaeSystem` of SX expressions.
+
+    Plain ``if`` expressions (without ``noEvent``) are accepted and evaluated without events; one warning per
+    model names their places.
+    """
+    system = _Translator(flat).run()
+    if system.warnings:
+        warnings.warn(
+            f"{flat.name}: {len(system.warnings)} 'if' expression(s) without noEvent are evaluated without "
+            "events (the master's step bounds the error): " + "; ".join(system.warnings),
+            stacklevel=2,
+        )
+    return system
