@@ -291,7 +291,8 @@ def lower_system(system):
     if blocks.nonlinear:
         for vs, _, locs in blocks.nonlinear:
             notes.append(f"nonlinear algebraic loop in {', '.join(u.name() for u in ca.vertsplit(vs))} "
-                         f"(equations at {', '.join(sorted(set(locs)))}) solved by Newton's method")
+                         f"(equations at {', '.join(sorted(set(locs)))}) solved by Newton's method "
+                         f"({NEWTON_ITERATIONS} iterations from the start values)")
     x0, x0_notes = _initial_state(system, params, active, P)
     notes += x0_notes
     p_defaults = [params.defaults[p.name] for p in params.free]
@@ -315,8 +316,21 @@ def _start(var):
     return float(ca.evalf(var.start))
 
 
+# Newton iterations unrolled into the generated code (CasADi cannot generate C for its own rootfinders).
+NEWTON_ITERATIONS = 30
+
+
+def _newton(k, unknowns, residual, context):
+    """A Newton solver for one nonlinear block as a CasADi function of (guess, context) that C code can be
+    generated for: one SX step v - J(v)^-1 r(v), folded NEWTON_ITERATIONS times (a loop in the C code)."""
+    jac = ca.jacobian(residual, unknowns)
+    step = ca.Function(f"newton_step{k}", [unknowns, context],
+                       [unknowns - ca.solve(jac, residual)])
+    return step.fold(NEWTON_ITERATIONS)
+
+
 def _functions(X, U, P, T, xdot, y, obs, nonlinear, system):
-    """CasADi functions of (x, u, p, t); nonlinear blocks become Newton rootfinders (C code can be generated)."""
+    """CasADi functions of (x, u, p, t); nonlinear blocks are solved by a generated Newton iteration."""
     names = ["x", "u", "p", "t"]
     if not nonlinear:
         return (ca.Function("ode", [X, U, P, T], [xdot], names, ["xdot"]),
@@ -328,11 +342,10 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, system):
     solved = []
     for k, (vs, residual, _) in enumerate(nonlinear):
         context = ca.vertcat(X, U, P, T, *block_syms[:k])
-        G = ca.Function(f"loop{k}", [vs, context], [residual])
-        solver = ca.rootfinder(f"newton{k}", "newton", G,
-                               {"abstol": 1e-12, "max_iter": 50, "error_on_fail": False})
-        guess = [_start(_var_named(system, u.name())) for u in ca.vertsplit(vs)]
-        solved.append(solver(ca.DM(guess), ca.vertcat(Xm, Um, Pm, Tm, *solved)))
+        solver = _newton(k, vs, residual, context)
+        guess = ca.DM([_start(_var_named(system, u.name())) for u in ca.vertsplit(vs)])
+        ctx_value = ca.vertcat(Xm, Um, Pm, Tm, *solved)
+        solved.append(solver(guess, ca.repmat(ctx_value, 1, NEWTON_ITERATIONS)))
     xd, yy, oo = explicit(Xm, Um, Pm, Tm, *solved)
     return (ca.Function("ode", [Xm, Um, Pm, Tm], [xd], names, ["xdot"]),
             ca.Function("out", [Xm, Um, Pm, Tm], [yy], names, ["y"]),

@@ -1,0 +1,27 @@
+"""Shared fixtures: FMUs built once per test session from the Modelica sources they test."""
+
+import warnings
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+COMPILER_MODELS = ROOT / "tests" / "models" / "compiler" / "CompilerTests.mo"
+
+
+@pytest.fixture(scope="session")
+def compiler_fmu(tmp_path_factory):
+    """Build ``CompilerTests.<name>`` once per session; returns a function name -> FMU path."""
+    from cosim.compile import build_fmu
+
+    out = tmp_path_factory.mktemp("compiler_fmus")
+    built = {}
+
+    def get(name):
+        if name not in built:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                built[name] = build_fmu(COMPILER_MODELS, f"CompilerTests.{name}", out_dir=out)
+        return built[name]
+
+    return get
