@@ -212,6 +212,7 @@ def _solve_blocks(result, pending, exprs, locs, index, refresh):
         residual = ca.vertcat(*[exprs[pending[r]] for r in members])
         jac = ca.jacobian(residual, unknowns)
         if not ca.depends_on(jac, unknowns):
+            _check_generic_rank(jac, [locs[pending[r]] for r in members])
             rhs = -ca.substitute(residual, unknowns, ca.SX.zeros(unknowns.shape))
             solution = rhs / jac if unknowns.numel() == 1 else ca.solve(jac, rhs)
             for k in range(unknowns.numel()):
@@ -220,6 +221,17 @@ def _solve_blocks(result, pending, exprs, locs, index, refresh):
             result.nonlinear.append((unknowns, residual, [locs[pending[r]] for r in members]))
             for k in range(unknowns.numel()):
                 result.solved[unknowns[k].name()] = unknowns[k]
+
+
+def _check_generic_rank(jac, locations):
+    """A linear block singular at a random point of its symbols is singular everywhere (with probability 1)."""
+    symbols = ca.symvar(jac)
+    values = np.random.default_rng(12345).uniform(0.5, 1.5, len(symbols))
+    numeric = ca.Function("block_jacobian", [ca.vertcat(*symbols)], [jac])(values) if symbols else ca.evalf(jac)
+    if np.linalg.matrix_rank(np.array(ca.DM(numeric), dtype=float)) < jac.shape[0]:
+        raise StructureError(
+            f"the linear equations at {', '.join(sorted(set(locations)))} are singular: they do not determine "
+            "their unknowns (a redundant or missing equation)", *_file_line(locations[0]))
 
 
 def _pick_state_to_demote(constraint, states, demoted):

@@ -1,0 +1,223 @@
+"""The FMU's interface (modelDescription), its binary outside Python, and the compiler's error handling."""
+
+import subprocess
+import textwrap
+import warnings
+from pathlib import Path
+
+import fmpy
+import numpy as np
+import pytest
+from fmpy import read_model_description
+from fmpy.validation import validate_fmu
+
+from cosim.cli import main
+from cosim.compile import build_all, build_fmu, lower
+from cosim.errors import ModelicaError, StructureError, UnsupportedConstructError
+
+from conftest import COMPILER_MODELS
+
+
+def variables(fmu):
+    return {v.name: v for v in read_model_description(str(fmu)).modelVariables}
+
+
+@pytest.mark.parametrize("name", ["MassSpringDamper", "Drive", "PMSM", "NonlinearLoop", "InitialAndInteger"])
+def test_model_description_is_valid(compiler_fmu, name):
+    assert validate_fmu(str(compiler_fmu(name))) == []
+
+
+def test_model_description_carries_declarations(compiler_fmu):
+    v = variables(compiler_fmu("PMSM"))
+    assert v["v_q"].causality == "input" and v["v_q"].unit == "V" and v["v_q"].description == "q voltage"
+    assert v["w"].causality == "output" and v["w"].unit == "rad/s"  # an output that is also a state
+    assert v["i_q"].causality == "output" and v["i_q"].description == "q current"
+    rs = v["Rs"]
+    assert (rs.causality, rs.variability, float(rs.start), rs.unit) == ("parameter", "tunable", 0.45, "Ohm")
+    assert v["theta"].unit == "rad" and float(v["theta"].start) == 0.0
+    units = {u.name for u in read_model_description(str(compiler_fmu("PMSM"))).unitDefinitions}
+    assert {"V", "A", "rad/s", "Ohm", "H", "Wb", "kg.m2", "N.m.s/rad", "N.m"} <= units
+
+
+def test_dependent_parameter_is_not_a_separate_tunable(compiler_fmu):
+    v = variables(compiler_fmu("DependentParameters"))
+    assert v["k"].variability == "tunable" and float(v["k"].start) == 2.0
+    assert "c" not in v and "c2" not in v  # substituted: they follow k (checked numerically in the model tests)
+
+
+HARNESS = r"""
+#include <dlfcn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include "fmi3Functions.h"
+
+int main(int argc, char** argv) {
+  void* lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
+  if (!lib) { printf("dlopen: %s\n", dlerror()); return 1; }
+  fmi3InstantiateModelExchangeTYPE* inst = (fmi3InstantiateModelExchangeTYPE*)dlsym(lib, "fmi3InstantiateModelExchange");
+  fmi3EnterInitializationModeTYPE* enter = (fmi3EnterInitializationModeTYPE*)dlsym(lib, "fmi3EnterInitializationMode");
+  fmi3ExitInitializationModeTYPE* leave = (fmi3ExitInitializationModeTYPE*)dlsym(lib, "fmi3ExitInitializationMode");
+  fmi3EnterContinuousTimeModeTYPE* cont = (fmi3EnterContinuousTimeModeTYPE*)dlsym(lib, "fmi3EnterContinuousTimeMode");
+  fmi3SetContinuousStatesTYPE* setx = (fmi3SetContinuousStatesTYPE*)dlsym(lib, "fmi3SetContinuousStates");
+  fmi3SetFloat64TYPE* setf = (fmi3SetFloat64TYPE*)dlsym(lib, "fmi3SetFloat64");
+  fmi3GetContinuousStateDerivativesTYPE* getdx = (fmi3GetContinuousStateDerivativesTYPE*)dlsym(lib, "fmi3GetContinuousStateDerivatives");
+  if (!inst || !setx || !getdx || !setf) { printf("missing symbol\n"); return 1; }
+  fmi3Instance m = inst("harness", argv[2], NULL, fmi3False, fmi3False, NULL, NULL);
+  if (!m) { printf("instantiate failed\n"); return 1; }
+  int n = atoi(argv[3]);
+  fmi3Float64 x[16], dx[16];
+  for (int i = 0; i < n; ++i) x[i] = atof(argv[4 + i]);
+  int nu = atoi(argv[4 + n]);
+  fmi3ValueReference vr[16]; fmi3Float64 u[16];
+  for (int i = 0; i < nu; ++i) { vr[i] = atoi(argv[5 + n + 2*i]); u[i] = atof(argv[6 + n + 2*i]); }
+  if (enter(m, fmi3False, 0.0, 0.0, fmi3False, 0.0) != fmi3OK) return 1;
+  if (leave(m) != fmi3OK || cont(m) != fmi3OK) return 1;
+  if (nu && setf(m, vr, nu, u, nu) != fmi3OK) return 1;
+  if (setx(m, x, n) != fmi3OK || getdx(m, dx, n) != fmi3OK) return 1;
+  for (int i = 0; i < n; ++i) printf("%.17g\n", dx[i]);
+  return 0;
+}
+"""
+
+
+@pytest.mark.parametrize("name,state,inputs", [
+    ("PMSM", [0.3, 1.2, 50.0, 0.1], {"v_d": 0.2, "v_q": 3.0, "tau_load": 0.002}),
+    ("Drive", [0.4, 2.0, 0.05, 0.3], {"tau_m": 0.5}),  # tanh needs libm
+    ("NonlinearLoop", [0.7], {"u": 0.1}),
+])
+def test_binary_runs_from_c_and_agrees_with_python(compiler_fmu, tmp_path, name, state, inputs):
+    fmu = compiler_fmu(name)
+    unzipped = Path(fmpy.extract(str(fmu), unzipdir=str(tmp_path / "fmu")))
+    md = read_model_description(str(fmu))
+    source = tmp_path / "harness.c"
+    source.write_text(HARNESS)
+    exe = tmp_path / "harness"
+    include = Path(fmpy.__file__).parent / "c-code"
+    subprocess.run(["gcc", "-O1", f"-I{include}", str(source), "-o", str(exe), "-ldl"], check=True)
+    so = unzipped / "binaries" / "x86_64-linux" / f"{md.modelExchange.modelIdentifier}.so"
+    refs = {v.name: v.valueReference for v in md.modelVariables}
+    args = [str(exe), str(so), md.instantiationToken, str(len(state)), *map(repr, state), str(len(inputs))]
+    for key, value in inputs.items():
+        args += [str(refs[key]), repr(value)]
+    run = subprocess.run(args, capture_output=True, text=True, env={})  # empty env: no LD_PRELOAD, no Python libm
+    assert run.returncode == 0, run.stdout + run.stderr
+    from_c = np.array([float(line) for line in run.stdout.split()])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = lower(COMPILER_MODELS, f"CompilerTests.{name}")
+    u = [inputs[i.name] for i in model.inputs]
+    np.testing.assert_allclose(from_c, model.derivatives(state, u), rtol=1e-12, atol=1e-12)
+
+
+def _package(tmp_path, body, name="T"):
+    folder = tmp_path / name
+    folder.mkdir()
+    path = folder / f"{name}.mo"
+    path.write_text(textwrap.dedent(f"package {name}\n{body}\nend {name};\n"))
+    return path
+
+
+UNSUPPORTED = {
+    "when": ("""
+  model M
+    Real x(start = 1); discrete Real n(start = 0);
+  equation
+    der(x) = -x;
+    when x < 0.5 then
+      n = pre(n) + 1;
+    end when;
+  end M;""", "when-equation", 8),
+    "reinit": ("""
+  model M
+    Real x(start = 1);
+    Real v(start = 0);
+  equation
+    der(x) = v;
+    der(v) = -9.81;
+    when x < 0 then
+      reinit(v, -0.8*pre(v));
+    end when;
+  end M;""", "reinit", 10),
+    "sample": ("""
+  model M
+    Real x(start = 1);
+    discrete Real s(start = 0);
+  equation
+    der(x) = -x;
+    when sample(0, 0.1) then
+      s = x;
+    end when;
+  end M;""", "when-equation", 9),
+    "mod": ("""
+  model M
+    Real x(start = 1);
+  equation
+    der(x) = -x + mod(x, 0.3);
+  end M;""", "mod/div/rem", 6),
+}
+
+
+@pytest.mark.parametrize("construct", sorted(UNSUPPORTED))
+def test_unsupported_construct_is_named_with_file_and_line(tmp_path, construct):
+    body, expected, line = UNSUPPORTED[construct]
+    path = _package(tmp_path, body)
+    out = tmp_path / "out"
+    with pytest.raises(UnsupportedConstructError) as err:
+        build_fmu(path, "T.M", out_dir=out)
+    assert expected in str(err.value)
+    assert err.value.file.endswith("T.mo") and err.value.line == line, str(err.value)
+    assert not out.exists()
+
+
+BAD_INPUT = {
+    "syntax": ("\n  model M\n    Real x(start = 1);\n  equation\n    der(x) = -x +;\n  end M;", "T.M",
+               ModelicaError, "T.mo:6: unexpected"),
+    "unknown model": ("\n  model M\n    Real x(start = 1);\n  equation\n    der(x) = -x;\n  end M;", "T.Nope",
+                      ModelicaError, "no model named 'T.Nope'"),
+    "under-determined": ("\n  model M\n    Real x(start = 1);\n    Real y;\n  equation\n    der(x) = -x;\n  end M;",
+                         "T.M", StructureError, "unbalanced"),
+    "over-determined": ("\n  model M\n    Real x(start = 1);\n  equation\n    der(x) = -x;\n    x = 2;\n  end M;",
+                        "T.M", StructureError, "unbalanced"),
+    "singular": ("\n  model M\n    Real x(start = 1);\n    Real a;\n    Real b;\n  equation\n    der(x) = -x;\n"
+                 "    a + b = x;\n    2*a + 2*b = 3*x;\n  end M;", "T.M", StructureError, "singular"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_INPUT))
+def test_bad_model_gives_one_line_error_and_exit_code_2(tmp_path, capsys, case):
+    body, model, error_type, message = BAD_INPUT[case]
+    path = _package(tmp_path, body)
+    out = tmp_path / "out"
+    with pytest.raises(error_type) as err:
+        build_fmu(path, model, out_dir=out)
+    assert message in str(err.value)
+    assert main(["build", str(path), "--model", model, "--out", str(out)]) == 2
+    stderr = capsys.readouterr().err
+    assert message in stderr and len(stderr.strip().splitlines()) == 1, stderr
+    assert not out.exists()
+
+
+def test_missing_file_exit_code_2(tmp_path, capsys):
+    assert main(["build", str(tmp_path / "nope.mo"), "--model", "A.B", "--out", str(tmp_path / "o")]) == 2
+    assert "no such Modelica file" in capsys.readouterr().err
+
+
+def test_build_all_skips_unchanged_models(tmp_path):
+    source = _package(tmp_path, "\n  model M\n    Real x(start = 1);\n  equation\n    der(x) = -x;\n  end M;")
+    models = tmp_path / "modelica" / "models.toml"
+    models.parent.mkdir()
+    models.write_text(f'[[model]]\nname = "Decay"\nmodel = "T.M"\nsource = "{source}"\n')
+    out = tmp_path / "fmus"
+    assert list(build_all(models, out_dir=out)) == [f"Decay: built {out / 'Decay.fmu'}"]
+    assert "up to date" in list(build_all(models, out_dir=out))[0]
+    source.write_text(source.read_text().replace("-x;", "-2*x;"))
+    assert "built" in list(build_all(models, out_dir=out))[0]
+
+
+def test_model_list_rejects_unknown_keys(tmp_path):
+    from cosim.errors import ConfigError
+
+    models = tmp_path / "models.toml"
+    models.write_text('[[model]]\nname = "A"\nmodel = "P.A"\nsource = "P/package.mo"\nsorce = "x"\n')
+    with pytest.raises(ConfigError, match=r"models.toml:2: model\[0\] has unknown key 'sorce'"):
+        list(build_all(models, out_dir=tmp_path / "o"))
