@@ -1,0 +1,195 @@
+"""The gripper's 100 Hz outer loop: velocity PID, dead-zone compensation, impact trigger, mode switch,
+and the test profiles (impact trial and static current staircase), after section 3.1 of the paper.
+
+Speed estimate
+    ``w_n = (q_n - q_{n-1}) / T`` with ``q`` the motor angle quantised to ``enc_cpt`` counts per turn.
+Velocity PID (velocity mode)
+    ``i_PID = Kp e + Ki sum(e) T + Kd (e_n - e_{n-1}) / T`` with ``e = w_set - w``; the integral stops
+    while the output saturates at ``i_max`` (anti-windup).
+Dead-zone compensation, eq. (1)
+    ``i_q,ref = sign(e) i_min`` if ``|e| > e_min`` and ``|i_PID| < i_min``, else ``i_PID``.
+Impact trigger, eq. (2)
+    fires when ``w_n <= w_{n-1} <= w_{n-2} <= w_{n-3}`` and ``w_n <= Thr w_{n-3}`` (speeds taken in
+    the closing direction). Assumption (not in the paper): the trigger is armed only once the
+    speed has reached ``arm_fraction`` of the set-point (``w_{n-3} >= arm_fraction w_set``), otherwise
+    a standing start (all samples 0) would satisfy eq. (2).
+Mode switch
+    on the trigger the loop switches to current mode with ``i_q,ref = i_tight`` for ``hold_s``
+    seconds, then 0 A (release).
+
+Profiles (``profile``)
+    "impact": velocity ramp from 0 at ``t_start`` to ``speed_rpm`` in ``ramp_s``, then the trigger and
+    switch above. "staircase": current mode from ``t_start``: ``step_A`` steps of ``step_s`` up to
+    ``top_A`` and back down to 0 A, held at 0 A afterwards. "velocity": the ramp without the trigger.
+"""
+
+import math
+
+import numba
+import numpy as np
+
+from controllers.base import Controller
+
+__all__ = ["OuterLoop", "staircase_current", "staircase_steps"]
+
+TWO_PI = 2.0 * math.pi
+
+# parameter indices
+(_PROF, _KP, _KI, _KD, _IMAX, _IMIN, _EMIN, _THR, _CPT, _WSET, _RAMP, _T0, _ITIGHT, _HOLD, _ARM, _DIR,
+ _STEPA, _STEPS, _TOPA) = range(19)
+# state indices
+(_QPREV, _W1, _W2, _W3, _INT, _EPREV, _MODE, _TSW, _N) = range(9)
+
+
+@numba.njit(cache=True)
+def staircase_current(t, t0, step_a, step_s, top_a):
+    """Staircase set-point (A) at time ``t``: ``step_a`` steps of ``step_s`` s up to ``top_a``, back to 0.
+
+    The first step (``step_a``) starts at ``t0``; the way down starts after the ``top_a`` step and
+    ends with a 0 A step held for ever.
+    """
+    if t < t0:
+        return 0.0
+    n_up = int(math.floor(top_a / step_a + 0.5))
+    k = int(math.floor((t - t0) / step_s + 1e-9))  # 0-based step index
+    if k < n_up:
+        return (k + 1) * step_a
+    k2 = k - n_up + 1  # 1.. on the way down
+    if k2 >= n_up:
+        return 0.0
+    return (n_up - k2) * step_a
+
+
+def staircase_steps(t0, step_a, step_s, top_a):
+    """List of ``(current_A, t_begin, t_end, branch)`` of every staircase step; branch 'up' or 'down'."""
+    n_up = int(math.floor(top_a / step_a + 0.5))
+    out = []
+    for k in range(2 * n_up):
+        cur = staircase_current(t0 + (k + 0.5) * step_s, t0, step_a, step_s, top_a)
+        out.append((round(cur, 10), t0 + k * step_s, t0 + (k + 1) * step_s, "up" if k < n_up else "down"))
+    return out
+
+
+def _outer_kernel(t, u, y, x, p):
+    T = x[_N + 1]  # sample period, stored with the state
+    cpt = p[_CPT]
+    th = u[0] * p[_DIR]
+    if cpt > 0.0:
+        q = math.floor(th * cpt / TWO_PI) * (TWO_PI / cpt)
+    else:
+        q = th
+    n = x[_N]
+    if n == 0.0:
+        w = 0.0
+    else:
+        w = (q - x[_QPREV]) / T
+    x[_QPREV] = q
+    prof = p[_PROF]
+    t0 = p[_T0]
+    # set-point
+    if t < t0:
+        wset = 0.0
+    elif t < t0 + p[_RAMP]:
+        wset = p[_WSET] * (t - t0) / p[_RAMP]
+    else:
+        wset = p[_WSET]
+    iq = 0.0
+    if prof == 1.0:  # staircase: current mode
+        x[_MODE] = 1.0
+        iq = staircase_current(t, t0, p[_STEPA], p[_STEPS], p[_TOPA])
+        wset = 0.0
+    else:
+        if x[_MODE] == 0.0:
+            # impact trigger, eq. (2)
+            if prof == 0.0 and n >= 4.0 and wset > 0.0 and x[_W3] >= p[_ARM] * wset:
+                if w <= x[_W1] and x[_W1] <= x[_W2] and x[_W2] <= x[_W3] and w <= p[_THR] * x[_W3]:
+                    x[_MODE] = 1.0
+                    x[_TSW] = t
+        if x[_MODE] == 0.0:
+            e = wset - w
+            deriv = 0.0
+            if n >= 1.0:
+                deriv = (e - x[_EPREV]) / T
+            x[_EPREV] = e
+            ipid = p[_KP] * e + p[_KI] * (x[_INT] + e * T) + p[_KD] * deriv
+            imax = p[_IMAX]
+            if ipid > imax:
+                ipid = imax
+            elif ipid < -imax:
+                ipid = -imax
+            else:
+                x[_INT] += e * T
+            # dead-zone compensation, eq. (1)
+            if abs(e) > p[_EMIN] and abs(ipid) < p[_IMIN]:
+                iq = p[_IMIN] if e > 0.0 else -p[_IMIN]
+            else:
+                iq = ipid
+        else:
+            if t < x[_TSW] + p[_HOLD]:
+                iq = p[_ITIGHT]
+            else:
+                iq = 0.0
+    x[_W3] = x[_W2]
+    x[_W2] = x[_W1]
+    x[_W1] = w
+    x[_N] = n + 1.0
+    y[0] = iq * p[_DIR]
+    y[1] = w * p[_DIR]
+    y[2] = wset * p[_DIR]
+    y[3] = x[_MODE]
+    y[4] = x[_TSW]
+
+
+class OuterLoop(Controller):
+    """Velocity PID with dead-zone compensation, impact trigger and velocity-to-current switch.
+
+    Input: ``theta_m`` (rad, motor angle). Outputs: ``i_q_ref`` (A, to the FOC), ``w_est`` (rad/s,
+    differenced encoder speed), ``w_set`` (rad/s), ``mode`` (0 velocity, 1 current), ``t_switch``
+    (s, time of the switch; -1 before).
+    """
+
+    parameters = {
+        "profile": ("impact", "staircase", "velocity"),
+        "Kp": 0.02,
+        "Ki": 0.4,
+        "Kd": 0.0,
+        "i_max": 2.5,
+        "i_min": 0.2,
+        "e_min": 5.0,
+        "thr": 0.9,
+        "enc_cpt": 2048.0,
+        "speed_rpm": 1000.0,
+        "ramp_s": 0.1,
+        "t_start": 0.0,
+        "i_tight": 1.0,
+        "hold_s": 5.0,
+        "arm_fraction": 0.5,
+        "direction": 1.0,
+        "step_A": 0.1,
+        "step_s": 5.0,
+        "top_A": 2.5,
+    }
+    inputs = ("theta_m",)
+    outputs = ("i_q_ref", "w_est", "w_set", "mode", "t_switch")
+    units = {"theta_m": "rad", "i_q_ref": "A", "w_est": "rad/s", "w_set": "rad/s", "mode": "1", "t_switch": "s",
+             "Kp": "A.s/rad", "Ki": "A/rad", "Kd": "A.s2/rad", "i_max": "A", "i_min": "A", "e_min": "rad/s",
+             "speed_rpm": "rpm", "ramp_s": "s", "t_start": "s", "i_tight": "A", "hold_s": "s", "step_A": "A",
+             "step_s": "s", "top_A": "A"}
+    kernel = staticmethod(_outer_kernel)
+
+    def pack(self):
+        v = self.values
+        for name in ("ramp_s", "step_A", "step_s", "i_max"):
+            if not v[name] > 0:
+                raise ValueError(f"OuterLoop: parameter {name!r} must be > 0; got {v[name]!r}")
+        if v["direction"] not in (1.0, -1.0, 1, -1):
+            raise ValueError(f"OuterLoop: parameter 'direction' must be 1 or -1; got {v['direction']!r}")
+        p = super().pack()
+        p[_WSET] = v["speed_rpm"] * TWO_PI / 60.0
+        return p
+
+    def initial_state(self):
+        x = np.zeros(_N + 2)
+        x[_TSW] = -1.0
+        x[_N + 1] = self.dt
+        return x

@@ -1,0 +1,8 @@
+"""Everything that touches an FMU binary: reading model descriptions, safe unpacking, and driving
+FMI 2.0 / 3.0 Model-Exchange and Co-Simulation instances. No other cosim module imports ctypes."""
+
+from cosim.fmi.extract import safe_extract
+from cosim.fmi.instance import FmuInstance, Port, check
+from cosim.fmi.model import FmuFileError, ModelInfo, Variable, read_model_info
+
+__all__ = ["FmuInstance", "Port", "check", "safe_extract", "read_model_info", "ModelInfo", "Variable", "FmuFileError"]

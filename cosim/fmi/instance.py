@@ -1,0 +1,346 @@
+"""Load and drive one FMU (FMI 2.0 / 3.0, Model Exchange or Co-Simulation) through fmpy's low-level classes.
+
+Every FMI call goes through :func:`check`, which raises :class:`cosim.errors.FmiCallError` with the
+function name and the status label for any status worse than warning. The hot calls (set time,
+set/get states and derivatives, get/set of real ports, ``doStep``) call the C entry points directly
+with argument arrays built once, over numpy buffers the caller fills in place.
+"""
+
+import ctypes
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from cosim.errors import FmiCallError
+from cosim.fmi.extract import safe_extract
+from cosim.fmi.model import read_model_info
+
+__all__ = ["FmuInstance", "Port", "check", "STATUS_LABELS"]
+
+STATUS_LABELS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
+
+
+def check(function, status, detail=""):
+    """Raise ``FmiCallError(function, label)`` when ``status`` is worse than warning (> 1)."""
+    if status > 1:
+        label = STATUS_LABELS[status] if 0 <= status < len(STATUS_LABELS) else f"illegal status {status}"
+        raise FmiCallError(function, label, detail)
+
+
+class Port:
+    """A fixed list of real variables of one instance, with a numpy buffer of their values.
+
+    Attributes
+    ----------
+    names : tuple of str
+    values : numpy.ndarray of float64, shape (n,)
+        Filled by :meth:`FmuInstance.get`, read by :meth:`FmuInstance.set`.
+    """
+
+    def __init__(self, names, vrs):
+        self.names = tuple(names)
+        self.n = len(self.names)
+        self.values = np.zeros(self.n)
+        self._vr = (ctypes.c_uint * self.n)(*vrs)
+        self._ptr = self.values.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+    def bind(self, buffer):
+        """Use ``buffer`` (a contiguous float64 array of length n, e.g. a slice of a larger buffer) for the values."""
+        if buffer.shape != (self.n,) or buffer.dtype != np.float64 or not buffer.flags.c_contiguous:
+            raise ValueError(f"Port.bind: need a contiguous float64 array of shape ({self.n},)")
+        self.values = buffer
+        self._ptr = buffer.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+
+class FmuInstance:
+    """One running FMU instance.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.fmu`` file.
+    name : str
+        Instance name (used in messages).
+    kind : {'ME', 'CS', None}
+        Interface to use; ``None`` picks ME when the FMU provides it, CS otherwise.
+
+    Attributes
+    ----------
+    info : cosim.fmi.model.ModelInfo
+    kind : str
+    n_states : int
+    x, dx : numpy.ndarray of float64, shape (n_states,)
+        State and derivative buffers for :meth:`push_states`, :meth:`pull_states`, :meth:`pull_derivatives`.
+    """
+
+    def __init__(self, path, name="fmu", kind=None):
+        self.info = read_model_info(path)
+        self.name = name
+        if kind is None:
+            kind = "ME" if "ME" in self.info.kinds else "CS"
+        if kind not in self.info.kinds:
+            raise FmiCallError("load", "unsupported", f"{path}: the FMU provides {self.info.kinds}, not {kind}")
+        self.kind = kind
+        self.version = self.info.fmi_version
+        self._tmp = tempfile.mkdtemp(prefix=f"cosim-{name}-")
+        self._fmu = None
+        self.component = None
+        self._initialised = False
+        self._terminated = False
+        self.messages = []
+        try:
+            safe_extract(path, self._tmp)
+            self._load()
+        except Exception:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+            raise
+        self.n_states = self.info.n_states if kind == "ME" else 0
+        self.x = np.zeros(self.n_states)
+        self.dx = np.zeros(self.n_states)
+        self._xp = self.x.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        self._dxp = self.dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+    def bind_state_buffers(self, x, dx):
+        """Use ``x`` and ``dx`` (contiguous float64 arrays of length n_states, e.g. slices of the
+        master's combined state vector) as the state and derivative buffers."""
+        for b in (x, dx):
+            if b.shape != (self.n_states,) or b.dtype != np.float64 or not b.flags.c_contiguous:
+                raise ValueError(f"bind_state_buffers: need contiguous float64 arrays of shape ({self.n_states},)")
+        x[:] = self.x
+        self.x, self.dx = x, dx
+        self._xp = x.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        self._dxp = dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+    # -- loading -----------------------------------------------------------------------------
+    def _load(self):
+        import fmpy
+
+        md = fmpy.read_model_description(str(self.info.path), validate=False)
+        ident = (md.modelExchange if self.kind == "ME" else md.coSimulation).modelIdentifier
+        args = dict(guid=md.guid if self.version == 2 else md.instantiationToken,
+                    unzipDirectory=self._tmp, modelIdentifier=ident, instanceName=self.name)
+        try:
+            if self.version == 3:
+                from fmpy.fmi3 import FMU3Model, FMU3Slave
+
+                self._fmu = (FMU3Model if self.kind == "ME" else FMU3Slave)(**args)
+            else:
+                from fmpy.fmi2 import FMU2Model, FMU2Slave
+
+                self._fmu = (FMU2Model if self.kind == "ME" else FMU2Slave)(**args)
+        except Exception as err:  # fmpy raises plain Exception when the library cannot be loaded
+            raise FmiCallError("load", "failed", f"{self.info.path}: {err}") from err
+        f = self._fmu._functions
+        p = "fmi3" if self.version == 3 else "fmi2"
+        self._f_set_time = f.get(f"{p}SetTime")
+        self._f_set_states = f.get(f"{p}SetContinuousStates")
+        self._f_get_states = f.get(f"{p}GetContinuousStates")
+        self._f_get_der = f.get(f"{p}GetContinuousStateDerivatives" if self.version == 3 else "fmi2GetDerivatives")
+        self._f_get_real = f[f"{p}GetFloat64" if self.version == 3 else "fmi2GetReal"]
+        self._f_set_real = f[f"{p}SetFloat64" if self.version == 3 else "fmi2SetReal"]
+        self._f_do_step = f.get(f"{p}DoStep")
+        self._f_completed = f.get(f"{p}CompletedIntegratorStep")
+        self._b1 = ctypes.c_bool() if self.version == 3 else ctypes.c_int()
+        self._b2 = ctypes.c_bool() if self.version == 3 else ctypes.c_int()
+        self._b3 = ctypes.c_bool()
+        self._d1 = ctypes.c_double()
+
+    def _logger(self, env, status, category, message):
+        text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
+        self.messages.append(text)
+
+    def _fmpy_call(self, fname, fn, *args):
+        """Run an fmpy Python-tier call, turning fmpy's exception into FmiCallError through check()."""
+        from fmpy.fmi1 import FMICallException
+
+        try:
+            return fn(*args)
+        except FMICallException as err:
+            check(err.function, err.status if isinstance(err.status, int) else 3, self._last_message())
+        except FmiCallError:
+            raise
+        except Exception as err:  # fmpy raises plain Exception e.g. for a failed instantiation
+            raise FmiCallError(fname, "failed", f"{self.name}: {err}") from err
+
+    def _last_message(self):
+        return f"{self.name}: {self.messages[-1]}" if self.messages else self.name
+
+    # -- lifecycle ---------------------------------------------------------------------------
+    def setup(self, start_time=0.0, stop_time=None, parameters=None, start_values=None, tolerance=None):
+        """Instantiate, set parameters and start values, initialise, and enter continuous-time / step mode.
+
+        Parameters
+        ----------
+        start_time : float
+        stop_time : float, optional
+        parameters, start_values : dict of str to value, optional
+            Values set before initialisation (by variable name).
+        tolerance : float, optional
+        """
+        fmu = self._fmu
+        if self.version == 3:
+            if self.kind == "ME":
+                self._fmpy_call("fmi3InstantiateModelExchange", fmu.instantiate, False, False, self._logger)
+            else:
+                self._fmpy_call("fmi3InstantiateCoSimulation", lambda: fmu.instantiate(logMessage=self._logger))
+        else:
+            self._fmpy_call("fmi2Instantiate", fmu.instantiate)
+        self.component = fmu.component
+        self.set_values({**(start_values or {}), **(parameters or {})})
+        if self.version == 3:
+            self._fmpy_call("fmi3EnterInitializationMode", fmu.enterInitializationMode, tolerance, start_time, stop_time)
+        else:
+            self._fmpy_call("fmi2SetupExperiment", fmu.setupExperiment, tolerance, start_time, stop_time)
+            self._fmpy_call("fmi2EnterInitializationMode", fmu.enterInitializationMode)
+        self._fmpy_call("ExitInitializationMode", fmu.exitInitializationMode)
+        self._initialised = True
+        if self.kind == "ME":
+            self._event_iteration()
+            self._fmpy_call("EnterContinuousTimeMode", fmu.enterContinuousTimeMode)
+            if self.n_states:
+                self.pull_states()
+        elif self.version == 3:
+            pass  # FMI 3 CS without event mode is in step mode after exitInitializationMode
+
+    def _event_iteration(self):
+        fmu = self._fmu
+        for _ in range(1000):
+            if self.version == 3:
+                r = self._fmpy_call("fmi3UpdateDiscreteStates", fmu.updateDiscreteStates)
+                if not r[0]:
+                    return
+            else:
+                r = self._fmpy_call("fmi2NewDiscreteStates", fmu.newDiscreteStates)
+                if not r[0]:
+                    return
+        raise FmiCallError("UpdateDiscreteStates", "no convergence", f"{self.name}: event iteration did not end")
+
+    def close(self):
+        """Terminate and free the instance, unload the library and delete the unpacked files."""
+        fmu = self._fmu
+        try:
+            if fmu is not None and self.component is not None:
+                if self._initialised and not self._terminated:
+                    self._terminated = True
+                    try:
+                        fmu.terminate()
+                    except Exception:  # terminating a failed instance may fail again; freeing still matters
+                        pass
+                fmu.freeInstance()
+                self.component = None
+            if fmu is not None:
+                fmu.freeLibrary()
+                self._fmu = None
+        finally:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # -- values by name (not hot) ------------------------------------------------------------
+    def set_values(self, values):
+        """Set variables by name: floats, ints, bools; raises KeyError for an unknown name."""
+        fmu = self._fmu
+        for name, value in values.items():
+            v = self.info.variables[name]
+            t = v.type
+            if t in ("Real", "Float64", "Float32"):
+                fn = fmu.setReal if self.version == 2 else (fmu.setFloat64 if t == "Float64" else fmu.setFloat32)
+                self._fmpy_call("SetReal", fn, [v.vr], [float(value)])
+            elif t == "Boolean":
+                self._fmpy_call("SetBoolean", fmu.setBoolean, [v.vr], [bool(value)])
+            elif t in ("Integer", "Int32", "Enumeration"):
+                fn = fmu.setInteger if self.version == 2 else fmu.setInt32
+                self._fmpy_call("SetInteger", fn, [v.vr], [int(value)])
+            elif t == "Int64":
+                self._fmpy_call("SetInt64", fmu.setInt64, [v.vr], [int(value)])
+            else:
+                raise FmiCallError("set", "unsupported", f"{self.name}.{name}: type {t} cannot be set")
+
+    def get_values(self, names):
+        """Return a dict of the current real values of ``names``."""
+        port = self.port(names)
+        self.get(port)
+        return dict(zip(names, port.values.tolist()))
+
+    # -- hot path ----------------------------------------------------------------------------
+    def port(self, names):
+        """Make a :class:`Port` over the real variables ``names``."""
+        vrs = []
+        for n in names:
+            v = self.info.variables[n]
+            if not v.is_real:
+                raise FmiCallError("port", "unsupported", f"{self.name}.{n} is {v.type}, only reals are routed")
+            vrs.append(v.vr)
+        return Port(names, vrs)
+
+    def get(self, port):
+        """Read the port's variables into ``port.values``."""
+        if port.n:
+            if self.version == 3:
+                st = self._f_get_real(self.component, port._vr, port.n, port._ptr, port.n)
+            else:
+                st = self._f_get_real(self.component, port._vr, port.n, port._ptr)
+            if st > 1:
+                check("GetFloat64" if self.version == 3 else "fmi2GetReal", st, self._last_message())
+
+    def set(self, port):
+        """Write ``port.values`` to the port's variables."""
+        if port.n:
+            if self.version == 3:
+                st = self._f_set_real(self.component, port._vr, port.n, port._ptr, port.n)
+            else:
+                st = self._f_set_real(self.component, port._vr, port.n, port._ptr)
+            if st > 1:
+                check("SetFloat64" if self.version == 3 else "fmi2SetReal", st, self._last_message())
+
+    def set_time(self, t):
+        """ME: set the independent variable."""
+        st = self._f_set_time(self.component, t)
+        if st > 1:
+            check("SetTime", st, self._last_message())
+
+    def push_states(self):
+        """ME: send ``self.x`` to the FMU."""
+        st = self._f_set_states(self.component, self._xp, self.n_states)
+        if st > 1:
+            check("SetContinuousStates", st, self._last_message())
+
+    def pull_states(self):
+        """ME: read the FMU's states into ``self.x``."""
+        st = self._f_get_states(self.component, self._xp, self.n_states)
+        if st > 1:
+            check("GetContinuousStates", st, self._last_message())
+
+    def pull_derivatives(self):
+        """ME: evaluate the state derivatives into ``self.dx``."""
+        st = self._f_get_der(self.component, self._dxp, self.n_states)
+        if st > 1:
+            check("GetContinuousStateDerivatives", st, self._last_message())
+
+    def completed_integrator_step(self):
+        """ME: tell the FMU an integrator step is complete; returns True when it asks for an event."""
+        if self.version == 3:
+            st = self._f_completed(self.component, True, ctypes.byref(self._b1), ctypes.byref(self._b2))
+        else:
+            st = self._f_completed(self.component, 1, ctypes.byref(self._b1), ctypes.byref(self._b2))
+        if st > 1:
+            check("CompletedIntegratorStep", st, self._last_message())
+        return bool(self._b1.value)
+
+    def do_step(self, t, h):
+        """CS: advance from ``t`` by ``h``."""
+        if self.version == 3:
+            st = self._f_do_step(self.component, t, h, True, ctypes.byref(self._b1), ctypes.byref(self._b2),
+                                 ctypes.byref(self._b3), ctypes.byref(self._d1))
+        else:
+            st = self._f_do_step(self.component, t, h, 1)
+        if st > 1:
+            check("DoStep", st, self._last_message())
+        if self._b2.value:
+            raise FmiCallError("DoStep", "terminateSimulation", f"{self.name} asked to stop at t={t + h}")

@@ -1,0 +1,159 @@
+"""Read what an FMU declares (variables, causality, units, kinds, output dependencies) into frozen records.
+
+Only the XML is read here (through fmpy's parser); nothing is loaded or executed.
+"""
+
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from cosim.errors import CosimError
+
+__all__ = ["Variable", "ModelInfo", "read_model_info", "FmuFileError"]
+
+
+class FmuFileError(CosimError, FileNotFoundError):
+    """An FMU file is missing, not a zip archive, or has no usable modelDescription.xml."""
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One model variable.
+
+    Attributes
+    ----------
+    name : str
+    vr : int
+        Value reference.
+    type : str
+        'Real' (FMI 2) or 'Float64' etc. (FMI 3).
+    causality : str
+        'input', 'output', 'parameter', 'local', 'independent', 'calculatedParameter', ...
+    variability : str
+        'constant', 'fixed', 'tunable', 'discrete' or 'continuous'.
+    unit : str
+        Unit string ('' when undeclared).
+    start : str or None
+        Start value as written in the XML.
+    description : str
+    """
+
+    name: str
+    vr: int
+    type: str
+    causality: str
+    variability: str
+    unit: str = ""
+    start: str | None = None
+    description: str = ""
+
+    @property
+    def is_real(self):
+        """True for Real / Float64 / Float32 variables (the ones the master routes)."""
+        return self.type in ("Real", "Float64", "Float32")
+
+
+@dataclass(frozen=True)
+class ModelInfo:
+    """What an FMU declares.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+    fmi_version : int
+        2 or 3.
+    model_name : str
+    kinds : tuple of str
+        Subset of ('ME', 'CS') the FMU provides.
+    variables : dict of str to Variable
+    n_states : int
+    n_event_indicators : int
+    output_deps : dict of str to tuple of str or None
+        For each output, the names of the inputs it depends on directly (``None``: unknown, assume all).
+    needs_completed_step : bool
+        ME: whether ``CompletedIntegratorStep`` must be called.
+    """
+
+    path: Path
+    fmi_version: int
+    model_name: str
+    kinds: tuple
+    variables: dict = field(repr=False)
+    n_states: int = 0
+    n_event_indicators: int = 0
+    output_deps: dict = field(default_factory=dict, repr=False)
+    needs_completed_step: bool = True
+
+    def names(self, causality):
+        """Names of the variables with the given causality, in declaration order."""
+        return [v.name for v in self.variables.values() if v.causality == causality]
+
+
+def read_model_info(path):
+    """Read an FMU's modelDescription.xml.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.fmu`` file.
+
+    Returns
+    -------
+    ModelInfo
+
+    Raises
+    ------
+    FmuFileError
+        The file does not exist, is not a zip, or its description cannot be parsed.
+    """
+    import fmpy
+
+    path = Path(path)
+    if not path.is_file():
+        raise FmuFileError(f"FMU file {str(path)!r} does not exist")
+    if not zipfile.is_zipfile(path):
+        raise FmuFileError(f"{str(path)!r} is not an FMU (not a zip archive)")
+    try:
+        md = fmpy.read_model_description(str(path), validate=False)
+    except Exception as err:  # fmpy raises plain Exception for every parse problem
+        raise FmuFileError(f"{str(path)!r}: cannot read modelDescription.xml: {err}") from err
+    version = int(md.fmiVersion.split(".")[0])
+    if version not in (2, 3):
+        raise FmuFileError(f"{str(path)!r}: FMI {md.fmiVersion} is not supported (2.0 and 3.0 are)")
+    variables = {}
+    for v in md.modelVariables:
+        unit = v.unit or (v.declaredType.unit if v.declaredType is not None and v.declaredType.unit else "") or ""
+        variables[v.name] = Variable(
+            name=v.name,
+            vr=int(v.valueReference),
+            type=v.type,
+            causality=v.causality or "local",
+            variability=v.variability or "continuous",
+            unit=unit,
+            start=None if v.start is None else str(v.start),
+            description=v.description or "",
+        )
+    inputs = {v.name for v in variables.values() if v.causality == "input"}
+    deps = {}
+    for o in md.outputs:
+        if o.dependencies is None:
+            deps[o.variable.name] = None
+        else:
+            deps[o.variable.name] = tuple(d.name for d in o.dependencies if d.name in inputs)
+    for name in (v.name for v in variables.values() if v.causality == "output"):
+        deps.setdefault(name, None)
+    kinds = tuple(k for k, present in (("ME", md.modelExchange), ("CS", md.coSimulation)) if present)
+    needs = True
+    if md.modelExchange is not None:
+        needs = bool(getattr(md.modelExchange, "needsCompletedIntegratorStep", True))
+    return ModelInfo(
+        path=path,
+        fmi_version=version,
+        model_name=md.modelName,
+        kinds=kinds,
+        variables=variables,
+        n_states=int(md.numberOfContinuousStates or len(md.derivatives)),
+        n_event_indicators=int(md.numberOfEventIndicators or 0),
+        output_deps=deps,
+        needs_completed_step=needs,
+    )
