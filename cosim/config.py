@@ -239,7 +239,11 @@ class _Problems:
 
     def raise_if_any(self):
         if self.items:
-            lines = [f"{w}: {k}: {m}" if k else f"{w}: {m}" for w, k, m in self.items]
+            def order(item):
+                m = re.search(r":(\d+)$", item[0])
+                return (item[0].startswith("--set"), int(m.group(1)) if m else 0)
+
+            lines = [f"{w}: {k}: {m}" if k else f"{w}: {m}" for w, k, m in sorted(self.items, key=order)]
             err = ConfigError(
                 f"{len(lines)} problem{'s' if len(lines) > 1 else ''} in {self.file}:\n  - " + "\n  - ".join(lines)
             )

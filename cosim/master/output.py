@@ -1,0 +1,120 @@
+"""Write a run's results: Parquet (units and config in the file metadata), CSV, summary.json, PNG plots."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["write_results", "plot_results", "read_results"]
+
+
+def write_results(result, config, out_dir, csv=False, summary=None):
+    """Write ``results.parquet`` (and ``results.csv``), ``summary.json`` and the plot into ``out_dir``.
+
+    Parameters
+    ----------
+    result : cosim.master.engine.RunResult
+    config : cosim.config.Config
+    out_dir : path-like
+        Created if missing.
+    csv : bool
+        Also write ``results.csv``.
+    summary : dict, optional
+        Written to ``summary.json`` when given.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    names = result.data.dtype.names
+    fields = [pa.field(n, pa.float64(), metadata={"unit": result.units.get(n, "")}) for n in names]
+    meta = {
+        "cosim.units": json.dumps({n: result.units.get(n, "") for n in names}),
+        "cosim.config": json.dumps(config.raw, default=str),
+        "cosim.config_path": str(config.path),
+        "cosim.overrides": json.dumps(list(config.overrides)),
+        "cosim.signals": json.dumps({k: list(v) for k, v in result.signals.items()}),
+        "cosim.interrupted": json.dumps(result.interrupted),
+    }
+    from cosim import __version__
+
+    meta["cosim.version"] = __version__
+    schema = pa.schema(fields, metadata=meta)
+    table = pa.table([pa.array(np.ascontiguousarray(result.data[n])) for n in names], schema=schema)
+    files = []
+    p = out / "results.parquet"
+    pq.write_table(table, p)
+    files.append(p)
+    if csv:
+        p = out / "results.csv"
+        header = ",".join(f"{n} [{result.units.get(n, '')}]" if result.units.get(n) else n for n in names)
+        arr = np.column_stack([result.data[n] for n in names]) if len(result.data) else np.zeros((0, len(names)))
+        np.savetxt(p, arr, delimiter=",", header=header, comments="", fmt="%.10g")
+        files.append(p)
+    if summary is not None:
+        p = out / "summary.json"
+        p.write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
+        files.append(p)
+    if len(result.data) > 1:
+        files.append(plot_results(result, out / config.plot.file, panels=config.plot.panels, title=config.name))
+    return files
+
+
+def read_results(path):
+    """Read ``results.parquet`` back: returns (structured array, units dict, metadata dict)."""
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    meta = {k.decode(): v.decode() for k, v in (table.schema.metadata or {}).items()}
+    units = json.loads(meta.get("cosim.units", "{}"))
+    names = table.column_names
+    data = np.zeros(table.num_rows, dtype=[(n, "f8") for n in names])
+    for n in names:
+        data[n] = table.column(n).to_numpy()
+    return data, units, meta
+
+
+def plot_results(result, path, panels=(), title=""):
+    """Plot recorded columns against time, one panel per group, labelled axes with units.
+
+    Parameters
+    ----------
+    result : cosim.master.engine.RunResult
+    path : path-like
+        PNG file.
+    panels : sequence of sequence of str
+        Column names per panel; default one panel per recorded column.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = [n for n in result.data.dtype.names if n != "time"]
+    panels = [list(p) for p in panels] or [[n] for n in names]
+    panels = [[n for n in p if n in names] for p in panels]
+    panels = [p for p in panels if p]
+    fig, axes = plt.subplots(len(panels), 1, figsize=(8, 1.9 * len(panels) + 0.8), sharex=True, squeeze=False)
+    t = result.data["time"]
+    for ax, panel in zip(axes[:, 0], panels):
+        units = {result.units.get(n, "") for n in panel}
+        for n in panel:
+            ax.plot(t, result.data[n], label=n, lw=0.9)
+        unit = " / ".join(sorted(u for u in units if u)) or "-"
+        ax.set_ylabel(f"{', '.join(panel) if len(panel) < 3 else 'value'} [{unit}]", fontsize=8)
+        if len(panel) > 1:
+            ax.legend(fontsize=7, loc="best")
+        ax.grid(True, lw=0.3)
+    axes[-1, 0].set_xlabel("time [s]")
+    if title:
+        axes[0, 0].set_title(title + (" (interrupted)" if result.interrupted else ""))
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
