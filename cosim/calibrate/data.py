@@ -1,0 +1,62 @@
+"""Measured data for calibration and diagnosis: a CSV or Parquet table with ``time`` and named channels,
+checked before anything is fitted (monotonic time, no NaN, the channels the job names)."""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from cosim.errors import ConfigError
+
+__all__ = ["load_measurements", "check_measurements"]
+
+
+def load_measurements(path, channels, field="data.path"):
+    """Read ``path`` (``.csv`` or ``.parquet``) and check it holds ``time`` and every name in ``channels``.
+
+    Parameters
+    ----------
+    path : str or Path
+    channels : iterable of str
+        Column names the job needs (model inputs and measured outputs).
+    field : str
+        The job key that named the file, for error messages.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Sorted by time, float columns.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{field}: no such data file: {path}")
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".csv":
+            frame = pd.read_csv(path, comment="#")
+        elif suffix in (".parquet", ".pq"):
+            frame = pd.read_parquet(path)
+        else:
+            raise ConfigError(f"{field}: {path} is neither .csv nor .parquet")
+    except (ValueError, OSError) as err:
+        raise ConfigError(f"{field}: cannot read {path}: {err}") from err
+    return check_measurements(frame, channels, f"{field} ({path.name})")
+
+
+def check_measurements(frame, channels, where="data"):
+    """Check a measured table: ``time`` strictly increasing, named channels present and finite."""
+    missing = [c for c in ["time", *channels] if c not in frame.columns]
+    if missing:
+        raise ConfigError(
+            f"{where}: missing column(s) {', '.join(missing)}; the file has {', '.join(map(str, frame.columns))}")
+    frame = frame[["time", *dict.fromkeys(channels)]].astype(float)
+    for column in frame.columns:
+        bad = np.flatnonzero(~np.isfinite(frame[column].to_numpy()))
+        if bad.size:
+            raise ConfigError(f"{where}: column {column!r} has {bad.size} NaN/inf value(s), first at row {bad[0]}")
+    steps = np.diff(frame["time"].to_numpy())
+    if (steps <= 0).any():
+        row = int(np.flatnonzero(steps <= 0)[0]) + 1
+        raise ConfigError(f"{where}: time is not strictly increasing at row {row} "
+                          f"(t = {frame['time'].iloc[row]:g} s after {frame['time'].iloc[row - 1]:g} s)")
+    return frame.reset_index(drop=True)
