@@ -8,7 +8,7 @@ Signal path per sample (all transforms amplitude-invariant):
    turn; 0 = exact) give the measured i_d, i_q;
 3. two PI current loops (d and q; i_d -> ``i_d_ref`` = 0) with back-EMF and cross-coupling
    decoupling, voltage limited to the bus (``V_bus / sqrt(3)`` for space-vector PWM, ``V_bus / 2``
-   for sine PWM; the d axis has priority) and back-calculation anti-windup;
+   for sine PWM, times sqrt(3/2) for a power-invariant plant frame; the d axis has priority) and back-calculation anti-windup;
 4. inverse Park with the measured angle, and the inverter applies the voltage in the plant's frame.
 
 Gains (a stated bandwidth, from the motor parameters): the PI zero cancels the discrete R-L pole
@@ -118,7 +118,9 @@ class FOC(Controller):
 
     Parameters (defaults: the gripper estimates of gripper_params.csv): ``R_s`` (ohm), ``L_d``,
     ``L_q`` (H), ``pole_pairs``, ``psi_m`` (Wb, back-EMF ``pole_pairs * w * psi_m`` on the q axis),
-    ``V_bus`` (V), ``modulation`` ("svpwm" or "sine"), ``bandwidth_hz`` (Hz), ``enc_cpt``
+    ``V_bus`` (V), ``modulation`` ("svpwm" or "sine"), ``park`` ("power": the plant's d/q quantities
+    use the power-invariant Park transform, so the bus limit on ``|v_dq|`` is sqrt(3/2) times the
+    phase-voltage amplitude limit; "amplitude": amplitude-invariant), ``bandwidth_hz`` (Hz), ``enc_cpt``
     (encoder counts per turn, 0 = exact angle), ``i_d_ref`` (A), ``decouple`` (bool).
     """
 
@@ -130,6 +132,7 @@ class FOC(Controller):
         "psi_m": 0.009848,
         "V_bus": 24.0,
         "modulation": ("svpwm", "sine"),
+        "park": ("power", "amplitude"),
         "bandwidth_hz": 1000.0,
         "enc_cpt": 2048.0,
         "i_d_ref": 0.0,
@@ -152,6 +155,8 @@ class FOC(Controller):
         kpd, kid = foc_gains(v["R_s"], v["L_d"], self.rate, v["bandwidth_hz"])
         kpq, kiq = foc_gains(v["R_s"], v["L_q"], self.rate, v["bandwidth_hz"])
         vmax = v["V_bus"] / math.sqrt(3.0) if v["modulation"] == "svpwm" else v["V_bus"] / 2.0
+        if v["park"] == "power":  # |v_dq| = sqrt(3/2) x phase amplitude with the power-invariant transform
+            vmax *= math.sqrt(1.5)
         return np.array([kpd, kid, kpq, kiq, v["L_d"], v["L_q"], v["pole_pairs"], v["psi_m"], vmax,
                          v["enc_cpt"], v["i_d_ref"], float(bool(v["decouple"]))])
 

@@ -150,8 +150,8 @@ class OuterLoop(Controller):
 
     parameters = {
         "profile": ("impact", "staircase", "velocity"),
-        "Kp": 0.02,
-        "Ki": 0.4,
+        "Kp": 0.01,
+        "Ki": 0.1,
         "Kd": 0.0,
         "i_max": 2.5,
         "i_min": 0.2,
@@ -159,7 +159,7 @@ class OuterLoop(Controller):
         "thr": 0.9,
         "enc_cpt": 2048.0,
         "speed_rpm": 1000.0,
-        "ramp_s": 0.1,
+        "ramp_s": 0.2,
         "t_start": 0.0,
         "i_tight": 1.0,
         "hold_s": 5.0,
