@@ -193,7 +193,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       parameter Real L_d(unit = "H") = 2.5e-4 "d-axis inductance (estimate)";
       parameter Real L_q(unit = "H") = 2.5e-4 "q-axis inductance (estimate)";
       parameter Integer p = 4 "Number of pole pairs (estimate)";
-      parameter Real k_t(unit = "N.m/A") = 0.039394 "Torque constant T/i_q = 0.13 N.m / 3.3 A";
+      parameter Real k_t(unit = "N.m/A") = 0.0393939394 "Torque constant T/i_q = 0.13 N.m / 3.3 A";
       parameter Real J_r(unit = "kg.m2") = 1e-5 "Rotor inertia (estimate)";
       parameter Real J_g(unit = "kg.m2") = 1e-7 "Gearbox inertia at the motor side (estimate), rigid with the rotor";
       parameter Real B_r(unit = "N.m.s/rad") = 1.01e-5 "Rotor viscous damping, eq. (6) (estimate)";
