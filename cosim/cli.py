@@ -2,6 +2,7 @@
 
 import argparse
 import sys
+from pathlib import Path
 
 from cosim.errors import CosimError
 
@@ -77,13 +78,43 @@ def _add_run(sub):
     p.set_defaults(func=_cmd_run)
 
 
+def _cmd_calibrate(args):
+    from cosim.calibrate.job import run_job
+
+    out = args.out or f"out/{Path(args.job).stem}"
+    summary = run_job(args.job, out=out, overrides=args.set, progress=not args.no_progress)
+    for name, p in summary["parameters"].items():
+        print(f"{name} = {p['value']:.6g} +- {p['std_error']:.3g} (1 s.e., start {p['start']:.6g})")
+    print(f"cost {summary['cost_before']:.6g} -> {summary['cost_after']:.6g} in {summary['iterations']} "
+          f"iterations ({summary['return_status']}); wrote {out}/calibration.json, parameters.toml, fit.png")
+    return 0
+
+
+def _add_calibrate(sub):
+    p = sub.add_parser(
+        "calibrate",
+        help="fit model parameters to measured data (CasADi/IPOPT, exact derivatives, multi-start)",
+        description=("Fit the free parameters of a Modelica model to measured signals. Writes "
+                     "OUT/calibration.json (values, standard errors, correlations, costs), OUT/parameters.toml "
+                     "and OUT/fit.png."),
+    )
+    p.add_argument("job", help="calibration job (.toml)")
+    p.add_argument("--out", help="output folder (default out/<job stem>)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override any job key, e.g. --set data.path=measured.csv (repeatable)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_calibrate)
+
+
 # Each command adds its parser here; keep one function per command.
-_COMMANDS = [_add_build, _add_haptic, _add_run]
+_COMMANDS = [_add_build, _add_haptic, _add_run, _add_calibrate]
 
 
 def make_parser():
     """Build the argument parser with every subcommand."""
-    parser = argparse.ArgumentParser(prog="cosim", description=__doc__.split(":")[0] + ".")
+    parser = argparse.ArgumentParser(
+        prog="cosim",
+        description="Modelica plants compiled to FMUs, co-simulated against Python controllers at their real rates.")
     from cosim import __version__
 
     parser.add_argument("--version", action="version", version=f"cosim {__version__}")

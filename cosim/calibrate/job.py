@@ -1,0 +1,221 @@
+"""Calibration jobs: ``cosim calibrate job.toml`` reads a TOML job (model, data, free parameters, cost), fits
+with multi-start, and writes ``calibration.json``, ``parameters.toml`` and before/after plots.
+
+Job schema (paths relative to the job file)::
+
+    [model]       source = "x.mo", name = "Pkg.Model", parameters = {name = value}   # fixed values
+    [data]        path = "x.csv|x.parquet", inputs = {model_input = "column"}, start, stop, decimate
+    [fit]         signals = [{output = "F_g", column = "F_g", noise = 0.5}], segments = [[t0, t1]],
+                  method = "rk4"|"implicit_euler", substeps, max_iter
+    [parameters.NAME]  start, min, max
+    [multistart]  count, seed, scheduler   # scheduler: a Dask address; empty = a local cluster
+"""
+
+import math
+import shutil
+import tempfile
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from cosim.calibrate.data import load_measurements
+from cosim.calibrate.problem import METHODS, Experiment
+from cosim.errors import ConfigError
+from cosim.config import _Locator, _Problems, _apply_override, _fmt_path, parse_overrides
+
+__all__ = ["CalibrationJob", "load_job", "run_job"]
+
+_SCHEMA = {
+    "model": ("source", "name", "parameters"),
+    "data": ("path", "inputs", "start", "stop", "decimate"),
+    "fit": ("signals", "segments", "method", "substeps", "max_iter"),
+    "multistart": ("count", "seed", "scheduler"),
+}
+
+
+@dataclass(frozen=True)
+class CalibrationJob:
+    """A validated calibration job (see the module docstring for the TOML form)."""
+
+    path: Path
+    source: Path
+    model: str
+    fixed: dict
+    data_path: Path
+    inputs: dict
+    window: tuple
+    decimate: int
+    signals: tuple  # of (output, column, noise)
+    segments: tuple
+    method: str
+    substeps: int
+    max_iter: int
+    free: dict  # name -> (start, min, max)
+    starts: int
+    seed: int
+    scheduler: str
+    text: str
+
+
+def _read_toml(path, overrides):
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: job file does not exist")
+    text = path.read_text(encoding="utf-8")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError(f"{path}: malformed TOML: {err}") from err
+    set_keys = set()
+    for key, value in parse_overrides(overrides):
+        _apply_override(data, key, value)
+        set_keys.add(_fmt_path(key))
+    return path, text, data, _Problems(str(path), _Locator(text), set_keys)
+
+
+def _number(problems, table, key, where, default=None, positive=False, integer=False):
+    value = table.get(key, default)
+    if value is None:
+        problems.add(where + (key,), "is required")
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        problems.add(where + (key,), f"must be a number; got {value!r}")
+        return None
+    if integer and int(value) != value:
+        problems.add(where + (key,), f"must be a whole number; got {value!r}")
+    if positive and value <= 0:
+        problems.add(where + (key,), f"must be > 0; got {value!r}")
+    return int(value) if integer else float(value)
+
+
+def load_job(path, overrides=()):
+    """Read and validate a calibration job; every problem is reported at once with file:line and key."""
+    path, text, data, problems = _read_toml(path, overrides)
+    for key in sorted(set(data) - set(_SCHEMA) - {"parameters"}):
+        problems.add((key,), f"unknown section; expected {', '.join([*_SCHEMA, 'parameters'])}")
+    tables = {}
+    for section, allowed in _SCHEMA.items():
+        table = data.get(section, {})
+        if not isinstance(table, dict):
+            problems.add((section,), "must be a table")
+            table = {}
+        for key in sorted(set(table) - set(allowed)):
+            problems.add((section, key), f"unknown key; allowed: {', '.join(allowed)}")
+        tables[section] = table
+    base = path.parent
+    model_t, data_t, fit_t, ms_t = (tables[s] for s in ("model", "data", "fit", "multistart"))
+    for key in ("source", "name"):
+        if not isinstance(model_t.get(key), str):
+            problems.add(("model", key), "is required (a string)")
+    source = base / model_t.get("source", "")
+    if isinstance(model_t.get("source"), str) and not source.is_file():
+        problems.add(("model", "source"), f"no such Modelica file: {source}")
+    if not isinstance(data_t.get("path"), str):
+        problems.add(("data", "path"), "is required: a CSV or Parquet file with `time` and the measured channels")
+    inputs = data_t.get("inputs", {})
+    if not isinstance(inputs, dict) or not all(isinstance(v, str) for v in inputs.values()):
+        problems.add(("data", "inputs"), "must map model inputs to data columns, e.g. {i_ref = \"i_ref\"}")
+        inputs = {}
+    start = _number(problems, data_t, "start", ("data",), default=-math.inf) if "start" in data_t else -math.inf
+    stop = _number(problems, data_t, "stop", ("data",), default=math.inf) if "stop" in data_t else math.inf
+    decimate = _number(problems, data_t, "decimate", ("data",), default=1, positive=True, integer=True)
+    signals = []
+    for k, s in enumerate(fit_t.get("signals", [])):
+        where = ("fit", "signals", k)
+        if not isinstance(s, dict) or not isinstance(s.get("output"), str):
+            problems.add(where, "must be a table {output = \"F_g\", column = \"F_g\", noise = 0.5}")
+            continue
+        for key in sorted(set(s) - {"output", "column", "noise"}):
+            problems.add(where + (key,), "unknown key; allowed: output, column, noise")
+        noise = _number(problems, s, "noise", where, default=1.0, positive=True)
+        signals.append((s["output"], s.get("column", s["output"]), noise))
+    if not signals:
+        problems.add(("fit", "signals"), "name at least one output to fit: [{output = \"F_g\", noise = 0.5}]")
+    segments = fit_t.get("segments", [[-math.inf, math.inf]])
+    if not (isinstance(segments, list) and all(isinstance(s, list) and len(s) == 2 and s[0] < s[1]
+                                               for s in segments)):
+        problems.add(("fit", "segments"), "must be a list of [start, stop] time windows in s")
+        segments = [[-math.inf, math.inf]]
+    method = fit_t.get("method", "rk4")
+    if method not in METHODS:
+        problems.add(("fit", "method"), f"must be one of {', '.join(METHODS)}; got {method!r}")
+    substeps = _number(problems, fit_t, "substeps", ("fit",), default=1, positive=True, integer=True)
+    max_iter = _number(problems, fit_t, "max_iter", ("fit",), default=200, positive=True, integer=True)
+    free = {}
+    params_t = data.get("parameters", {})
+    if not params_t:
+        problems.add(("parameters",), "name at least one parameter to fit: [parameters.eta_g] start, min, max")
+    for name, p in params_t.items():
+        where = ("parameters", name)
+        if not isinstance(p, dict):
+            problems.add(where, "must be a table with start, min, max")
+            continue
+        for key in sorted(set(p) - {"start", "min", "max"}):
+            problems.add(where + (key,), "unknown key; allowed: start, min, max")
+        s, lo, hi = (_number(problems, p, key, where) for key in ("start", "min", "max"))
+        if None not in (s, lo, hi):
+            if not lo <= s <= hi:
+                problems.add(where + ("start",), f"{s:g} is outside the bounds [{lo:g}, {hi:g}]")
+            free[name] = (s, lo, hi)
+    count = _number(problems, ms_t, "count", ("multistart",), default=1, positive=True, integer=True)
+    seed = _number(problems, ms_t, "seed", ("multistart",), default=0, integer=True)
+    scheduler = ms_t.get("scheduler", "")
+    problems.raise_if_any()
+    return CalibrationJob(
+        path=path, source=source, model=model_t["name"], fixed=dict(model_t.get("parameters", {})),
+        data_path=base / data_t["path"], inputs=dict(inputs), window=(start, stop), decimate=decimate,
+        signals=tuple(signals), segments=tuple(tuple(s) for s in segments), method=method, substeps=substeps,
+        max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler, text=text)
+
+
+def experiment_for(job, model):
+    """Load the job's data and align it with ``model``: inputs in model order, measured outputs, cost mask."""
+    missing = [u.name for u in model.inputs if u.name not in job.inputs]
+    if missing:
+        raise ConfigError(f"{job.path}: data.inputs must give a column for every model input; missing "
+                          f"{', '.join(missing)}")
+    outputs = [o.name for o in model.outputs]
+    for output, _, _ in job.signals:
+        if output not in outputs:
+            raise ConfigError(f"{job.path}: fit.signals: {model.name} has no output {output!r}; it has "
+                              f"{', '.join(outputs)}")
+    columns = [*job.inputs.values(), *(c for _, c, _ in job.signals)]
+    frame = load_measurements(job.data_path, columns)
+    t0, t1 = job.window
+    frame = frame[(frame["time"] >= t0) & (frame["time"] <= t1)].iloc[::job.decimate].reset_index(drop=True)
+    if len(frame) < 3:
+        raise ConfigError(f"{job.path}: data window [{t0}, {t1}] s holds fewer than 3 samples")
+    time = frame["time"].to_numpy()
+    mask = np.zeros(len(time), bool)
+    for a, b in job.segments:
+        mask |= (time >= a) & (time <= b)
+    return Experiment(
+        time=time,
+        inputs=frame[[job.inputs[u.name] for u in model.inputs]].to_numpy(),
+        measured=frame[[c for _, c, _ in job.signals]].to_numpy(),
+        weights=np.array([1.0 / noise for _, _, noise in job.signals]),
+        mask=mask,
+    )
+
+
+def run_job(path, out="out/calibration", overrides=(), progress=True):
+    """Run a calibration job and write its results to ``out``; returns the result dict of calibration.json."""
+    from cosim.calibrate.multistart import fit_multistart
+    from cosim.calibrate.report import write_results
+
+    job = load_job(path, overrides)
+    result = fit_multistart(job, progress=progress)
+    out = Path(out)
+    staging = Path(tempfile.mkdtemp(prefix=".calibration-", dir=out.parent if out.parent.exists() else None))
+    try:
+        summary = write_results(job, result, staging)
+        if out.exists():
+            shutil.rmtree(out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        staging.rename(out)
+    finally:
+        if staging.exists():
+            shutil.rmtree(staging)
+    return summary

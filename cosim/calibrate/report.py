@@ -1,0 +1,70 @@
+"""Calibration outputs: calibration.json (values, standard errors, correlations, costs), parameters.toml (the
+calibrated set, loadable by a run config) and a plot of measured vs simulated before and after."""
+
+import json
+from datetime import datetime, timezone
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+__all__ = ["write_results"]
+
+
+def write_results(job, result, out):
+    """Write the results of a fit of ``job`` into the folder ``out``; returns the calibration.json content."""
+    names = list(job.free)
+    summary = {
+        "job": str(job.path),
+        "model": job.model,
+        "data": str(job.data_path),
+        "method": job.method,
+        "substeps": job.substeps,
+        "derivatives": "exact (CasADi automatic differentiation of the lowered Modelica equations)",
+        "parameters": {n: {"value": result["parameters"][n], "std_error": result["std_errors"][n],
+                           "start": result["start"][n]} for n in names},
+        "correlation": {"names": names, "matrix": result["correlation"]},
+        "cost_before": result["cost_before"],
+        "cost_after": result["cost_after"],
+        "cost_definition": "0.5 * sum over fitted samples of ((simulated - measured) / noise)^2",
+        "iterations": result["iterations"],
+        "success": result["success"],
+        "return_status": result["return_status"],
+        "samples": int(result["mask"].sum()),
+        "multistart": result["runs"],
+    }
+    (out / "calibration.json").write_text(json.dumps(summary, indent=2))
+    stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    lines = [f"# Calibrated by `cosim calibrate {job.path.name}` ({stamp}), model {job.model}",
+             "# Load into a run config with: --set fmus.plant.parameters.NAME=VALUE, or copy the table.",
+             "[parameters]"]
+    lines += [f"{n} = {result['parameters'][n]!r}  # +- {result['std_errors'][n]:.3g} (1 s.e.)" for n in names]
+    (out / "parameters.toml").write_text("\n".join(lines) + "\n")
+    _plot(job, result, out / "fit.png")
+    return summary
+
+
+def _plot(job, result, path):
+    signals = job.signals
+    fig, axes = plt.subplots(2 * len(signals), 1, figsize=(9, 4.2 * len(signals)), sharex=True, squeeze=False)
+    t = result["time"]
+    for k, (output, column, noise) in enumerate(signals):
+        ax, res = axes[2 * k, 0], axes[2 * k + 1, 0]
+        measured = result["measured"][k]
+        ax.plot(t, measured, ".", ms=2, color="0.4", label=f"measured ({column})")
+        ax.plot(t, result["predicted_before"][k], "--", color="tab:red", label="model, start values")
+        ax.plot(t, result["predicted"][k], color="tab:blue", label="model, calibrated")
+        ax.set_ylabel(f"{output} [{result['units'].get(output) or '1'}]")
+        ax.legend(loc="best", fontsize=8)
+        ax.set_title(f"{job.model}: {output}, cost {result['cost_before']:.4g} -> {result['cost_after']:.4g}")
+        res.plot(t, result["predicted_before"][k] - measured, "--", color="tab:red", lw=0.8, label="start")
+        res.plot(t, result["predicted"][k] - measured, color="tab:blue", lw=0.8, label="calibrated")
+        res.axhspan(-noise, noise, color="0.9", label="noise (1 sd)")
+        res.set_ylabel(f"residual [{result['units'].get(output) or '1'}]")
+        res.legend(loc="best", fontsize=8)
+    axes[-1, 0].set_xlabel("time [s]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
