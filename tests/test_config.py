@@ -1,0 +1,129 @@
+"""cosim.config: frozen spec, --set overrides, and every bad input reported with file:line, exit 2, nothing written."""
+
+import dataclasses
+import shutil
+
+import pytest
+from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
+
+from cosim.cli import main
+from cosim.config import load_config, parse_overrides
+from cosim.errors import ConfigError
+
+
+def _problems(path, overrides=()):
+    with pytest.raises(ConfigError) as err:
+        load_config(path, overrides)
+    return str(err.value)
+
+
+def test_valid_config_is_frozen_and_typed(master_dir):
+    cfg = load_config(osc_config(master_dir))
+    assert cfg.run.stop == 2.0 and cfg.solver.method == "rk4"
+    assert cfg.fmus["plant"].parameters == {"k": 9.0}
+    assert cfg.controllers["src"].rate == 1000
+    assert cfg.connections[0].src == ("src", "u") and cfg.connections[0].dst == ("plant", "u")
+    assert cfg.record.signals == (("plant", "y"), ("plant", "v_out"), ("src", "u"))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        cfg.run.stop = 3.0
+
+
+def test_set_overrides_any_key(master_dir):
+    cfg = load_config(osc_config(master_dir), ["fmus.plant.parameters.c=0.7", "run.stop=0.5",
+                                               "controllers.src.parameters.amp=3", "connections.0.gain=2.5",
+                                               "solver.method=radau"])
+    assert cfg.fmus["plant"].parameters == {"k": 9.0, "c": 0.7}
+    assert cfg.run.stop == 0.5 and cfg.controllers["src"].parameters["amp"] == 3
+    assert cfg.connections[0].gain == 2.5 and cfg.solver.method == "radau"
+
+
+def test_parse_overrides_values():
+    assert parse_overrides(["a.b=1", "c=[1, 2]", "d=word", "e=\"q\"", "f=true"]) == [
+        (("a", "b"), 1), (("c",), [1, 2]), (("d",), "word"), (("e",), "q"), (("f",), True)]
+    with pytest.raises(ConfigError, match="key=value"):
+        parse_overrides(["novalue"])
+
+
+def test_unknown_keys_with_lines_and_close_names(master_dir):
+    path = osc_config(master_dir, extra="\n[recrod]\nrate = 5\n")
+    text = path.read_text().replace("[run]\n", "[run]\nstpo = 3\n")
+    path.write_text(text)
+    msg = _problems(path)
+    line_stpo = text.splitlines().index("stpo = 3") + 1
+    line_rec = text.splitlines().index("[recrod]") + 1
+    assert f"osc.toml:{line_stpo}: run.stpo: unknown key; did you mean 'stop'?" in msg
+    assert f"osc.toml:{line_rec}: recrod: unknown key; did you mean 'record'?" in msg
+    assert "2 problems" in msg
+
+
+def test_unknown_variable_lists_close_names(master_dir):
+    path = osc_config(master_dir)
+    path.write_text(path.read_text().replace('to = "plant.u"', 'to = "plant.uu"'))
+    msg = _problems(path)
+    line = path.read_text().splitlines().index('to = "plant.uu"') + 1
+    assert f"osc.toml:{line}: connections[0].to: plant has no input 'uu'; did you mean 'u'?" in msg
+
+
+def test_wrong_causality(master_dir):
+    path = osc_config(master_dir)
+    path.write_text(path.read_text().replace('to = "plant.u"', 'to = "plant.y"'))
+    msg = _problems(path)
+    assert "plant.y has causality 'output'; a connection's 'to' end must be an input" in msg
+
+
+def test_missing_fmu_negative_rate_unknown_parameter(master_dir):
+    path = osc_config(master_dir)
+    text = path.read_text().replace('path = "Osc.fmu"', 'path = "Missing.fmu"').replace("rate = 1000", "rate = -1000")
+    path.write_text(text)
+    msg = _problems(path, ["controllers.src.parameters.ampl=1"])
+    lines = text.splitlines()
+    line_path = lines.index('path = "Missing.fmu"') + 1
+    assert f"osc.toml:{line_path}: fmus.plant.path: FMU file" in msg
+    assert "Missing.fmu' does not exist" in msg
+    assert f"osc.toml:{lines.index('rate = -1000') + 1}: controllers.src.rate: must be > 0; got -1000" in msg
+    assert "--set controllers.src.parameters.ampl: controllers.src.parameters.ampl: Sine has no parameter 'ampl'; " \
+           "did you mean 'amp'?" in msg
+
+
+def test_parameter_of_the_fmu_checked(master_dir):
+    msg = _problems(osc_config(master_dir), ["fmus.plant.parameters.kk=2", "fmus.plant.parameters.y=1"])
+    assert "has no parameter 'kk'; did you mean 'k'?" in msg
+    assert "'y' is a continuous output, not a settable parameter" in msg
+
+
+def test_malformed_toml_has_line_and_column(master_dir):
+    path = master_dir / "broken.toml"
+    path.write_text("[run]\nstop = 1.0\n[fmus.plant\npath = 'x'\n")
+    msg = _problems(path)
+    assert "broken.toml:3:" in msg and "malformed TOML" in msg
+
+
+@pytest.mark.parametrize(
+    "edit",
+    [
+        ("stop = 2.0", "stop = 2.0\nbogus = 1"),  # unknown key
+        ('path = "Osc.fmu"', 'path = "Nope.fmu"'),  # missing FMU
+        ('to = "plant.u"', 'to = "plant.q"'),  # unknown variable
+        ('from = "src.u"', 'from = "plant.u"'),  # wrong causality (input as source)
+        ("rate = 1000", "rate = -5"),  # negative rate
+        ("[run]", "[run"),  # malformed TOML
+    ],
+)
+def test_cli_bad_input_exit_2_nothing_written(master_dir, tmp_path, capsys, edit):
+    path = osc_config(tmp_path)
+    shutil.copy(master_dir / "Osc.fmu", tmp_path)
+    shutil.copy(master_dir / "ctl.py", tmp_path)
+    path.write_text(path.read_text().replace(*edit))
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "osc.toml:" in err and err.count("cosim run: error") == 1
+    assert not out.exists()
+
+
+def test_shipped_configs_validate(gripper_dir):
+    for name in ("gripper_static", "gripper_impact", "gripper_impact_p3"):
+        cfg = load_config(EXAMPLES / f"{name}.toml", gripper_overrides(gripper_dir))
+        assert set(cfg.controllers) == {"foc", "outer"} and "plant" in cfg.fmus
+    cfg = load_config(EXAMPLES / "gripper_impact_split.toml", gripper_overrides(gripper_dir, split=True))
+    assert set(cfg.fmus) == {"plant", "drive"}
