@@ -141,3 +141,14 @@ def test_bad_input_names_the_field_and_writes_nothing(tmp_path, case, edit, mess
         run_job(job, out=tmp_path / "out", progress=False)
     assert message in str(err.value)
     assert not (tmp_path / "out").exists()
+
+
+def test_fmu_only_model_falls_back_to_finite_differences(tmp_path, compiler_fmu):
+    job = write_job(tmp_path)
+    text = job.read_text().replace(f'source = "{COMPILER_MODELS}"\nname = "CompilerTests.MassSpringDamper"',
+                                   f'fmu = "{compiler_fmu("MassSpringDamper")}"')
+    job.write_text(text)
+    summary = run_job(job, out=tmp_path / "out", progress=False)
+    assert summary["derivatives"].startswith("finite differences through the FMU")
+    k = summary["parameters"]["k"]
+    assert abs(k["value"] - K_TRUE) < 2 * k["std_error"]

@@ -4,6 +4,7 @@ with multi-start, and writes ``calibration.json``, ``parameters.toml`` and befor
 Job schema (paths relative to the job file)::
 
     [model]       source = "x.mo", name = "Pkg.Model", parameters = {name = value}   # fixed values
+                  (or fmu = "x.fmu" for a model with no Modelica source: finite differences through the FMU)
     [data]        path = "x.csv|x.parquet", inputs = {model_input = "column"}, start, stop, decimate
     [fit]         signals = [{output = "F_g", column = "F_g", noise = 0.5}], segments = [[t0, t1]],
                   method = "rk4"|"implicit_euler", substeps, max_iter
@@ -28,7 +29,7 @@ from cosim.config import _Locator, _Problems, _apply_override, _fmt_path, parse_
 __all__ = ["CalibrationJob", "load_job", "run_job"]
 
 _SCHEMA = {
-    "model": ("source", "name", "parameters"),
+    "model": ("source", "name", "fmu", "parameters"),
     "data": ("path", "inputs", "start", "stop", "decimate"),
     "fit": ("signals", "segments", "method", "substeps", "max_iter"),
     "multistart": ("count", "seed", "scheduler"),
@@ -42,6 +43,7 @@ class CalibrationJob:
     path: Path
     source: Path
     model: str
+    fmu: Path
     fixed: dict
     data_path: Path
     inputs: dict
@@ -106,9 +108,17 @@ def load_job(path, overrides=()):
         tables[section] = table
     base = path.parent
     model_t, data_t, fit_t, ms_t = (tables[s] for s in ("model", "data", "fit", "multistart"))
-    for key in ("source", "name"):
-        if not isinstance(model_t.get(key), str):
-            problems.add(("model", key), "is required (a string)")
+    fmu = None
+    if "fmu" in model_t:
+        fmu = base / str(model_t["fmu"])
+        if "source" in model_t or "name" in model_t:
+            problems.add(("model", "fmu"), "give either fmu or source + name, not both")
+        elif not fmu.is_file():
+            problems.add(("model", "fmu"), f"no such FMU: {fmu} (build it with `cosim build`)")
+    else:
+        for key in ("source", "name"):
+            if not isinstance(model_t.get(key), str):
+                problems.add(("model", key), "is required (a string), or give fmu = \"x.fmu\"")
     source = base / model_t.get("source", "")
     if isinstance(model_t.get("source"), str) and not source.is_file():
         problems.add(("model", "source"), f"no such Modelica file: {source}")
@@ -164,22 +174,22 @@ def load_job(path, overrides=()):
     scheduler = ms_t.get("scheduler", "")
     problems.raise_if_any()
     return CalibrationJob(
-        path=path, source=source, model=model_t["name"], fixed=dict(model_t.get("parameters", {})),
+        path=path, source=source, model=model_t.get("name", str(fmu)), fmu=fmu, fixed=dict(model_t.get("parameters", {})),
         data_path=base / data_t["path"], inputs=dict(inputs), window=(start, stop), decimate=decimate,
         signals=tuple(signals), segments=tuple(tuple(s) for s in segments), method=method, substeps=substeps,
         max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler, text=text)
 
 
-def experiment_for(job, model):
-    """Load the job's data and align it with ``model``: inputs in model order, measured outputs, cost mask."""
-    missing = [u.name for u in model.inputs if u.name not in job.inputs]
+def experiment_for(job, inputs, outputs):
+    """Load the job's data and align it with the model's ``inputs`` and ``outputs`` (names, in model order):
+    inputs in model order, measured outputs, cost mask."""
+    missing = [u for u in inputs if u not in job.inputs]
     if missing:
         raise ConfigError(f"{job.path}: data.inputs must give a column for every model input; missing "
                           f"{', '.join(missing)}")
-    outputs = [o.name for o in model.outputs]
     for output, _, _ in job.signals:
         if output not in outputs:
-            raise ConfigError(f"{job.path}: fit.signals: {model.name} has no output {output!r}; it has "
+            raise ConfigError(f"{job.path}: fit.signals: {job.model} has no output {output!r}; it has "
                               f"{', '.join(outputs)}")
     columns = [*job.inputs.values(), *(c for _, c, _ in job.signals)]
     frame = load_measurements(job.data_path, columns)
@@ -193,7 +203,7 @@ def experiment_for(job, model):
         mask |= (time >= a) & (time <= b)
     return Experiment(
         time=time,
-        inputs=frame[[job.inputs[u.name] for u in model.inputs]].to_numpy(),
+        inputs=frame[[job.inputs[u] for u in inputs]].to_numpy(),
         measured=frame[[c for _, c, _ in job.signals]].to_numpy(),
         weights=np.array([1.0 / noise for _, _, noise in job.signals]),
         mask=mask,

@@ -30,11 +30,13 @@ def start_points(free, count, seed):
 
 def _fit_one(job, start):
     """One fit in a worker: rebuilds the model from its source (CasADi objects do not cross processes)."""
+    if job.fmu is not None:
+        return _fit_one_fmu(job, start)
     from cosim.calibrate.job import experiment_for
     from cosim.compile import lower
 
     model = lower(job.source, job.model)
-    experiment = experiment_for(job, model)
+    experiment = experiment_for(job, [u.name for u in model.inputs], [o.name for o in model.outputs])
     outputs = [o for o, _, _ in job.signals]
     fit = Calibrator(model, outputs, job.free, fixed=job.fixed, substeps=job.substeps, method=job.method,
                      max_iter=job.max_iter).fit(experiment, start=start)
@@ -54,6 +56,40 @@ def _fit_one(job, start):
         "measured": experiment.measured.T,
         "mask": experiment.mask,
         "units": {o.name: o.unit for o in model.outputs},
+    }
+
+
+def _fit_one_fmu(job, start):
+    """The finite-difference fallback for a model known only as an FMU (no CasADi form)."""
+    from cosim.calibrate.fmu_fit import FmuCalibrator, simulate_fmu_experiment
+    from cosim.calibrate.job import experiment_for
+    from cosim.fmi import read_model_info
+
+    info = read_model_info(job.fmu)
+    inputs, outputs = info.names("input"), info.names("output")
+    experiment = experiment_for(job, inputs, outputs)
+    fitted = [o for o, _, _ in job.signals]
+    free = {n: (float(s), lo, hi) for (n, (_, lo, hi)), s in zip(job.free.items(), start)}
+    fit = FmuCalibrator(job.fmu, inputs, fitted, free, fixed=job.fixed, substeps=job.substeps).fit(experiment)
+    names = list(job.free)
+    return {
+        "start": dict(zip(names, map(float, start))),
+        "parameters": fit.parameters_,
+        "std_errors": fit.std_errors_,
+        "correlation": fit.correlation_.tolist(),
+        "cost_before": fit.cost_before_,
+        "cost_after": fit.cost_after_,
+        "iterations": fit.evaluations_,
+        "success": fit.success_,
+        "return_status": "finite differences through the FMU (no CasADi form of the model)",
+        "predicted": simulate_fmu_experiment(job.fmu, experiment, inputs, fitted,
+                                             {**job.fixed, **fit.parameters_}, job.substeps),
+        "predicted_before": simulate_fmu_experiment(job.fmu, experiment, inputs, fitted,
+                                                    {**job.fixed, **fit.start_}, job.substeps),
+        "time": experiment.time,
+        "measured": experiment.measured.T,
+        "mask": experiment.mask,
+        "units": {o: info.variables[o].unit for o in outputs},
     }
 
 

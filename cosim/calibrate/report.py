@@ -21,7 +21,8 @@ def write_results(job, result, out):
         "data": str(job.data_path),
         "method": job.method,
         "substeps": job.substeps,
-        "derivatives": "exact (CasADi automatic differentiation of the lowered Modelica equations)",
+        "derivatives": ("finite differences through the FMU (the model has no CasADi form)" if job.fmu else
+                        "exact (CasADi automatic differentiation of the lowered Modelica equations)"),
         "parameters": {n: {"value": result["parameters"][n], "std_error": result["std_errors"][n],
                            "start": result["start"][n]} for n in names},
         "correlation": {"names": names, "matrix": result["correlation"]},
