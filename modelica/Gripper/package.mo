@@ -185,6 +185,18 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       F_d = C*v;
       F = max(0, F_s + min(F_s, F_d));
     end FingerContact;
+
+    model AngleReconstruction "Co-simulation input reconstruction: angle integrated from the speed input, pulled to the angle input"
+      // Under a zero-order hold the angle input is a staircase; fed straight into a stiff compliance it makes
+      // the lightly preloaded play chatter. Integrating the (held) speed gives a smooth angle, and the
+      // correction k_c*(theta_in - theta) removes drift. In a monolithic model theta = theta_in exactly.
+      parameter Real k_c(unit = "1/s") = 2000 "Correction rate towards the angle input";
+      input Real theta_in(unit = "rad") "Angle input (sampled)";
+      input Real w_in(unit = "rad/s") "Speed input (sampled)";
+      output Real theta(unit = "rad", start = 0.0, fixed = true) "Reconstructed angle";
+    equation
+      der(theta) = w_in + k_c*(theta_in - theta);
+    end AngleReconstruction;
   end Components;
 
   package Parameters "Shared top-level parameter declarations (values and sources: docs/models/gripper.md)"
@@ -328,9 +340,13 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real tau_load(unit = "N.m") "Load torque on the motor shaft, against positive rotation";
     output Real F_g(unit = "N") "Gripping force (load cell)";
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
+    parameter Real k_c(unit = "1/s") = 2000 "Correction rate of the motor-angle reconstruction";
+    Gripper.Components.AngleReconstruction shaft(k_c = k_c) "Motor angle between communication points";
     Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
   equation
-    drive.theta_m = theta_m;
+    shaft.theta_in = theta_m;
+    shaft.w_in = w_m;
+    drive.theta_m = shaft.theta;
     drive.w_m = w_m;
     tau_load = drive.tau_load;
     F_g = drive.F_g;
