@@ -59,13 +59,20 @@ def test_play_zero_torque_inside_half_play(gripper_fmus):
     dt = Rk4Fmu(gripper_fmus["Drivetrain"], params)
     try:
         x0 = dt.states()
+        i_theta = dt.state_names.index("shaft.theta")  # the drivetrain's reconstructed motor angle
+
+        def torque(theta):
+            x = x0.copy()
+            x[i_theta] = theta
+            return dt.out(0.0, x, [theta, 0.0])
+
         half = PAPER["play"] / 2
         for frac in np.linspace(-0.999, 0.999, 41):
-            o = dt.out(0.0, x0, [frac * half * N, 0.0])
+            o = torque(frac * half * N)
             assert o["tau_load"] == 0.0 and o["F_g"] == 0.0
         # beyond the play the stop acts, with the sign of the deflection
-        o_pos = dt.out(0.0, x0, [1.01 * half * N, 0.0])["tau_load"]
-        o_neg = dt.out(0.0, x0, [-1.01 * half * N, 0.0])["tau_load"]
+        o_pos = torque(1.01 * half * N)["tau_load"]
+        o_neg = torque(-1.01 * half * N)["tau_load"]
         assert o_pos > 0 and o_neg < 0
         assert_allclose(o_pos, -o_neg, rtol=1e-12)
     finally:
