@@ -6,7 +6,7 @@ import numpy as np
 
 from cosim.analysis.haptic_margins import MARGIN_COLUMNS, adaptive_damping, margins_table, position_means
 
-__all__ = ["write_margins", "plot_margins"]
+__all__ = ["write_margins", "plot_margins", "write_collisions", "write_identification", "write_arm"]
 
 
 def plot_margins(table, path, title="Virtual wall margins"):
@@ -100,4 +100,188 @@ def write_margins(out_dir, K=10.0, rate=1000.0, adaptive=False):
         p = out / "margins_adaptive.png"
         plot_margins(damped, p, title=f"Adaptive wall K = {K:g} N.m/rad, B tuned on user 1 (PM >= 50 deg)")
         written.append(p)
+    return written
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def write_collisions(out_dir, users=(1,), adaptive=False, fmu_dir="fmus", K=10.0, rate=1000.0):
+    """Simulate wall contacts through the master for ``users`` x 6 positions and write the comparison.
+
+    Writes ``collisions.csv`` (predicted vs simulated, `cosim.analysis.haptic_collision.collision_study`),
+    ``collisions_means.csv`` (per position) and ``collisions.png`` (user ``users[0]`` at positions 1, 3, 5:
+    step and collision responses, as the paper's Figs. 12 and 15).
+
+    Returns
+    -------
+    list of Path
+    """
+    from cosim.analysis.haptic_collision import collision_study, simulate_contact
+    from cosim.analysis.haptic_margins import adaptive_damping
+    from cosim.analysis.haptic_params import load_user_params
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    df = collision_study(users=users, adaptive=adaptive, fmu_dir=fmu_dir, K=K, rate=rate)
+    written = []
+    tag = "_adaptive" if adaptive else ""
+    p = out / f"collisions{tag}.csv"
+    df.to_csv(p, index=False, float_format="%.6g")
+    written.append(p)
+    p = out / f"collisions{tag}_means.csv"
+    df.drop(columns=["user", "model"]).groupby("position").mean().reset_index().to_csv(p, index=False, float_format="%.6g")
+    written.append(p)
+    plt = _plt()
+    table = adaptive_damping(user=1, K=K, rate=rate) if adaptive else {}
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4))
+    u = users[0]
+    for i, pos in enumerate((1, 3, 5)):
+        params = load_user_params(u, pos, zero_as=5e-4)
+        kw = dict(adaptive=adaptive, B=table.get(pos, 0.0), fmu_dir=fmu_dir, K=K, rate=rate)
+        d = simulate_contact(params, "step", **kw)
+        ax[0].plot(d["time"] - 0.05, 1e3 * (d["phi"] - 0.7), color=f"C{i}", label=f"position {pos}")
+        d = simulate_contact(params, "collision", **kw)
+        k = np.nonzero(d["phi"] > 0.7)[0][0]
+        ax[1].plot(d["time"] - d["time"][k], 1e3 * (d["phi"] - 0.7), color=f"C{i}", label=f"position {pos}")
+    ax[0].set_title(f"user {u}: torque step 0.1 N.m at the wall surface")
+    ax[1].set_title(f"user {u}: collision at 0.5 rad/s, final wall torque 0.1 N.m")
+    ax[1].set_xlim(-0.1, 0.6)
+    ax[1].set_ylim(-10.0, 25.0)
+    for a in ax:
+        a.axhline(0, color="k", ls="--", lw=0.8)
+        a.set_xlabel("time from step / contact (s)")
+        a.set_ylabel("phi - 0.7 rad (mrad)")
+        a.grid(True, alpha=0.3)
+        a.legend()
+    fig.suptitle(("adaptive wall (B per position)" if adaptive else "wall K = 10 N.m/rad, B = 0") + f", {rate:g} Hz")
+    fig.tight_layout()
+    p = out / f"collisions{tag}.png"
+    fig.savefig(p, dpi=110)
+    plt.close(fig)
+    written.append(p)
+    return written
+
+
+def write_identification(out_dir, user=1, position=3, use_fmu=False, fmu_dir="fmus", seed=0):
+    """Run seed 000's identification experiment on one Table I row and write the fit and a Bode plot.
+
+    Parameters
+    ----------
+    out_dir : path-like
+    user, position : int
+    use_fmu : bool, optional
+        Simulate through the Haptic FMU (RK4, ZOH input) instead of the exact sampled LTI model.
+    fmu_dir : path-like, optional
+    seed : int, optional
+
+    Returns
+    -------
+    list of Path
+        ``identification.csv`` (true, fitted, error, relative SE, informative per parameter) and
+        ``identification.png``.
+    """
+    import pandas as pd
+
+    from cosim.analysis.haptic_experiments import device_experiment
+    from cosim.analysis.haptic_fmu import fmu_parameters, simulate_fmu
+    from cosim.analysis.haptic_params import load_user_params
+    from cosim.analysis.haptic_tf import tf_user
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    params = load_user_params(user, position, zero_as=5e-4)
+    if use_fmu:
+        name, par = fmu_parameters(params)
+        path = Path(fmu_dir) / f"{name}.fmu"
+
+        def plant(u):
+            return simulate_fmu(path, u, 1000.0, par)
+    else:
+        plant = tf_user(params)
+    fr, fit = device_experiment(plant, params.structure, position=position, seed=seed)
+    rows = [{"parameter": n, "true": params[n], "fitted": fit.params_[n], "rel_error": fit.params_[n] / params[n] - 1,
+             "rel_se": fit.relative_se_[n], "informative": n in fit.informative_} for n in fit.names]
+    written = []
+    p = out / "identification.csv"
+    pd.DataFrame(rows).to_csv(p, index=False, float_format="%.6g")
+    written.append(p)
+    plt = _plt()
+    band = fr.band(0.5, 70.0)
+    fig, ax = plt.subplots(3, 1, figsize=(7, 9), sharex=True)
+    Hm = fit.predict(band.f)
+    ax[0].semilogx(band.f, 20 * np.log10(np.abs(band.H)), ".", ms=3, label="Welch estimate (Hann 4096, 50 %)")
+    ax[0].semilogx(band.f, 20 * np.log10(np.abs(Hm)), "-", label=f"fitted {params.structure}-parameter model")
+    ax[1].semilogx(band.f, np.degrees(np.unwrap(np.angle(band.H))), ".", ms=3)
+    ax[1].semilogx(band.f, np.degrees(np.unwrap(np.angle(Hm))), "-")
+    ax[2].semilogx(band.f, band.coherence)
+    ax[0].set_ylabel("|phi/tau| (dB re 1 rad/N.m)")
+    ax[1].set_ylabel("phase (deg)")
+    ax[2].set_ylabel("coherence")
+    ax[2].set_xlabel("frequency (Hz)")
+    ax[0].legend()
+    ax[0].set_title(f"user {user}, position {position}: white-noise torque 0.1-150 Hz, 20 s, 1 kHz"
+                    + (" (FMU)" if use_fmu else ""))
+    for a in ax:
+        a.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    p = out / "identification.png"
+    fig.savefig(p, dpi=110)
+    plt.close(fig)
+    written.append(p)
+    return written
+
+
+def write_arm(out_dir, seed=0):
+    """Seed 001: simulate the experiment on the 9 Table I arms and the 3 Table II arms, fit them, and write the
+    fits, the Bode/uncertainty-weight plot and the robust-stability check of the wall.
+
+    Returns
+    -------
+    list of Path
+        ``arm_fits.csv``, ``arm_models.png``, ``arm_robust.csv``.
+    """
+    import pandas as pd
+
+    from cosim.analysis.haptic_experiments import arm_experiment, arm_robust_stability, plot_arm_models
+    from cosim.analysis.haptic_ident import ARM_PARAMS
+    from cosim.analysis.haptic_params import load_arm_params
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for axis in "XYZ":
+        for grip in ("1", "2", "3", "nominal"):
+            a = load_arm_params(axis, grip)
+            _, fit = arm_experiment(a, seed=seed)
+            row = {"axis": axis, "grip": grip}
+            for n in ARM_PARAMS:
+                row[f"{n}_true"] = getattr(a, n)
+                row[f"{n}_fit"] = fit.params_[n]
+                row[f"{n}_rel_error"] = fit.params_[n] / getattr(a, n) - 1
+            rows.append(row)
+    written = []
+    p = out / "arm_fits.csv"
+    pd.DataFrame(rows).to_csv(p, index=False, float_format="%.6g")
+    written.append(p)
+    p = out / "arm_models.png"
+    plot_arm_models(p)
+    written.append(p)
+    rob = []
+    for axis in "XYZ":
+        for level in ("max", "67ci"):
+            for B in (0.0, 0.05):
+                c = arm_robust_stability(axis, level, B=B)
+                rob.append({"axis": axis, "level": level, "K_Nm_per_rad": 10.0, "B_Nms_per_rad": B,
+                            "nominal_stable": c.nominal_stable, "peak_WT": c.peak, "f_peak_Hz": c.f_peak_Hz,
+                            "robust": c.robust})
+    p = out / "arm_robust.csv"
+    pd.DataFrame(rob).to_csv(p, index=False, float_format="%.6g")
+    written.append(p)
     return written
