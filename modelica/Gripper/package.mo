@@ -34,21 +34,40 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       J*der(w) = tau_e - B_r*w - tau_load;
     end PMSM;
 
-    model DahlFriction "Coulomb friction with a rate-limited Dahl bristle state: holds a static torque without creep"
-      // ds/dt = (w - |w| s)/(phi_b + |w| tau_b): presliding spring of stiffness T_c/phi_b near standstill,
-      // s -> sign(w) in steady sliding, and a relaxation rate bounded by 1/tau_b (explicit-integrator friendly).
+    function bristleRate "Rate of a normalised elasto-plastic bristle state (Dupont et al. 2002), rate-limited"
+      // ds/dt = (w - alpha(s, w)*|w|*s)/(phi_b + |w|*tau_b). alpha = 0 while the bristle unloads (s*w <= 0)
+      // or stays within the elastic fraction s_ba of its range: a pure spring there, so small oscillations
+      // about a held load trace closed loops and do not ratchet (a Dahl/LuGre bristle drifts). alpha rises
+      // smoothly to 1 at |s| = 1, so steady sliding gives s = sign(w). The rate is bounded by about 4/tau_b.
+      input Real w(unit = "rad/s") "Sliding speed";
+      input Real s(unit = "1") "Normalised bristle deflection";
+      input Real phi_b(unit = "rad") "Presliding angle at the Coulomb level";
+      input Real tau_b(unit = "s") "Bristle relaxation time at high speed";
+      input Real s_ba(unit = "1") "Elastic (breakaway) fraction of the bristle range, 0 <= s_ba < 1";
+      output Real ds(unit = "1/s") "Time derivative of s";
+    protected
+      Real a(unit = "1") "Absolute deflection";
+      Real alpha(unit = "1") "Plastic fraction of the motion";
+    algorithm
+      a := abs(s);
+      alpha := noEvent(if s*w <= 0 then 0 else if a <= s_ba then 0 else if a >= 1 then 1 else 0.5 + 0.5*sin(3.14159265358979*(a - 0.5*(1 + s_ba))/(1 - s_ba)));
+      ds := (w - alpha*abs(w)*s)/(phi_b + abs(w)*tau_b);
+    end bristleRate;
+
+    model BristleFriction "Coulomb friction carried by an elasto-plastic bristle state: holds a static torque without creep or drift"
       parameter Real T_c(unit = "N.m") = 7.88e-3 "Coulomb friction torque level";
       parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle (bristle deflection at the Coulomb level)";
       parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed (bounds the state's rate)";
+      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
       input Real w(unit = "rad/s") "Shaft speed relative to the housing";
       output Real tau_f(unit = "N.m") "Friction torque against the motion";
       Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
     equation
-      der(s) = (w - abs(w)*s)/(phi_b + abs(w)*tau_b);
+      der(s) = Gripper.Components.bristleRate(w, s, phi_b, tau_b, s_ba);
       tau_f = T_c*s;
-    end DahlFriction;
+    end BristleFriction;
 
-    model MeshEfficiency "Gear mesh loss: efficiency eta by the direction of power flow, held by a Dahl bristle (input side)"
+    model MeshEfficiency "Gear mesh loss: efficiency eta by the direction of power flow, held by an elasto-plastic bristle (input side)"
       // A loss torque at the gear input of Coulomb type whose level is (1 - eta)*N with
       // N = max(|tau_in|, |tau_out|): driving gives tau_out = eta*tau_in, back-driving gives
       // tau_in = eta*tau_out, and at standstill any tau_in between eta*tau_out and tau_out/eta is held
@@ -56,6 +75,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       parameter Real eta(unit = "1") = 0.68 "Mesh efficiency";
       parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the mesh bristle (input side)";
       parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
       input Real w(unit = "rad/s") "Input shaft speed";
       input Real tau_out(unit = "N.m") "Torque passed on towards the load, in input-side units";
       output Real tau_f(unit = "N.m") "Loss torque against the motion (added to the input torque)";
@@ -63,7 +83,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       Real N(unit = "N.m") "Transmitted load max(|tau_in|, |tau_out|)";
     equation
       N = noEvent(if s*tau_out > 0 then abs(tau_out)/(1 - (1 - eta)*abs(s)) else abs(tau_out));
-      der(s) = (w - abs(w)*s)/(phi_b + abs(w)*tau_b);
+      der(s) = Gripper.Components.bristleRate(w, s, phi_b, tau_b, s_ba);
       tau_f = (1 - eta)*N*s;
     end MeshEfficiency;
 
@@ -221,6 +241,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       parameter Real T_c0(unit = "N.m") = 7.88e-3 "No-load Coulomb drag at the motor shaft (0.2 A dead zone)";
       parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the bristle frictions (motor side)";
       parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range (elasto-plastic friction)";
       parameter Real play(unit = "rad") = 0.013962634 "Total gear shaft play 0.8 deg (paper)";
       parameter Real c_play(unit = "N.m/rad") = 1000 "Stiffness at the play stops (gear output)";
       parameter Real d_play(unit = "N.m.s/rad") = 0.05 "Damping at the play stops (gear output)";
@@ -252,8 +273,8 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real tau_load(unit = "N.m") "Load torque on the motor shaft, against positive rotation";
     output Real F_g(unit = "N") "Gripping force (load cell)";
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
-    Gripper.Components.DahlFriction drag(T_c = T_c0, phi_b = phi_b, tau_b = tau_b) "No-load drag at the motor shaft";
-    Gripper.Components.MeshEfficiency mesh(eta = eta_g, phi_b = phi_b, tau_b = tau_b) "Gear efficiency by power-flow direction";
+    Gripper.Components.BristleFriction drag(T_c = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) "No-load drag at the motor shaft";
+    Gripper.Components.MeshEfficiency mesh(eta = eta_g, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) "Gear efficiency by power-flow direction";
     Gripper.Components.IdealGear gear(ratio = ratio) "Planetary gear kinematics";
     Gripper.Components.RotationalDamper bearing(d = B_g) "Gear bearing damping at the output";
     Gripper.Components.ElastoBacklash backlash(b = play, c = c_play, d = d_play) "Gear shaft play";
@@ -298,7 +319,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
     output Real F_g(unit = "N") "Gripping force (load cell)";
     Gripper.Components.PMSM motor(R_s = R_s, L_d = L_d, L_q = L_q, p = p, Psi_m = Psi_m, J = J_r + J_g, B_r = B_r) "Motor with the gear input inertia";
-    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
   equation
     motor.v_d = v_d;
     motor.v_q = v_q;
@@ -342,7 +363,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
     parameter Real k_c(unit = "1/s") = 2000 "Correction rate of the motor-angle reconstruction";
     Gripper.Components.AngleReconstruction shaft(k_c = k_c) "Motor angle between communication points";
-    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
   equation
     shaft.theta_in = theta_m;
     shaft.w_in = w_m;
@@ -352,4 +373,28 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     F_g = drive.F_g;
     x_jaw = drive.x_jaw;
   end Drivetrain;
+
+  model GripperCurrentDriven "Whole gripper in current mode with an ideal current loop: the q current is the input (calibration and diagnosis of slow experiments)"
+    // The FOC current loop (bandwidth ~1 kHz) is much faster than a 5 s current step, so for the static test the
+    // electrical dynamics reduce to i_q = i_ref and the air-gap torque to k_t*i_ref.
+    extends Gripper.Parameters.MotorParameters;
+    extends Gripper.Parameters.DrivetrainParameters;
+    input Real i_ref(unit = "A") "q-axis current held by the current loop";
+    output Real theta_m(unit = "rad") "Motor shaft angle";
+    output Real w_m(unit = "rad/s") "Motor shaft speed";
+    output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
+    output Real F_g(unit = "N") "Gripping force (load cell)";
+    Real phi(unit = "rad", start = 0.0, fixed = true) "Motor shaft angle";
+    Real w(unit = "rad/s", start = 0.0, fixed = true) "Motor shaft speed";
+    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+  equation
+    der(phi) = w;
+    (J_r + J_g)*der(w) = k_t*i_ref - B_r*w - drive.tau_load;
+    drive.theta_m = phi;
+    drive.w_m = w;
+    theta_m = phi;
+    w_m = w;
+    x_jaw = drive.x_jaw;
+    F_g = drive.F_g;
+  end GripperCurrentDriven;
 end Gripper;
