@@ -6,23 +6,33 @@ compiled engine can inline them in its loop.
 
 import numba
 
-__all__ = ["rk4_stage", "rk4_final", "route"]
+__all__ = ["rk4_begin", "rk4_stage", "rk4_final", "route"]
+
+# The RK4 kernels work on one array W of shape (7, n): rows X (state the FMUs see), X0 (state at the
+# step's start), dX (derivative just evaluated), K1..K4.
 
 
 @numba.njit(cache=True)
-def rk4_stage(X, X0, dX, K, s, c):
-    """Store stage derivative ``dX`` as ``K[s]`` and set ``X = X0 + c * dX`` (the next stage's state)."""
-    for i in range(X.shape[0]):
-        K[s, i] = dX[i]
-        X[i] = X0[i] + c * dX[i]
+def rk4_begin(W):
+    """Start a step: ``X0 = X``."""
+    for i in range(W.shape[1]):
+        W[1, i] = W[0, i]
 
 
 @numba.njit(cache=True)
-def rk4_final(X, X0, dX, K, h):
-    """Finish an RK4 step: ``X = X0 + h/6 (K0 + 2 K1 + 2 K2 + dX)``; ``X0 = X``."""
-    for i in range(X.shape[0]):
-        X[i] = X0[i] + h / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + dX[i])
-        X0[i] = X[i]
+def rk4_stage(W, s, c):
+    """Store the derivative ``dX`` as ``K[s]`` and set ``X = X0 + c * dX`` (the next stage's state)."""
+    for i in range(W.shape[1]):
+        W[3 + s, i] = W[2, i]
+        W[0, i] = W[1, i] + c * W[2, i]
+
+
+@numba.njit(cache=True)
+def rk4_final(W, h):
+    """Finish an RK4 step: ``X = X0 + h/6 (K1 + 2 K2 + 2 K3 + dX)``; ``X0 = X``."""
+    for i in range(W.shape[1]):
+        W[0, i] = W[1, i] + h / 6.0 * (W[3, i] + 2.0 * W[4, i] + 2.0 * W[5, i] + W[2, i])
+        W[1, i] = W[0, i]
 
 
 @numba.njit(cache=True)

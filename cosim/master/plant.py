@@ -77,10 +77,10 @@ class PlantSystem:
         self._event_warned = False
         # combined state vector
         n = sum(i.n_states for i in self.me)
-        self.X = np.zeros(n)
-        self.dX = np.zeros(n)
-        self.X0 = np.zeros(n)
-        self.K = np.zeros((4, n))
+        # RK4 work array: rows X, X0, dX, K1..K4 (one argument for the numba kernels)
+        self.W = np.zeros((7, n))
+        self.X, self.X0, self.dX, self.K = self.W[0], self.W[1], self.W[2], self.W[3:7]
+        self._synced = None  # time at which the ME FMUs already hold (t, X) from sample()
         off = 0
         for inst in self.me:
             inst.bind_state_buffers(self.X[off:off + inst.n_states], self.dX[off:off + inst.n_states])
@@ -149,11 +149,12 @@ class PlantSystem:
         return program
 
     # -- evaluation ------------------------------------------------------------------------------
-    def _eval(self, t):
+    def _eval(self, t, push=True):
         """Set time and states of every ME FMU, route ME-to-ME connections (X must hold the states)."""
-        for inst in self.me:
-            inst.set_time(t)
-            inst.push_states()
+        if push:
+            for inst in self.me:
+                inst.set_time(t)
+                inst.push_states()
         for gets, (src, dst, gain, off), sets in self._program:
             for inst, port in gets:
                 inst.get(port)
@@ -161,9 +162,9 @@ class PlantSystem:
             for inst, port in sets:
                 inst.set(port)
 
-    def derivatives(self, t):
-        """Evaluate dX at time t for the states in X."""
-        self._eval(t)
+    def derivatives(self, t, push=True):
+        """Evaluate dX at time t for the states in X (``push=False``: the FMUs already hold t and X)."""
+        self._eval(t, push)
         for inst in self.me:
             inst.pull_derivatives()
 
@@ -171,6 +172,7 @@ class PlantSystem:
         """Bring every FMU to the instant t and read the sampled ports into the signal buffer."""
         if self.me:
             self._eval(t)
+            self._synced = t
         for inst, port in self.sample_ports:
             inst.get(port)
 
@@ -200,21 +202,26 @@ class PlantSystem:
     def _rk4(self, ta, tb, h_max):
         L = tb - ta
         n = max(1, math.ceil(L / h_max - 1e-9))
-        X, X0, dX, K = self.X, self.X0, self.dX, self.K
-        X0[:] = X
+        W = self.W
+        stage, final = kernels.rk4_stage, kernels.rk4_final
+        deriv = self.derivatives
+        # the first stage at ta can reuse (ta, X) set by sample(ta): only the inputs changed since
+        synced = self._synced == ta
+        self._synced = None
+        kernels.rk4_begin(W)
         for j in range(n):
             t = ta + L * j / n
             t1 = ta + L * (j + 1) / n
             h = t1 - t
             th = t + 0.5 * h
-            self.derivatives(t)
-            kernels.rk4_stage(X, X0, dX, K, 0, 0.5 * h)
-            self.derivatives(th)
-            kernels.rk4_stage(X, X0, dX, K, 1, 0.5 * h)
-            self.derivatives(th)
-            kernels.rk4_stage(X, X0, dX, K, 2, h)
-            self.derivatives(t1)
-            kernels.rk4_final(X, X0, dX, K, h)
+            deriv(t, not (synced and j == 0))
+            stage(W, 0, 0.5 * h)
+            deriv(th)
+            stage(W, 1, 0.5 * h)
+            deriv(th)
+            stage(W, 2, h)
+            deriv(t1)
+            final(W, h)
             if self._completed:
                 self._complete(t1)
 
@@ -234,6 +241,7 @@ class PlantSystem:
             self.derivatives(t)
             return self.dX.copy()
 
+        self._synced = None
         sol = solve_ivp(f, (ta, tb), self.X.copy(), method=self.solver.method.upper() if self.solver.method != "lsoda"
                         else "LSODA", rtol=self.solver.rtol, atol=self.solver.atol, max_step=h_max)
         if not sol.success:
