@@ -230,7 +230,7 @@ class _Problems:
         where = None
         for n in range(len(path), 0, -1):
             if _fmt_path(path[:n]) in self.set_keys:
-                where = f"--set {_fmt_path(path[:n])}"
+                where = f"--set {self.set_keys[_fmt_path(path[:n])]}"
                 break
         if where is None:
             line = self.locator.line(path) if self.locator else None
@@ -417,10 +417,10 @@ def load_config(path, overrides=()):
         msg = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(err))
         raise ConfigError(f"{where}: malformed TOML: {msg}") from err
     parsed = parse_overrides(overrides)
-    set_keys = set()
-    for p, v in parsed:
+    set_keys = {}
+    for (p, v), item in zip(parsed, overrides or ()):
         _apply_override(data, p, v)
-        set_keys.add(_fmt_path(p))
+        set_keys[_fmt_path(p)] = item.partition("=")[0].strip()
     problems = _Problems(str(path), _Locator(text), set_keys)
     base_dir = path.parent
 
@@ -546,7 +546,7 @@ def load_config(path, overrides=()):
         return list(ctrls[inst].cls.inputs)
 
     known = set(fmus) | set(ctrls)
-    declared = set(fmus_t) | set(_table(data, "controllers", _Problems("", None, set()), ()))
+    declared = set(fmus_t) | set(_table(data, "controllers", _Problems("", None, {}), ()))
 
     def check_end(text, cpath, direction):
         sig = _signal(text, problems, cpath)

@@ -127,3 +127,10 @@ def test_shipped_configs_validate(gripper_dir):
         assert set(cfg.controllers) == {"foc", "outer"} and "plant" in cfg.fmus
     cfg = load_config(EXAMPLES / "gripper_impact_split.toml", gripper_overrides(gripper_dir, split=True))
     assert set(cfg.fmus) == {"plant", "drive"}
+
+
+@pytest.mark.parametrize("key", ["run.bogus", "solver.bogus", "fmus.plant.bogus", "controllers.src.bogus",
+                                 "connections.0.bogus", "record.bogus", "plot.bogus", "summary.bogus", "bogus"])
+def test_unknown_key_in_every_table(master_dir, key):
+    msg = _problems(osc_config(master_dir), [f"{key}=1"])
+    assert f"--set {key}: " in msg and "unknown key" in msg
