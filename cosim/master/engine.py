@@ -49,6 +49,8 @@ class RunResult:
         Simulated time covered (s).
     signals : dict of str to tuple
         Column name -> (instance, variable).
+    controller_values : dict of str to dict
+        Each controller's full parameter dict (defaults and overrides), for summaries.
     """
 
     data: np.ndarray
