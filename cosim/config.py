@@ -662,6 +662,11 @@ def load_config(path, overrides=()):
         if not any(var == summary.force for _, var in good_sigs):
             problems.add(("summary", "force"), f"{summary.force!r} is not among record.signals")
 
+    if summary.kind == "impact" and summary.controller in ctrls:
+        # the impact summary needs the switch time: record it even when the config does not list it
+        if "t_switch" in ctrls[summary.controller].cls.outputs and (summary.controller, "t_switch") not in good_sigs:
+            record = RecordSpec(record.rate, record.signals + ((summary.controller, "t_switch"),))
+
     problems.raise_if_any()
     return Config(
         path=path,
