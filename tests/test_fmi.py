@@ -105,3 +105,11 @@ def test_instances_clean_up_their_files(master_dir):
 
     assert not os.path.exists(folder)
     np.testing.assert_equal(inst.component, None)
+
+
+def test_entry_points_for_a_compiled_engine(master_dir):
+    with FmuInstance(master_dir / "Osc.fmu", "osc") as inst:
+        inst.setup(0.0)
+        ep = inst.entry_points()
+        assert ep["component"] and ep["SetTime"] and ep["GetDerivatives"] and ep["SetReal"]
+        assert all(isinstance(v, int) for v in ep.values())

@@ -242,6 +242,33 @@ class FmuInstance:
     def __exit__(self, *exc):
         self.close()
 
+    # -- for a compiled engine ----------------------------------------------------------------------
+    def entry_points(self):
+        """Addresses of the hot C entry points and of the instance, for a compiled engine (issue 8).
+
+        Returns
+        -------
+        dict of str to int
+            ``component`` (the instance pointer) and, where the FMU exports them, ``SetTime``,
+            ``SetContinuousStates``, ``GetContinuousStates``, ``GetDerivatives``, ``GetReal``,
+            ``SetReal``, ``DoStep``, ``CompletedIntegratorStep`` (FMI 2 or FMI 3 signatures per
+            ``self.version``); 0 when absent.
+        """
+        def addr(f):
+            return ctypes.cast(f, ctypes.c_void_p).value or 0 if f is not None else 0
+
+        return {
+            "component": self.component or 0,
+            "SetTime": addr(self._f_set_time),
+            "SetContinuousStates": addr(self._f_set_states),
+            "GetContinuousStates": addr(self._f_get_states),
+            "GetDerivatives": addr(self._f_get_der),
+            "GetReal": addr(self._f_get_real),
+            "SetReal": addr(self._f_set_real),
+            "DoStep": addr(self._f_do_step),
+            "CompletedIntegratorStep": addr(self._f_completed),
+        }
+
     # -- values by name (not hot) ------------------------------------------------------------
     def set_values(self, values):
         """Set variables by name: floats, ints, bools; raises KeyError for an unknown name."""
