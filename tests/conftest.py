@@ -25,3 +25,11 @@ def compiler_fmu(tmp_path_factory):
         return built[name]
 
     return get
+
+
+@pytest.fixture(scope="session")
+def gripper_fmus(tmp_path_factory):
+    """GripperPlant, PMSM and Drivetrain FMUs (modelica/Gripper), built once per session: dict name -> path."""
+    from test_gripper_support import build_gripper_fmus
+
+    return build_gripper_fmus(tmp_path_factory.mktemp("gripper_fmus"))

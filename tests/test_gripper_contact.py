@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from test_gripper_support import PAPER, Rk4Fmu, gripper_fmus, load_conditions, simulate_cvode  # noqa: F401
+from test_gripper_support import PAPER, Rk4Fmu, load_conditions, simulate_cvode
 
 CONDITIONS = load_conditions()
 

@@ -9,7 +9,7 @@ half play, two finger contacts 2 * 1/2 k_eff pen^2 (bare finger on ABS: k_f in s
 
 import numpy as np
 
-from test_gripper_support import PAPER, gripper_fmus  # noqa: F401
+from test_gripper_support import PAPER
 
 LOSSLESS = {
     "eta_g": 1.0, "R_s": 0.0, "B_r": 0.0, "T_c0": 0.0, "d_play": 0.0, "eta_grease": 0.0, "F_cj": 0.0,

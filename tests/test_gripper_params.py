@@ -6,12 +6,11 @@ table prints 4-6 significant digits).
 """
 
 import csv
-from pathlib import Path
 
 import pytest
 from numpy.testing import assert_allclose
 
-from test_gripper_support import ROOT, gripper_fmus, load_conditions  # noqa: F401
+from test_gripper_support import ROOT, load_conditions
 
 SHARED = ROOT.parent / "shared" / "data" / "gripper_params.csv"
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from test_gripper_support import PAPER, Rk4Fmu, gripper_fmus  # noqa: F401  (fixture)
+from test_gripper_support import PAPER, Rk4Fmu
 
 
 @pytest.fixture()

@@ -8,7 +8,7 @@ step): each FMU takes one RK4 step with the other's outputs from the start of th
 
 import numpy as np
 
-from test_gripper_support import Rk4Fmu, gripper_fmus, load_conditions, simulate_cvode  # noqa: F401
+from test_gripper_support import Rk4Fmu, load_conditions, simulate_cvode
 
 H = 1 / 26600
 T_END = 0.5

@@ -9,7 +9,7 @@ object 1.5 mm away at 54 ms), then 0.9 V (2 A at standstill) to 0.3 s. Reference
 import numpy as np
 import pytest
 
-from test_gripper_support import Rk4Fmu, gripper_fmus, load_conditions, simulate_cvode  # noqa: F401
+from test_gripper_support import Rk4Fmu, load_conditions, simulate_cvode
 
 H = 1 / 26600
 T_END = 0.3

@@ -12,7 +12,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 GRIPPER_MO = ROOT / "modelica" / "Gripper" / "package.mo"
@@ -45,12 +44,6 @@ def build_gripper_fmus(out_dir, names=("GripperPlant", "PMSM", "Drivetrain")):
         for name in names:
             paths[name] = build_fmu(GRIPPER_MO, f"Gripper.{name}", out_dir=out_dir)
     return paths
-
-
-@pytest.fixture(scope="session")
-def gripper_fmus(tmp_path_factory):
-    """The three gripper FMUs, built once per session into a temporary directory."""
-    return build_gripper_fmus(tmp_path_factory.mktemp("gripper_fmus"))
 
 
 def load_conditions(path=CONDITIONS_CSV):
