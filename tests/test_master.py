@@ -119,6 +119,36 @@ def test_fmi2_fmu_me_and_cs(master_dir, kind):
     assert_allclose(res.data["y"], y_ref, atol=1e-4 * np.ptp(y_ref), rtol=0)
 
 
+def _zoh_chain(u_samples, rate, k=9.0, c=0.5):
+    """Exact ZOH response (y = 2 x at the instants) of the oscillator to samples held between instants."""
+    A = np.array([[0.0, 1.0], [-k, -c]])
+    M = scipy.linalg.expm(np.block([[A, np.array([[0.0], [1.0]])], [np.zeros((1, 3))]]) / rate)
+    x = np.array([1.0, 0.0])
+    ys = []
+    for u in u_samples:
+        ys.append(2 * x[0])
+        x = M[:2, :2] @ x + M[:2, 2] * u
+    return np.array(ys)
+
+
+def test_cs_fmu_feeding_an_me_fmu(master_dir):
+    # src (1 kHz sine) -> Osc2 as Co-Simulation (FMI 2) -> y held -> Osc as Model Exchange (FMI 3)
+    cfg = load_config(osc_config(master_dir, stop=1.0, record_rate=1000, extra="""
+        [fmus.cs]
+        path = "Osc2.fmu"
+        kind = "CS"
+        parameters = { k = 9.0 }
+        """), ['connections=[{from = "src.u", to = "cs.u"}, {from = "cs.y", to = "plant.u"}]',
+               'record.signals=["cs.y", "plant.y", "src.u"]'])
+    res = run(cfg, progress=False)
+    n = len(res.data)
+    u = [2.0 * math.sin(2 * math.pi * j / 1000) for j in range(n)]
+    y_cs = _zoh_chain(u, 1000)
+    y_me = _zoh_chain(y_cs, 1000)
+    assert_allclose(res.data["cs.y"], y_cs, atol=1e-6 * np.ptp(y_cs))
+    assert_allclose(res.data["plant.y"], y_me, atol=1e-6 * np.ptp(y_me))
+
+
 def test_implicit_solver_option_matches(master_dir):
     cfg = load_config(osc_config(master_dir, solver='[solver]\nmethod = "bdf"\nrtol = 1e-9\natol = 1e-11',
                                  stop=1.0, rate=100, record_rate=100))
