@@ -5,6 +5,7 @@ import casadi as ca
 import numpy as np
 
 from cosim.calibrate.problem import Transcription
+from cosim.calibrate.shooting import SingleShooting
 from cosim.errors import ConfigError, CosimError
 
 __all__ = ["Calibrator", "NotFittedError"]
@@ -28,7 +29,10 @@ class Calibrator:
         name -> value: parameters held at values other than the model defaults.
     substeps : int, default 1
         Integration steps per sample interval.
-    method : {"rk4", "implicit_euler"}, default "rk4"
+    method : {"rk4", "implicit_euler", "single_shooting"}, default "rk4"
+        The first two transcribe the experiment for IPOPT (a state node at every grid point); the third
+        integrates with CVODES and fits by Gauss-Newton (scipy ``least_squares``, trust region) on the exact
+        Jacobian from forward sensitivities: for stiff plants over long experiments.
     max_iter : int, default 200
         IPOPT iteration limit.
 
@@ -57,9 +61,13 @@ class Calibrator:
         self.max_iter = max_iter
 
     def transcription(self, experiment):
-        """The NLP for ``experiment`` (built from the settings; also used for derivative checks)."""
+        """The problem for ``experiment``: a :class:`Transcription` (NLP) or, for single shooting, a
+        :class:`SingleShooting` (also used for derivative checks)."""
         starts = np.array([v[0] for v in self.free.values()], dtype=float)
         scale = np.where(starts != 0, np.abs(starts), 1.0)
+        if self.method == "single_shooting":
+            return SingleShooting(self.model, experiment, self.outputs, list(self.free), fixed=self.fixed,
+                                  scale=scale)
         return Transcription(self.model, experiment, self.outputs, list(self.free), fixed=self.fixed,
                              scale=scale, substeps=self.substeps, method=self.method)
 
@@ -74,6 +82,9 @@ class Calibrator:
         cost_before, _, X0, _ = tr.evaluate(q0)
         lower = np.array([v[1] for v in self.free.values()]) / tr.scale
         upper = np.array([v[2] for v in self.free.values()]) / tr.scale
+        if self.method == "single_shooting":
+            q, iterations, success, status = self._gauss_newton(tr, q0, lower, upper)
+            return self._finish(tr, q, starts, cost_before, iterations, success, status, tr.jacobian(q))
         n_states = X0.size
         solver = ca.nlpsol("calibration", "ipopt", tr.nlp, {
             "ipopt": {"print_level": 0, "max_iter": self.max_iter, "tol": 1e-10, "sb": "yes"},
@@ -84,8 +95,22 @@ class Calibrator:
                           ubx=np.concatenate([np.full(n_states, np.inf), upper]), lbg=0, ubg=0)
         stats = solver.stats()
         q = np.array(solution["x"], dtype=float).ravel()[n_states:]
-        cost_after, residual, X, Y = tr.evaluate(q)
-        jac = tr.reduced_jacobian(X, q) * 1.0
+        X = tr.evaluate(q)[2]
+        return self._finish(tr, q, starts, cost_before, int(stats.get("iter_count", 0)),
+                            bool(stats.get("success", False)), str(stats.get("return_status", "")),
+                            tr.reduced_jacobian(X, q))
+
+    def _gauss_newton(self, tr, q0, lower, upper):
+        from scipy.optimize import least_squares
+
+        solution = least_squares(lambda q: tr.evaluate(q)[1], q0, jac=tr.jacobian, bounds=(lower, upper),
+                                 method="trf", x_scale="jac", xtol=1e-8, ftol=1e-10, max_nfev=self.max_iter)
+        status = f"least_squares (trust region, exact Jacobian): {solution.message}"
+        return solution.x, int(solution.njev or solution.nfev), bool(solution.success), status
+
+    def _finish(self, tr, q, starts, cost_before, iterations, success, status, jac):
+        """Store the fit and its uncertainty: covariance s^2 (J^T J)^-1 at the optimum."""
+        cost_after, residual, _, Y = tr.evaluate(q)
         dof = max(residual.size - q.size, 1)
         s2 = 2.0 * cost_after / dof
         cov_q = s2 * np.linalg.pinv(jac.T @ jac)
@@ -96,9 +121,7 @@ class Calibrator:
         self.std_errors_ = dict(zip(names, std.tolist()))
         self.correlation_ = cov / np.outer(std, std) if np.all(std > 0) else np.full_like(cov, np.nan)
         self.cost_before_, self.cost_after_ = cost_before, cost_after
-        self.iterations_ = int(stats.get("iter_count", 0))
-        self.success_ = bool(stats.get("success", False))
-        self.return_status_ = str(stats.get("return_status", ""))
+        self.iterations_, self.success_, self.return_status_ = iterations, success, status
         self.predicted_ = Y
         self.start_ = dict(zip(names, starts.tolist()))
         return self

@@ -7,7 +7,8 @@ Job schema (paths relative to the job file)::
                   (or fmu = "x.fmu" for a model with no Modelica source: finite differences through the FMU)
     [data]        path = "x.csv|x.parquet", inputs = {model_input = "column"}, start, stop, decimate
     [fit]         signals = [{output = "F_g", column = "F_g", noise = 0.5}], segments = [[t0, t1]],
-                  method = "rk4"|"implicit_euler", substeps, max_iter
+                  steady_s (only the last steady_s seconds of each constant-input run enter the cost),
+                  method = "rk4"|"implicit_euler"|"single_shooting", substeps, max_iter
     [parameters.NAME]  start, min, max
     [multistart]  count, seed, scheduler   # scheduler: a Dask address; empty = a local cluster
 """
@@ -31,7 +32,7 @@ __all__ = ["CalibrationJob", "load_job", "run_job"]
 _SCHEMA = {
     "model": ("source", "name", "fmu", "parameters"),
     "data": ("path", "inputs", "start", "stop", "decimate"),
-    "fit": ("signals", "segments", "method", "substeps", "max_iter"),
+    "fit": ("signals", "segments", "steady_s", "method", "substeps", "max_iter"),
     "multistart": ("count", "seed", "scheduler"),
 }
 
@@ -51,6 +52,7 @@ class CalibrationJob:
     decimate: int
     signals: tuple  # of (output, column, noise)
     segments: tuple
+    steady_s: float
     method: str
     substeps: int
     max_iter: int
@@ -148,6 +150,7 @@ def load_job(path, overrides=()):
                                                for s in segments)):
         problems.add(("fit", "segments"), "must be a list of [start, stop] time windows in s")
         segments = [[-math.inf, math.inf]]
+    steady_s = _number(problems, fit_t, "steady_s", ("fit",), positive=True) if "steady_s" in fit_t else 0.0
     method = fit_t.get("method", "rk4")
     if method not in METHODS:
         problems.add(("fit", "method"), f"must be one of {', '.join(METHODS)}; got {method!r}")
@@ -176,7 +179,7 @@ def load_job(path, overrides=()):
     return CalibrationJob(
         path=path, source=source, model=model_t.get("name", str(fmu)), fmu=fmu, fixed=dict(model_t.get("parameters", {})),
         data_path=base / data_t["path"], inputs=dict(inputs), window=(start, stop), decimate=decimate,
-        signals=tuple(signals), segments=tuple(tuple(s) for s in segments), method=method, substeps=substeps,
+        signals=tuple(signals), segments=tuple(tuple(s) for s in segments), steady_s=steady_s, method=method, substeps=substeps,
         max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler, text=text)
 
 
@@ -201,13 +204,24 @@ def experiment_for(job, inputs, outputs):
     mask = np.zeros(len(time), bool)
     for a, b in job.segments:
         mask |= (time >= a) & (time <= b)
+    inputs = frame[[job.inputs[u] for u in inputs]].to_numpy()
+    if job.steady_s:
+        mask &= _steady(time, inputs, job.steady_s)
     return Experiment(
         time=time,
-        inputs=frame[[job.inputs[u] for u in inputs]].to_numpy(),
+        inputs=inputs,
         measured=frame[[c for _, c, _ in job.signals]].to_numpy(),
         weights=np.array([1.0 / noise for _, _, noise in job.signals]),
         mask=mask,
     )
+
+
+def _steady(time, inputs, seconds):
+    """Samples in the last ``seconds`` of each run of constant inputs (the settled part of a staircase)."""
+    changes = np.flatnonzero(np.any(np.diff(inputs, axis=0) != 0, axis=1)) + 1
+    ends = np.concatenate([changes, [len(time)]])
+    run_end = np.repeat([time[e - 1] for e in ends], np.diff(np.concatenate([[0], ends])))
+    return time >= run_end - seconds + 1e-9
 
 
 def run_job(path, out="out/calibration", overrides=(), progress=True):

@@ -2,8 +2,8 @@
 
 The experiment's time grid (the data samples, refined by ``substeps``) carries one state vector per grid point
 as a decision variable (multiple shooting with a node at every grid point): consecutive nodes are tied by one
-integration step, explicit RK4 (``method = "rk4"``) or backward Euler (``method = "implicit_euler"``, for stiff
-contacts). Inputs are held between samples (zero-order hold, as the master does). The cost is the weighted sum of
+integration step, explicit RK4 (``method = "rk4"``) or backward Euler (``method = "implicit_euler"``). For long,
+stiff experiments use ``method = "single_shooting"`` (:mod:`cosim.calibrate.shooting`, CVODES). Inputs are held between samples (zero-order hold, as the master does). The cost is the weighted sum of
 squared output errors at the measured samples inside the chosen segments.
 """
 
@@ -16,7 +16,7 @@ from cosim.errors import ConfigError
 
 __all__ = ["Experiment", "Transcription", "METHODS"]
 
-METHODS = ("rk4", "implicit_euler")
+METHODS = ("rk4", "implicit_euler", "single_shooting")
 
 
 @dataclass(frozen=True)
@@ -65,7 +65,7 @@ class Transcription:
     """
 
     def __init__(self, model, experiment, outputs, free, fixed=None, scale=None, substeps=1, method="rk4"):
-        if method not in METHODS:
+        if method not in METHODS[:2]:
             raise ConfigError(f"fit.method: {method!r} is not one of {', '.join(METHODS)}")
         self.model, self.experiment = model, experiment
         self.free = list(free)
