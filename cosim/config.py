@@ -53,7 +53,7 @@ class RunSpec:
     start: float = 0.0
     stop: float = 1.0
     seed: int = 0
-    engine: str = "python"
+    engine: str = "compiled"  # "compiled" (falls back to "python" where controllers need it) or "python"
     progress: object = "auto"
 
 
@@ -313,7 +313,7 @@ def _apply_override(data, path, value):
 # schema helpers
 # ----------------------------------------------------------------------------------------------
 _TOP = ("run", "solver", "fmus", "controllers", "connections", "record", "plot", "summary")
-_RUN = {"start": 0.0, "stop": None, "seed": 0, "engine": "python", "progress": "auto"}
+_RUN = {"start": 0.0, "stop": None, "seed": 0, "engine": "compiled", "progress": "auto"}
 _SOLVER = {"method": "rk4", "substeps": 1, "max_step": 0.0, "rtol": 1e-6, "atol": 1e-9}
 _FMU = ("path", "kind", "parameters", "start")
 _CTRL = ("class", "rate", "jit", "parameters")
@@ -434,7 +434,7 @@ def load_config(path, overrides=()):
     if _is_num(start) and _is_num(stop) and stop <= start:
         problems.add(("run", "stop"), f"must be > run.start ({start}); got {stop}")
     seed = _number(run_t, "seed", 0, problems, ("run",), integer=True, nonneg=True)
-    engine = _choice(run_t, "engine", "python", ("python",), problems, ("run",))
+    engine = _choice(run_t, "engine", "compiled", ("compiled", "python"), problems, ("run",))
     progress = run_t.get("progress", "auto")
     if progress not in (True, False, "auto"):
         problems.add(("run", "progress"), f"must be true, false or \"auto\"; got {progress!r}")

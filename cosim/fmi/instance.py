@@ -46,6 +46,11 @@ class Port:
         self._vr = (ctypes.c_uint * self.n)(*vrs)
         self._ptr = self.values.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
 
+    @property
+    def vr_address(self):
+        """Address of the port's value-reference array (uint32, length n), for a compiled engine."""
+        return ctypes.addressof(self._vr)
+
     def bind(self, buffer):
         """Use ``buffer`` (a contiguous float64 array of length n, e.g. a slice of a larger buffer) for the values."""
         if buffer.shape != (self.n,) or buffer.dtype != np.float64 or not buffer.flags.c_contiguous:

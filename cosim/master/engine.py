@@ -51,6 +51,12 @@ class RunResult:
         Column name -> (instance, variable).
     controller_values : dict of str to dict
         Each controller's full parameter dict (defaults and overrides), for summaries.
+    engine : str
+        The engine that ran: "compiled" or "python".
+    engine_note : str
+        Why the Python engine ran when the config did not ask for it ('' otherwise).
+    compile_s : float
+        Compiled engine: time to compile the kernels or load them from numba's cache (s), not in ``wall_s``.
     """
 
     data: np.ndarray
@@ -61,6 +67,9 @@ class RunResult:
     sim_s: float = 0.0
     signals: dict = field(default_factory=dict)
     controller_values: dict = field(default_factory=dict)
+    engine: str = "python"
+    engine_note: str = ""
+    compile_s: float = 0.0
 
     def column(self, name):
         """The recorded column ``name`` as a float array."""
@@ -171,6 +180,9 @@ def _topo_order(config):
 
 class Engine:
     """Build the instances of a config and run the multi-rate loop (the Python engine).
+
+    :class:`cosim.master.compiled.CompiledEngine` runs the same loop compiled;
+    :func:`cosim.master.compiled.engine_for` picks one.
 
     Parameters
     ----------
@@ -324,4 +336,6 @@ class Engine:
             sim_s=float(times[row - 1] - cfg.run.start) if row else 0.0,
             signals=dict(self.signals),
             controller_values={n: dict(c.values) for n, c in self.controllers.items()},
+            engine="python",
+            engine_note=getattr(self, "engine_note", ""),
         )

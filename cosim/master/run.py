@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from cosim.master.engine import Engine
+from cosim.master.compiled import engine_for
 from cosim.master.output import write_results
 from cosim.master.summary import summarize
 
@@ -10,7 +10,7 @@ __all__ = ["run", "run_config"]
 
 
 def run(config, progress=None):
-    """Run a validated config with the Python engine.
+    """Run a validated config with the engine it asks for (``run.engine``; see :func:`engine_for`).
 
     Parameters
     ----------
@@ -22,11 +22,7 @@ def run(config, progress=None):
     -------
     cosim.master.engine.RunResult
     """
-    if config.run.engine != "python":
-        from cosim.errors import ConfigError
-
-        raise ConfigError(f"{config.path}: run.engine {config.run.engine!r} is not available; use \"python\"")
-    return Engine(config).run(progress=progress)
+    return engine_for(config).run(progress=progress)
 
 
 def run_config(path, out=None, overrides=(), csv=False, progress=None):
@@ -55,8 +51,7 @@ def run_config(path, out=None, overrides=(), csv=False, progress=None):
     from cosim.config import load_config
 
     config = load_config(path, overrides)
-    engine = Engine(config)
-    result = engine.run(progress=progress)
+    result = engine_for(config).run(progress=progress)
     summary = summarize(result, config)
     out = Path(out) if out is not None else Path("out") / config.name
     files = write_results(result, config, out, csv=csv, summary=summary)

@@ -97,7 +97,11 @@ def summarize(result, config):
         "rows": int(len(result.data)),
         "controller_calls": dict(result.calls),
         "solver": {"method": config.solver.method, "substeps": config.solver.substeps},
+        "engine": result.engine,
+        "compile_s": result.compile_s,
     }
+    if result.engine_note:
+        out["engine_note"] = result.engine_note
     spec = config.summary
     if spec.kind == "none":
         return out
