@@ -57,7 +57,7 @@ FUNCTIONS = ("SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "Set
 DONE, MORE, ERROR = 0, 1, 2
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _fail(st, f, fn, status):
     st[_EF] = f
     st[_EFN] = fn
@@ -65,7 +65,7 @@ def _fail(st, f, fn, status):
     return True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _io(fmu, port, grp, g, buf_addr, setter, st):
     """Get (``setter`` False) or set the ports of group ``g``; True on an FMI error."""
     for j in range(grp[g, 0], grp[g, 1]):
@@ -82,13 +82,13 @@ def _io(fmu, port, grp, g, buf_addr, setter, st):
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _route(buf, rsrc, rdst, rgain, roff, rgrp, g):
     for j in range(rgrp[g, 0], rgrp[g, 1]):
         buf[rdst[j]] = rgain[j] * buf[rsrc[j]] + roff[j]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _eval(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
     """Set time and states of every ME FMU (``push``), route ME-to-ME connections level by level."""
     if push:
@@ -109,7 +109,7 @@ def _eval(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _deriv(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr, buf_addr, st):
     if _eval(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
         return True
@@ -121,14 +121,14 @@ def _deriv(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _stage(W, s, c):
     for i in range(W.shape[1]):
         W[3 + s, i] = W[2, i]
         W[0, i] = W[1, i] + c * W[2, i]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec, times,
               rec_idx, calls, scr, st, max_instants):
     """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR."""

@@ -127,13 +127,14 @@ class CompiledEngine(Engine):
         cmp = np.array([fidx[i.name] for i in plant._completed], dtype=np.int64)
         cs = np.array([fidx[i.name] for i in plant.cs], dtype=np.int64)
 
-        ports, pgrp = [], []
+        ports, pgrp, items_ = [], [], []
 
         def group(items):
             a = len(ports)
             for inst, port in items:
                 off = (port.values.ctypes.data - buf_addr) // 8
                 ports.append((fidx[inst.name], port.vr_address, port.n, off))
+                items_.append((inst, port))
             pgrp.append((a, len(ports)))
             return len(pgrp) - 1
 
@@ -172,7 +173,7 @@ class CompiledEngine(Engine):
             rgain=np.ascontiguousarray(r[:, 2]), roff=np.ascontiguousarray(r[:, 3]),
             rgrp=np.array(rgrp, dtype=np.int64).reshape(-1, 2), lvl=np.array(lvl, dtype=np.int64).reshape(-1, 3),
             ctl=np.array(ctl, dtype=np.int64).reshape(-1, len(ckernel.CTL_COLS)), ii=ii,
-            ff=np.array([self.tb.start, self.h_max]), scr=scr,
+            ff=np.array([self.tb.start, self.h_max]), scr=scr, port_items=items_, fmu_names=names,
         )
 
     # -- the run ---------------------------------------------------------------------------------

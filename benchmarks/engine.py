@@ -1,0 +1,257 @@
+"""Wall seconds per simulated second of the 1000 rpm impact at the full FOC rate (26.6 kHz): the compiled
+engine, the Python engine, a hand-written fmpy loop, and the FMU calls alone from C (the physical limit).
+
+    python benchmarks/engine.py [--fmus DIR] [--stop 1.0] [--fmpy-stop 0.1]
+
+For ``GripperPlant`` (examples/gripper_impact.toml) and the split ``PMSM`` + ``Drivetrain``
+(examples/gripper_impact_split.toml). Needs the gripper FMUs (``cosim build``) and gcc.
+
+* compiled / python: ``cosim.master.run`` with ``run.engine`` set; the loop's wall time (``RunResult.wall_s``),
+  numba compile time (or cache load) printed apart.
+* fmpy loop: fmpy's FMU3Model, RK4 at the FOC step, the same FOC and outer-loop controllers (numba
+  kernels), Python loop (run over ``--fmpy-stop`` s: it is slow).
+* C: benchmarks/engine_harness.c (gcc -O2) dlopens the FMUs' shared libraries and makes exactly the
+  FMU calls and RK4 arithmetic of the compiled engine's loop, replaying the controller outputs
+  recorded at every instant from a compiled run (no controllers).
+"""
+
+import argparse
+import datetime
+import os
+import platform
+import shutil
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+FOC_RATE = 26600
+
+
+def _machine():
+    cpu = platform.processor() or "?"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{cpu}, {os.cpu_count()} cores, load average {load:.1f}"
+
+
+def _configs(fmus, stop):
+    from cosim.config import load_config
+
+    base = [f"run.stop={stop}", "plot.panels=[]"]
+    return {
+        "GripperPlant": lambda extra=(): load_config(ROOT / "examples" / "gripper_impact.toml",
+                                                     [f"fmus.plant.path={fmus / 'GripperPlant.fmu'}", *base, *extra]),
+        "PMSM + Drivetrain": lambda extra=(): load_config(
+            ROOT / "examples" / "gripper_impact_split.toml",
+            [f"fmus.plant.path={fmus / 'PMSM.fmu'}", f"fmus.drive.path={fmus / 'Drivetrain.fmu'}", *base, *extra]),
+    }
+
+
+# -- the hand-written fmpy loop ----------------------------------------------------------------------
+def fmpy_loop(cfg, stop):
+    """RK4 at the FOC step over cfg's ME FMUs through fmpy's FMU3Model; returns wall s per simulated s."""
+    import ctypes
+
+    from fmpy import extract, read_model_description
+    from fmpy.fmi3 import FMU3Model
+
+    fmus, tmp = {}, []
+    for name, spec in cfg.fmus.items():
+        md = read_model_description(str(spec.path))
+        d = extract(str(spec.path))
+        tmp.append(d)
+        f = FMU3Model(guid=md.instantiationToken, unzipDirectory=d, modelIdentifier=md.modelExchange.modelIdentifier,
+                      instanceName=name)
+        f.instantiate()
+        vrs = {v.name: v.valueReference for v in md.modelVariables}
+        for k, v in spec.parameters.items():
+            f.setFloat64([vrs[k]], [float(v)])
+        f.enterInitializationMode(startTime=0.0)
+        f.exitInitializationMode()
+        f.updateDiscreteStates()
+        f.enterContinuousTimeMode()
+        n = md.numberOfContinuousStates
+        x = np.zeros(n)
+        dx = np.zeros(n)
+        px, pdx = x.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        f.getContinuousStates(px, n)
+        fmus[name] = (f, vrs, n, x, dx, px, pdx)
+    ctrls = {n: s.cls(rate=s.rate, **s.parameters) for n, s in cfg.controllers.items()}
+    outer, foc = ctrls["outer"], ctrls["foc"]
+    split = "drive" in fmus
+    p, vp = fmus["plant"][0], fmus["plant"][1]
+    sample_vr = [vp[v] for v in ("theta_m", "w_m", "i_d", "i_q")]
+    in_vr = [vp["v_d"], vp["v_q"]]
+    if split:
+        d, vd = fmus["drive"][0], fmus["drive"][1]
+        pm_out = [vp["theta_m"], vp["w_m"]]
+        dr_in = [vd["theta_m"], vd["w_m"]]
+        dr_out = [vd["tau_load"]]
+        pl_in = [vp["tau_load"]]
+    order = list(fmus.values())
+
+    def deriv(t):
+        for f, _, n, x, dx, px, pdx in order:
+            f.setTime(t)
+            f.setContinuousStates(px, n)
+        if split:
+            d.setFloat64(dr_in, p.getFloat64(pm_out))
+            p.setFloat64(pl_in, d.getFloat64(dr_out))
+        for f, _, n, x, dx, px, pdx in order:
+            f.getContinuousStateDerivatives(pdx, n)
+
+    n_ticks = int(round(stop * FOC_RATE))
+    h = 1.0 / FOC_RATE
+    per_outer = FOC_RATE // int(cfg.controllers["outer"].rate)
+    t0 = time.perf_counter()
+    for k in range(n_ticks):
+        t = k / FOC_RATE
+        for f, _, n, x, dx, px, pdx in order:  # sample the outputs at t_k
+            f.setTime(t)
+            f.setContinuousStates(px, n)
+        th, w, i_d, i_q = p.getFloat64(sample_vr)
+        if k % per_outer == 0:
+            outer.u[0] = th
+            outer.step(t)
+        foc.u[:] = (outer.y[0], i_d, i_q, th, w)
+        foc.step(t)
+        p.setFloat64(in_vr, [foc.y[0], foc.y[1]])  # held until the next tick
+        x0 = [e[3].copy() for e in order]
+        ks = []
+        for dt, c in ((0.0, 0.5), (0.5 * h, 0.5), (0.5 * h, 1.0), (h, None)):
+            deriv(t + dt)
+            ks.append([e[4].copy() for e in order])
+            if c is not None:
+                for e, a, kk in zip(order, x0, ks[-1]):
+                    e[3][:] = a + c * h * kk
+        for i, e in enumerate(order):
+            e[3][:] = x0[i] + h / 6.0 * (ks[0][i] + 2 * ks[1][i] + 2 * ks[2][i] + ks[3][i])
+    wall = time.perf_counter() - t0
+    for f, *_ in order:
+        f.terminate()
+        f.freeInstance()
+        f.freeLibrary()
+    for d_ in tmp:
+        shutil.rmtree(d_, ignore_errors=True)
+    return wall / stop
+
+
+# -- the C harness -----------------------------------------------------------------------------------
+def c_limit(cfg, workdir):
+    """FMU calls of the compiled engine's loop from C (see the module docstring); wall s per simulated s."""
+    from fmpy import extract, read_model_description
+
+    from cosim.master import run
+    from cosim.master.compiled import CompiledEngine
+    from cosim.master.plant import PlantSystem
+
+    eng = CompiledEngine(cfg)
+    lay = eng.layout
+    src = lay.route_ctrl_to_fmu[0]
+    inverse = {v: k for k, v in lay.index.items()}
+    names = [f"{inverse[int(s)][0]}.{inverse[int(s)][1]}" for s in src]
+    from cosim.config import load_config
+
+    rec_cfg = load_config(cfg.path, list(cfg.overrides) + ["summary.kind=\"none\"", f"record.rate={FOC_RATE}",
+                                                           "record.signals=[" + ", ".join(f'"{n}"' for n in names) + "]"])
+    res = run(rec_cfg, progress=False)
+    inputs = np.column_stack([res.data[n] for n in names]) if names else np.zeros((len(res.data), 0))
+    plant = PlantSystem(cfg, lay, eng.buf)
+    try:
+        tab = eng._tables(plant)
+        x0 = plant.X.copy()
+    finally:
+        plant.close()
+    lines = [str(len(tab["fmu_names"]))]
+    for i, name in enumerate(tab["fmu_names"]):
+        spec = cfg.fmus[name]
+        md = read_model_description(str(spec.path))
+        d = extract(str(spec.path), unzipdir=str(workdir / name))
+        so = Path(d) / "binaries" / "x86_64-linux" / f"{md.modelExchange.modelIdentifier}.so"
+        lines.append(f"{so} {md.instantiationToken}")
+        vals = {**spec.start, **spec.parameters}
+        lines.append(f"{tab['fmu'][i, 9]} {tab['fmu'][i, 10]} {len(vals)} " +
+                     " ".join(f"{spec.info.variables[k].vr} {float(v)!r}" for k, v in vals.items()))
+    lines.append(str(plant.W.shape[1]))
+    lines.append(str(len(eng.buf)))
+    lines.append(str(len(tab["port_items"])))
+    for (inst, port), row in zip(tab["port_items"], tab["port"]):
+        vrs = [inst.info.variables[n].vr for n in port.names]
+        lines.append(f"{row[0]} {row[2]} {row[3]} " + " ".join(map(str, vrs)))
+    for key in ("pgrp",):
+        lines.append(str(len(tab[key])) + " " + " ".join(map(str, tab[key].ravel().tolist())))
+    lines.append(str(len(tab["rsrc"])))
+    for j in range(len(tab["rsrc"])):
+        lines.append(f"{tab['rsrc'][j]} {tab['rdst'][j]} {float(tab['rgain'][j])!r} {float(tab['roff'][j])!r}")
+    lines.append(str(len(tab["rgrp"])) + " " + " ".join(map(str, tab["rgrp"].ravel().tolist())))
+    lines.append(str(len(tab["lvl"])) + " " + " ".join(map(str, tab["lvl"].ravel().tolist())))
+    lines.append(str(len(tab["me"])) + " " + " ".join(map(str, tab["me"].tolist())))
+    ii = tab["ii"]
+    lines.append(f"{ii[0]} {ii[2]} {ii[3]} {ii[4]} " + " ".join(map(str, ii[5:].tolist())))
+    lines.append(f"{float(tab['ff'][0])!r} {float(tab['ff'][1])!r}")
+    lines.append(" ".join(repr(float(v)) for v in x0))
+    lines.append(f"{len(src)} " + " ".join(map(str, src.tolist())))
+    lines.append(str(len(inputs)))
+    lines.extend(" ".join(repr(float(v)) for v in row) for row in inputs)
+    plan = workdir / f"plan_{len(tab['fmu_names'])}.txt"
+    plan.write_text("\n".join(lines) + "\n")
+    exe = workdir / "harness"
+    if not exe.exists():
+        import fmpy
+
+        include = Path(fmpy.__file__).parent / "c-code"
+        subprocess.run(["gcc", "-O2", f"-I{include}", str(ROOT / "benchmarks" / "engine_harness.c"), "-o", str(exe),
+                        "-ldl", "-lm"], check=True)
+    best = None
+    for _ in range(3):
+        out = subprocess.run([str(exe), str(plan)], capture_output=True, text=True, check=True).stdout.split()
+        wall = float(out[0])
+        best = wall if best is None else min(best, wall)
+    return best / res.sim_s, int(out[1])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--fmus", default=str(ROOT / "fmus"), help="folder with GripperPlant.fmu, PMSM.fmu, Drivetrain.fmu")
+    ap.add_argument("--stop", type=float, default=1.0, help="simulated seconds for the engines and C (default 1.0)")
+    ap.add_argument("--fmpy-stop", type=float, default=0.1, help="simulated seconds for the fmpy loop (default 0.1)")
+    args = ap.parse_args(argv)
+    from cosim.master import run
+
+    print(f"# {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, {_machine()}")
+    print("# wall s per simulated s (lower is better); x = times faster than real time")
+    cfgs = _configs(Path(args.fmus), args.stop)
+    with tempfile.TemporaryDirectory(prefix="cosim-bench-") as tmp:
+        for label, make in cfgs.items():
+            t0 = time.perf_counter()
+            first = run(make(["run.engine=compiled"]), progress=False)
+            first_total = time.perf_counter() - t0
+            comp = min((run(make(["run.engine=compiled"]), progress=False) for _ in range(3)),
+                       key=lambda r: r.wall_s)
+            py = run(make(["run.engine=python"]), progress=False)
+            fm = fmpy_loop(make(), args.fmpy_stop)
+            c, n_inst = c_limit(make(["run.engine=compiled"]), Path(tmp))
+            wc, wp = comp.wall_s / comp.sim_s, py.wall_s / py.sim_s
+            same = all(np.array_equal(comp.data[n], py.data[n]) for n in comp.data.dtype.names)
+            print(f"{label}:")
+            print(f"  compiled engine : {wc:.4f}  ({1 / wc:5.1f} x real time)  numba compile/cache load "
+                  f"{first.compile_s:.2f} s in this process's first run (first run total {first_total:.2f} s)")
+            print(f"  python engine   : {wp:.4f}  ({1 / wp:5.1f} x)  results identical to compiled: {same}")
+            print(f"  fmpy loop       : {fm:.4f}  ({1 / fm:5.1f} x)  ({args.fmpy_stop} s simulated)")
+            print(f"  FMU calls from C: {c:.4f}  ({1 / c:5.1f} x)  {n_inst} instants; compiled engine = "
+                  f"{wc / c:.2f} x the C cost")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
