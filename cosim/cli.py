@@ -106,8 +106,38 @@ def _add_calibrate(sub):
     p.set_defaults(func=_cmd_calibrate)
 
 
+def _cmd_diagnose(args):
+    from cosim.diagnose import diagnose
+
+    out = args.out or f"out/{Path(args.job).stem}"
+    result = diagnose(args.job, out=out, overrides=args.set, progress=not args.no_progress,
+                      build=not args.no_build)
+    s = result.summary
+    print(s["verdict"])
+    print(f"RMSE {s['rmse_before']:.4g} -> {s['rmse_after']:.4g}, max error {s['max_error_before']:.4g} -> "
+          f"{s['max_error_after']:.4g}; wrote {out}/diagnosis.json, report.md")
+    return 0
+
+
+def _add_diagnose(sub):
+    p = sub.add_parser(
+        "diagnose",
+        help="find where simulation and measurement disagree, name the missing effect, add it",
+        description=("Calibrate the baseline model, locate significant residuals by segment, fit each candidate "
+                     "effect (Modelica variants) in parallel, name the winner or 'none', write the variant into "
+                     "the Modelica source and rebuild. Writes OUT/diagnosis.json, OUT/report.md and PNGs."),
+    )
+    p.add_argument("job", help="diagnosis job (.toml)")
+    p.add_argument("--out", help="output folder (default out/<job stem>)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override any job key, e.g. --set data.path=measured.csv (repeatable)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-build", action="store_true", help="do not build the winner's FMU")
+    p.set_defaults(func=_cmd_diagnose)
+
+
 # Each command adds its parser here; keep one function per command.
-_COMMANDS = [_add_build, _add_haptic, _add_run, _add_calibrate]
+_COMMANDS = [_add_build, _add_haptic, _add_run, _add_calibrate, _add_diagnose]
 
 
 def make_parser():

@@ -219,6 +219,83 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end AngleReconstruction;
   end Components;
 
+  package Effects "Candidate missing effects of the discrepancy workflow (cosim diagnose, docs/diagnose.md); cosim.diagnose.effects writes the model variants that wire them in"
+    model DirectionalMeshEfficiency "Gear mesh loss with one efficiency when the motor drives the load and another when the load back-drives the motor (effect backdrive_efficiency)"
+      // As Components.MeshEfficiency, but the loss level of the back-driven branch is (1 - eta_b)*|tau_out|:
+      // driving gives tau_out = eta*tau_in, back-driving tau_in = eta_b*tau_out; at standstill any tau_in between
+      // eta_b*tau_out and tau_out/eta is held. Both branches vanish at s*tau_out = 0 (continuous).
+      parameter Real eta(unit = "1") = 0.68 "Mesh efficiency, motor driving the load";
+      parameter Real eta_b(unit = "1") = 0.68 "Mesh efficiency, load back-driving the motor";
+      parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the mesh bristle (input side)";
+      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
+      input Real w(unit = "rad/s") "Input shaft speed";
+      input Real tau_out(unit = "N.m") "Torque passed on towards the load, in input-side units";
+      output Real tau_f(unit = "N.m") "Loss torque against the motion (added to the input torque)";
+      Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
+      Real N(unit = "N.m") "Transmitted load max(|tau_in|, |tau_out|)";
+    equation
+      N = noEvent(if s*tau_out > 0 then abs(tau_out)/(1 - (1 - eta)*abs(s)) else abs(tau_out));
+      der(s) = Gripper.Components.bristleRate(w, s, phi_b, tau_b, s_ba);
+      tau_f = noEvent(if s*tau_out > 0 then 1 - eta else 1 - eta_b)*N*s;
+    end DirectionalMeshEfficiency;
+
+    model LoadDependentFriction "Jaw-guide friction proportional to the gripping force (effect load_dependent_friction): the clamped finger tilts the jaw in its guides"
+      // Coulomb level mu_F*F_n carried by an elasto-plastic bristle (Components.bristleRate with a presliding
+      // displacement in m), so a clamped jaw holds its friction at rest.
+      parameter Real mu_F(unit = "1") = 0.05 "Friction force per unit gripping force";
+      parameter Real x_b(unit = "m") = 1e-6 "Presliding displacement of the bristle";
+      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      input Real F_n(unit = "N") "Gripping (normal) force";
+      output Real F(unit = "N") "Friction force against the motion";
+      Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
+    equation
+      der(s) = Gripper.Components.bristleRate(v, s, x_b, tau_b, s_ba);
+      F = mu_F*F_n*s;
+    end LoadDependentFriction;
+
+    model StribeckGuide "Jaw-guide friction with stiction and a Stribeck drop, LuGre form (effect stiction); replaces the regularised Coulomb guide"
+      parameter Real F_c(unit = "N") = 0.0785 "Coulomb (sliding) friction level";
+      parameter Real F_s(unit = "N") = 0.3 "Static (breakaway) friction level";
+      parameter Real v_st(unit = "m/s") = 1e-3 "Stribeck velocity";
+      parameter Real sigma0(unit = "N/m") = 1e5 "Bristle stiffness";
+      parameter Real sigma1(unit = "N.s/m") = 50 "Bristle damping";
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      output Real F(unit = "N") "Friction force against the motion";
+      Real z(unit = "m", start = 0.0, fixed = true) "Bristle deflection";
+      Real dz(unit = "m/s") "Bristle deflection rate";
+      Real g(unit = "N") "Stribeck curve";
+    equation
+      g = F_c + (F_s - F_c)*exp(-(v/v_st)^2);
+      dz = v - sigma0*abs(v)*z/g;
+      der(z) = dz;
+      F = sigma0*z + sigma1*dz;
+    end StribeckGuide;
+
+    model CoggingTorque "Motor cogging (detent) torque, periodic in the rotor angle (effect cogging)"
+      parameter Real T_cog(unit = "N.m") = 1e-3 "Cogging torque amplitude";
+      parameter Real n_cog(unit = "1") = 24 "Cogging periods per revolution";
+      parameter Real phase(unit = "rad") = 0 "Cogging phase at theta = 0";
+      input Real theta(unit = "rad") "Rotor angle";
+      output Real tau(unit = "N.m") "Cogging torque against positive rotation";
+    equation
+      tau = T_cog*sin(n_cog*theta + phase);
+    end CoggingTorque;
+
+    model LoadCell "Load-cell first-order low-pass and offset (effect loadcell_filter)"
+      parameter Real tau_lc(unit = "s") = 0.01 "Low-pass time constant";
+      parameter Real F_off(unit = "N") = 0 "Offset (zero error)";
+      input Real F(unit = "N") "True force";
+      output Real F_meas(unit = "N") "Force the load cell reports";
+      Real F_f(unit = "N", start = 0.0, fixed = true) "Filtered force";
+    equation
+      tau_lc*der(F_f) = F - F_f;
+      F_meas = F_f + F_off;
+    end LoadCell;
+  end Effects;
+
   package Parameters "Shared top-level parameter declarations (values and sources: docs/models/gripper.md)"
     partial model MotorParameters "PMSM parameters"
       parameter Real R_s(unit = "Ohm") = 0.45 "Stator phase resistance (estimate)";

@@ -1,0 +1,41 @@
+"""Discrepancy workflow (``cosim diagnose``): replay and compare a calibrated baseline with measured data, locate
+where and how the residual exceeds the noise, name the missing effect from a library of Modelica candidates, add
+it and show the gap shrink. See docs/diagnose.md."""
+
+from cosim.diagnose.effects import EFFECTS, effect_names, get_effect, write_variant
+from cosim.diagnose.job import DiagnoseJob, load_diagnose_job
+from cosim.diagnose.workflow import Diagnosis, run_diagnosis
+
+__all__ = ["EFFECTS", "effect_names", "get_effect", "write_variant", "DiagnoseJob", "load_diagnose_job",
+           "Diagnosis", "run_diagnosis", "diagnose"]
+
+
+def diagnose(path, out="out/diagnosis", overrides=(), progress=True, build=True):
+    """Run the diagnosis job at ``path`` and write its results to ``out``; returns the :class:`Diagnosis`.
+
+    Parameters
+    ----------
+    path : str or Path
+        Job file (TOML, see :mod:`cosim.diagnose.job`).
+    out : str or Path, default "out/diagnosis"
+        Output folder: diagnosis.json, report.md, PNGs, the variant's Modelica and diff, fmu/.
+    overrides : sequence of str
+        ``key=value`` job overrides (``--set``).
+    progress : bool, default True
+        Progress bar over the candidate fits.
+    build : bool, default True
+        Build the winner's FMU into ``out/fmu``.
+    """
+    from pathlib import Path
+
+    from cosim.diagnose.report import write_diagnosis
+
+    job = load_diagnose_job(path, overrides)
+    out = Path(out)
+    if (out / "fmu").exists():
+        import shutil
+
+        shutil.rmtree(out / "fmu")
+    result = run_diagnosis(job, progress=progress, build=build, out=out)
+    write_diagnosis(result, out, source=job.source)
+    return result

@@ -1,0 +1,219 @@
+"""Residual analysis of the discrepancy workflow: noise level from the data themselves, natural segments of the
+experiment, where the residual is significant and its shape, whiteness and cross-correlation with the input."""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+__all__ = ["Segment", "noise_level", "steady_mask", "cut_segments", "segment_table", "whiteness",
+           "cross_correlation", "branch_shapes"]
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One natural piece of the experiment.
+
+    Attributes
+    ----------
+    index : int
+    label : str
+        e.g. ``"step 3 up: i_ref 0.75 -> 1 A"`` or ``"impact"``.
+    kind : str
+        ``up``, ``down``, ``hold`` (staircase) or ``approach``/``impact``/``tightening``/``steady``.
+    t0, t1 : float
+        Start and end [s].
+    level : float
+        The input level held in the segment (staircase), else nan.
+    """
+
+    index: int
+    label: str
+    kind: str
+    t0: float
+    t1: float
+    level: float
+
+
+def noise_level(time, measured, mask):
+    """Noise standard deviation of each signal from the data: differences of consecutive samples inside the
+    steady windows (``mask``), robust scale (MAD), divided by sqrt(2). Slow trends cancel in the differences.
+
+    Returns ndarray, shape (n_signals,)."""
+    measured = np.atleast_2d(measured)
+    inside = mask[1:] & mask[:-1] & (np.diff(time) < 1.5 * np.median(np.diff(time)))
+    out = []
+    for y in measured:
+        d = np.diff(y)[inside]
+        if d.size < 5:
+            out.append(0.0)
+            continue
+        out.append(float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2)))
+    return np.array(out)
+
+
+def _runs(inputs):
+    """(start, end) sample indices of the runs of constant input."""
+    changes = np.flatnonzero(np.any(np.diff(inputs, axis=0) != 0, axis=1)) + 1
+    starts = np.concatenate([[0], changes])
+    ends = np.concatenate([changes, [len(inputs)]])
+    return list(zip(starts, ends))
+
+
+def steady_mask(time, inputs, seconds, min_hold_s=None):
+    """Samples in the last ``seconds`` of each hold (a run of constant input lasting at least ``min_hold_s``,
+    default ``seconds``): the settled part of a staircase."""
+    min_hold_s = seconds if min_hold_s is None else min_hold_s
+    mask = np.zeros(len(time), bool)
+    for a, b in _runs(inputs):
+        if time[b - 1] - time[a] + 1e-9 >= min_hold_s * 0.999:
+            mask[a:b] = time[a:b] >= time[b - 1] - seconds + 1e-9
+    return mask
+
+
+def cut_segments(time, inputs, kind, measured=None, noise=None, min_hold_s=0.1):
+    """The natural segments: each hold of a staircase (with the ramp before it), or approach / impact /
+    tightening / steady of an impact (from the measured force: first sample above 5 noise levels, the peak,
+    and settling within 5 % of the final force).
+
+    Returns list of Segment."""
+    if kind == "staircase":
+        segments = []
+        holds = [(a, b) for a, b in _runs(inputs) if time[b - 1] - time[a] + 1e-9 >= min_hold_s]
+        previous, start = None, 0
+        for k, (a, b) in enumerate(holds):
+            level = float(inputs[a, 0])
+            if previous is None:
+                direction, text = "hold", f"start: {level:g}"
+            else:
+                direction = "up" if level > previous else "down" if level < previous else "hold"
+                text = f"{direction} {previous:g} -> {level:g}"
+            end = holds[k + 1][0] if k + 1 < len(holds) else len(time)
+            segments.append(Segment(k, f"step {k} {text}", direction, float(time[start]), float(time[end - 1]),
+                                    level))
+            previous, start = level, end
+        return segments
+    if kind == "impact":
+        y = np.asarray(measured, float)
+        sigma = max(float(noise), 1e-12)
+        above = np.flatnonzero(y > y[0] + 5 * sigma)
+        contact = above[0] if above.size else len(y) - 1
+        peak = contact + int(np.argmax(y[contact:])) if above.size else contact
+        final = np.median(y[-max(len(y) // 10, 1):])
+        outside = np.flatnonzero(np.abs(y[peak:] - final) > max(0.05 * abs(final), 3 * sigma))
+        settle = peak + (outside[-1] + 1 if outside.size else 0)
+        settle = min(max(settle, peak + 1), len(y) - 1)
+        marks = [0, contact, min(peak + 1, len(y) - 1), settle, len(y) - 1]
+        names = ["approach", "impact", "tightening", "steady"]
+        return [Segment(k, names[k], names[k], float(time[marks[k]]), float(time[marks[k + 1]]), float("nan"))
+                for k in range(4) if marks[k + 1] > marks[k]]
+    raise ValueError(f"segment kind must be 'staircase' or 'impact'; got {kind!r}")
+
+
+def _in(time, seg):
+    return (time >= seg.t0 - 1e-9) & (time <= seg.t1 + 1e-9)
+
+
+def segment_table(time, residual, predicted, measured, mask, segments, noise, threshold=3.0):
+    """Per segment and signal: samples, bias, RMSE, max error, significance and shape.
+
+    A segment's gap is *significant* when the RMS of its residual on the cost samples exceeds ``threshold``
+    noise levels (a model error larger than the scatter of the measurement). Shape: ``bias`` (mean dominates),
+    ``peak error`` (transient maximum well above the steady RMS), ``oscillation`` (the detrended residual
+    changes sign often and is large), ``phase lag`` (measured and predicted best aligned at a nonzero lag).
+    """
+    rows = []
+    for seg in segments:
+        inside = _in(time, seg)
+        cost = inside & mask
+        for j in range(residual.shape[0]):
+            r_all, r = residual[j, inside], residual[j, cost]
+            if r.size == 0:
+                continue
+            rmse = float(np.sqrt(np.mean(r ** 2)))
+            bias = float(np.mean(r))
+            row = {"segment": seg.label, "kind": seg.kind, "t0": seg.t0, "t1": seg.t1, "level": seg.level,
+                   "signal": j, "samples": int(r.size), "bias": bias, "rmse": rmse,
+                   "max_error": float(np.max(np.abs(r_all))), "significant": bool(rmse > threshold * noise[j]),
+                   "sigmas": rmse / noise[j] if noise[j] > 0 else float("inf")}
+            row["shape"] = _shape(r_all, r, predicted[j, inside], measured[j, inside], noise[j]) \
+                if row["significant"] else "within noise"
+            rows.append(row)
+    return rows
+
+
+def _shape(r_all, r_steady, pred, meas, sigma):
+    rms = np.sqrt(np.mean(r_steady ** 2))
+    if abs(np.mean(r_steady)) > 0.7 * rms and np.max(np.abs(r_all)) < 3 * rms:
+        return "bias"
+    if np.max(np.abs(r_all)) > 3 * rms:
+        return "peak error"
+    if len(r_all) > 8:
+        detrended = r_all - np.linspace(r_all[0], r_all[-1], len(r_all))
+        crossings = np.mean(np.diff(np.sign(detrended)) != 0)
+        lag = _best_lag(np.diff(meas), np.diff(pred))
+        if lag != 0 and np.std(np.diff(meas)) > 3 * sigma:
+            return f"phase lag ({lag} samples)"
+        if crossings > 0.2 and np.std(detrended) > 3 * sigma:
+            return "oscillation"
+    return "bias" if abs(np.mean(r_steady)) > 0.5 * rms else "drift"
+
+
+def _best_lag(a, b, max_lag=10):
+    if len(a) < 3 * max_lag or np.std(a) == 0 or np.std(b) == 0:
+        return 0
+    lags = range(-max_lag, max_lag + 1)
+    scores = [np.corrcoef(a[max_lag + k:len(a) - max_lag + k], b[max_lag:len(b) - max_lag])[0, 1] for k in lags]
+    return int(list(lags)[int(np.nanargmax(scores))])
+
+
+def branch_shapes(segments, rows, noise):
+    """Shapes across segments of a staircase: *hysteresis width* (the up and down holds at the same level
+    disagree with the model differently) and *missing plateau* (consecutive rising holds where the measured
+    force stays flat while the model's rises, or the reverse: a held branch the model does not hold)."""
+    findings = []
+    by_level = {}
+    for row in rows:
+        if row["signal"] == 0 and row["kind"] in ("up", "down"):
+            by_level.setdefault(round(row["level"], 6), {})[row["kind"]] = row
+    widths = [(lvl, d["down"]["bias"] - d["up"]["bias"]) for lvl, d in sorted(by_level.items())
+              if "up" in d and "down" in d]
+    wide = [(lvl, w) for lvl, w in widths if abs(w) > 3 * noise[0]]
+    if wide:
+        findings.append({"shape": "hysteresis width",
+                         "detail": "residual differs between the rising and the falling branch at "
+                                   + ", ".join(f"{lvl:g} ({w:+.3g})" for lvl, w in wide)})
+    return findings
+
+
+def _acf(x, lags):
+    x = x - np.mean(x)
+    d = float(x @ x)
+    return np.array([float(x[:-k] @ x[k:]) / d if d > 0 else 0.0 for k in range(1, lags + 1)])
+
+
+def whiteness(residual, lags=20):
+    """Autocorrelation of a residual (1-D, the cost samples in order) at lags 1..``lags`` with the 95 % band
+    +-1.96/sqrt(N) and the Ljung-Box test. Returns a dict (``acf``, ``band``, ``outside``, ``q``, ``p_value``,
+    ``white``: p >= 0.01)."""
+    n = len(residual)
+    lags = min(lags, max(n // 4, 1))
+    rho = _acf(residual, lags)
+    q = float(n * (n + 2) * np.sum(rho ** 2 / (n - np.arange(1, lags + 1))))
+    p = float(stats.chi2.sf(q, lags))
+    band = 1.96 / np.sqrt(n)
+    return {"acf": rho.tolist(), "band": band, "outside": int(np.sum(np.abs(rho) > band)), "q": q,
+            "p_value": p, "white": p >= 0.01}
+
+
+def cross_correlation(residual, u, lags=20):
+    """Correlation of the residual with the input at lags 0..``lags`` (residual after input); values outside
+    +-1.96/sqrt(N) say the residual still depends on the input (an input-driven effect is missing)."""
+    n = len(residual)
+    lags = min(lags, max(n // 4, 1))
+    r, u = residual - np.mean(residual), u - np.mean(u)
+    d = np.sqrt(float(r @ r) * float(u @ u))
+    cc = np.array([float(r[k:] @ u[:n - k]) / d if d > 0 else 0.0 for k in range(0, lags + 1)])
+    band = 1.96 / np.sqrt(n)
+    return {"ccf": cc.tolist(), "band": band, "outside": int(np.sum(np.abs(cc) > band)),
+            "independent": bool(np.all(np.abs(cc) <= band))}

@@ -1,0 +1,212 @@
+"""Diagnosis jobs: ``cosim diagnose job.toml`` reads a TOML job (model, measured data, experiment, free baseline
+parameters, candidate effects), validated up front with every problem reported at once.
+
+Job schema (paths relative to the job file)::
+
+    [model]       source = "x.mo", name = "Pkg.Model", parameters = {name = value}   # fixed values
+    [data]        path = "x.csv|x.parquet", inputs = {model_input = "column"}, start, stop, decimate
+    [experiment]  kind = "staircase"|"impact", duration (s: the data must cover it),
+                  steady_s (the last steady_s of each hold enter the cost; staircase), min_hold_s
+    [compare]     signals = [{output = "F_g", column = "F_g", noise = 0.5}]   # noise: floor under the estimate
+                  rtol (CVODES), max_nfev (least-squares evaluations per fit)
+    [parameters.NAME]  start, min, max                                       # the baseline's free parameters
+    [candidates]  effects = ["backdrive_efficiency", ...]                    # default: all that apply
+    [decision]    min_gap_removed = 0.5, min_delta_bic = 10, gap_sigmas = 3
+    [parallel]    workers (0: in this process), scheduler (a Dask address)
+"""
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from cosim.calibrate.data import load_measurements
+from cosim.calibrate.job import _number, _read_toml
+from cosim.calibrate.problem import Experiment
+from cosim.diagnose.effects import EFFECTS, PLANNED, variant_text
+from cosim.errors import ConfigError
+
+__all__ = ["DiagnoseJob", "load_diagnose_job", "load_experiment"]
+
+_SCHEMA = {
+    "model": ("source", "name", "parameters"),
+    "data": ("path", "inputs", "start", "stop", "decimate"),
+    "experiment": ("kind", "duration", "steady_s", "min_hold_s"),
+    "compare": ("signals", "rtol", "max_nfev"),
+    "candidates": ("effects",),
+    "decision": ("min_gap_removed", "min_delta_bic", "gap_sigmas"),
+    "parallel": ("workers", "scheduler"),
+}
+
+
+@dataclass(frozen=True)
+class DiagnoseJob:
+    """A validated diagnosis job (see the module docstring for the TOML form)."""
+
+    path: Path
+    source: Path
+    model: str
+    fixed: dict
+    data_path: Path
+    inputs: dict
+    window: tuple
+    decimate: int
+    kind: str
+    duration: float
+    steady_s: float
+    min_hold_s: float
+    signals: tuple  # of (output, column, noise floor)
+    rtol: float
+    max_nfev: int
+    free: dict  # name -> (start, min, max)
+    effects: tuple
+    min_gap_removed: float
+    min_delta_bic: float
+    gap_sigmas: float
+    workers: int
+    scheduler: str
+
+
+def load_diagnose_job(path, overrides=()):
+    """Read and validate a diagnosis job; every problem is reported at once with file:line and key."""
+    path, text, data, problems = _read_toml(path, overrides)
+    for key in sorted(set(data) - set(_SCHEMA) - {"parameters"}):
+        problems.add((key,), f"unknown section; expected {', '.join([*_SCHEMA, 'parameters'])}")
+    t = {}
+    for section, allowed in _SCHEMA.items():
+        table = data.get(section, {})
+        if not isinstance(table, dict):
+            problems.add((section,), "must be a table")
+            table = {}
+        for key in sorted(set(table) - set(allowed)):
+            problems.add((section, key), f"unknown key; allowed: {', '.join(allowed)}")
+        t[section] = table
+    base = path.parent
+    for key in ("source", "name"):
+        if not isinstance(t["model"].get(key), str):
+            problems.add(("model", key), "is required (a string)")
+    source = base / t["model"].get("source", "")
+    source_text = ""
+    if isinstance(t["model"].get("source"), str):
+        if not source.is_file():
+            problems.add(("model", "source"), f"no such Modelica file: {source}")
+        else:
+            source_text = source.read_text(encoding="utf-8")
+    if not isinstance(t["data"].get("path"), str):
+        problems.add(("data", "path"), "is required: a CSV or Parquet file with `time` and the measured channels")
+    inputs = t["data"].get("inputs", {})
+    if not isinstance(inputs, dict) or not inputs or not all(isinstance(v, str) for v in inputs.values()):
+        problems.add(("data", "inputs"), "must map model inputs to data columns, e.g. {i_ref = \"i_ref\"}")
+        inputs = {}
+    d = t["data"]
+    start = _number(problems, d, "start", ("data",)) if "start" in d else -math.inf
+    stop = _number(problems, d, "stop", ("data",)) if "stop" in d else math.inf
+    decimate = _number(problems, d, "decimate", ("data",), default=1, positive=True, integer=True)
+    e = t["experiment"]
+    kind = e.get("kind", "staircase")
+    if kind not in ("staircase", "impact"):
+        problems.add(("experiment", "kind"), f"must be 'staircase' or 'impact'; got {kind!r}")
+    duration = _number(problems, e, "duration", ("experiment",), positive=True) if "duration" in e else None
+    steady_s = _number(problems, e, "steady_s", ("experiment",), default=0.0) if "steady_s" in e else 0.0
+    min_hold_s = _number(problems, e, "min_hold_s", ("experiment",), positive=True) \
+        if "min_hold_s" in e else max(steady_s or 0.0, 0.05)
+    signals = []
+    for k, s in enumerate(t["compare"].get("signals", [])):
+        where = ("compare", "signals", k)
+        if not isinstance(s, dict) or not isinstance(s.get("output"), str):
+            problems.add(where, "must be a table {output = \"F_g\", column = \"F_g\", noise = 0.5}")
+            continue
+        for key in sorted(set(s) - {"output", "column", "noise"}):
+            problems.add(where + (key,), "unknown key; allowed: output, column, noise")
+        noise = _number(problems, s, "noise", where, default=1e-9, positive=True)
+        signals.append((s["output"], s.get("column", s["output"]), noise))
+    if not signals:
+        problems.add(("compare", "signals"), "name at least one measured output: [{output = \"F_g\", noise = 0.5}]")
+    rtol = _number(problems, t["compare"], "rtol", ("compare",), default=1e-6, positive=True)
+    max_nfev = _number(problems, t["compare"], "max_nfev", ("compare",), default=40, positive=True, integer=True)
+    free = {}
+    for name, p in data.get("parameters", {}).items():
+        where = ("parameters", name)
+        if not isinstance(p, dict):
+            problems.add(where, "must be a table with start, min, max")
+            continue
+        for key in sorted(set(p) - {"start", "min", "max"}):
+            problems.add(where + (key,), "unknown key; allowed: start, min, max")
+        s, lo, hi = (_number(problems, p, key, where) for key in ("start", "min", "max"))
+        if None not in (s, lo, hi):
+            if not lo <= s <= hi:
+                problems.add(where + ("start",), f"{s:g} is outside the bounds [{lo:g}, {hi:g}]")
+            free[name] = (s, lo, hi)
+    effects = t["candidates"].get("effects")
+    model = t["model"].get("name", "")
+    if effects is None:
+        effects = [n for n in EFFECTS if _applies(source_text, model, n)] if source_text else []
+    elif not isinstance(effects, list) or not all(isinstance(x, str) for x in effects):
+        problems.add(("candidates", "effects"), "must be a list of effect identifiers")
+        effects = []
+    else:
+        for n in effects:
+            if n in PLANNED:
+                problems.add(("candidates", "effects"), f"{n!r} is named by the issue but not implemented yet; "
+                                                        f"implemented: {', '.join(EFFECTS)}")
+            elif n not in EFFECTS:
+                problems.add(("candidates", "effects"), f"unknown effect {n!r}; implemented: {', '.join(EFFECTS)}")
+            elif source_text and model:
+                try:
+                    variant_text(source_text, model, EFFECTS[n])
+                except ConfigError as err:
+                    problems.add(("candidates", "effects"), str(err))
+    dec = t["decision"]
+    min_gap = _number(problems, dec, "min_gap_removed", ("decision",), default=0.5, positive=True)
+    min_bic = _number(problems, dec, "min_delta_bic", ("decision",), default=10.0, positive=True)
+    gap_sigmas = _number(problems, dec, "gap_sigmas", ("decision",), default=3.0, positive=True)
+    workers = _number(problems, t["parallel"], "workers", ("parallel",), default=2, integer=True)
+    problems.raise_if_any()
+    return DiagnoseJob(
+        path=path, source=source, model=model, fixed=dict(t["model"].get("parameters", {})),
+        data_path=base / d["path"], inputs=dict(inputs), window=(start, stop), decimate=decimate, kind=kind,
+        duration=duration, steady_s=steady_s, min_hold_s=min_hold_s, signals=tuple(signals), rtol=rtol,
+        max_nfev=max_nfev, free=free, effects=tuple(effects), min_gap_removed=min_gap, min_delta_bic=min_bic,
+        gap_sigmas=gap_sigmas, workers=workers, scheduler=str(t["parallel"].get("scheduler", "")))
+
+
+def _applies(text, model, name):
+    try:
+        variant_text(text, model, EFFECTS[name])
+        return True
+    except ConfigError:
+        return False
+
+
+def load_experiment(job, model):
+    """The job's data aligned with ``model`` (a LoweredModel): an :class:`Experiment` (mask: every sample) and
+    the checks a diagnosis needs (channels, a uniform time base, data covering the experiment)."""
+    inputs = [u.name for u in model.inputs]
+    outputs = [o.name for o in model.outputs]
+    missing = [u for u in inputs if u not in job.inputs]
+    if missing:
+        raise ConfigError(f"{job.path}: data.inputs must give a column for every input of {job.model}; missing "
+                          f"{', '.join(missing)}")
+    for output, _, _ in job.signals:
+        if output not in outputs:
+            raise ConfigError(f"{job.path}: compare.signals: {job.model} has no output {output!r}; it has "
+                              f"{', '.join(outputs)}")
+    frame = load_measurements(job.data_path, [*job.inputs.values(), *(c for _, c, _ in job.signals)])
+    t0, t1 = job.window
+    frame = frame[(frame["time"] >= t0) & (frame["time"] <= t1)].iloc[::job.decimate].reset_index(drop=True)
+    if len(frame) < 10:
+        raise ConfigError(f"{job.path}: the data window [{t0}, {t1}] s holds {len(frame)} samples; need >= 10")
+    time = frame["time"].to_numpy()
+    dt = np.diff(time)
+    if np.max(np.abs(dt - np.median(dt))) > 0.25 * np.median(dt):
+        k = int(np.argmax(np.abs(dt - np.median(dt))))
+        raise ConfigError(f"{job.data_path}: the time base is not uniform (sample interval {np.median(dt):g} s, "
+                          f"but {dt[k]:g} s between t = {time[k]:g} and {time[k + 1]:g} s): channels sampled on "
+                          f"different clocks must be resampled onto one time base first")
+    if job.duration is not None and time[-1] - time[0] < job.duration - 1.5 * np.median(dt):
+        raise ConfigError(f"{job.data_path}: the data cover {time[-1] - time[0]:g} s but the experiment "
+                          f"(experiment.duration) lasts {job.duration:g} s")
+    return Experiment(time=time - time[0], inputs=frame[[job.inputs[u] for u in inputs]].to_numpy(),
+                      measured=frame[[c for _, c, _ in job.signals]].to_numpy(),
+                      weights=np.array([1.0 / n for _, _, n in job.signals]), mask=np.ones(len(time), bool))

@@ -1,0 +1,151 @@
+"""Diagnosis outputs: ``diagnosis.json``, ``report.md``, the PNG figures, the winner's Modelica variant and diff."""
+
+import json
+import shutil
+import tempfile
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+__all__ = ["write_diagnosis", "plot_diagnosis"]
+
+
+def _json(value):
+    if isinstance(value, dict):
+        return {k: _json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json(v) for v in value]
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
+def plot_diagnosis(diagnosis, folder):
+    """Write ``fit.png`` (measured vs before vs after, residuals) and, for a staircase, ``curve.png`` (output
+    against input at the cost samples); returns the file names."""
+    d, s = diagnosis, diagnosis.summary
+    folder = Path(folder)
+    names = []
+    n = d.measured.shape[0]
+    fig, axes = plt.subplots(2 * n, 1, figsize=(10, 3.2 * 2 * n), sharex=True)
+    for j in range(n):
+        ax, ar = axes[2 * j], axes[2 * j + 1]
+        ax.plot(d.time, d.measured[j], ".", ms=2, color="0.5", label="measured")
+        ax.plot(d.time, d.before[j], color="C0", lw=1.2, label=f"baseline (RMSE {s['rmse_before_per_signal'][j]:.3g})")
+        if d.effect != "none":
+            ax.plot(d.time, d.after[j], color="C3", lw=1.2,
+                    label=f"with {d.effect} (RMSE {s['rmse_after_per_signal'][j]:.3g})")
+        ax.set_ylabel(s["signals"][j])
+        ax.legend(loc="best", fontsize=8)
+        ax.grid(alpha=0.3)
+        sigma = s["noise"]["used"][j]
+        ar.plot(d.time[d.mask], (d.before[j] - d.measured[j])[d.mask], ".", ms=2, color="C0", label="baseline")
+        if d.effect != "none":
+            ar.plot(d.time[d.mask], (d.after[j] - d.measured[j])[d.mask], ".", ms=2, color="C3",
+                    label=d.effect)
+        ar.axhspan(-3 * sigma, 3 * sigma, color="0.85", label="±3 noise")
+        ar.set_ylabel(f"residual {s['signals'][j]}")
+        ar.legend(loc="best", fontsize=8)
+        ar.grid(alpha=0.3)
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle(s["verdict"], fontsize=10)
+    fig.tight_layout()
+    fig.savefig(folder / "fit.png", dpi=110)
+    plt.close(fig)
+    names.append("fit.png")
+    if d.inputs.shape[1] >= 1 and any(seg["kind"] in ("up", "down") for seg in s["segments"]):
+        fig, ax = plt.subplots(figsize=(7, 5))
+        m = d.mask
+        ax.plot(d.inputs[m, 0], d.measured[0, m], ".", ms=3, color="0.5", label="measured")
+        ax.plot(d.inputs[m, 0], d.before[0, m], ".", ms=3, color="C0", label="baseline")
+        if d.effect != "none":
+            ax.plot(d.inputs[m, 0], d.after[0, m], ".", ms=3, color="C3", label=f"with {d.effect}")
+        ax.set_xlabel("input (held level)")
+        ax.set_ylabel(s["signals"][0])
+        ax.grid(alpha=0.3)
+        ax.legend()
+        ax.set_title("steady values: rising and falling branches")
+        fig.tight_layout()
+        fig.savefig(folder / "curve.png", dpi=110)
+        plt.close(fig)
+        names.append("curve.png")
+    return names
+
+
+def _report(diagnosis, figures):
+    s = diagnosis.summary
+    unit = ""
+    lines = [f"# Diagnosis: {s['model']}", "", f"**{s['verdict']}**", ""]
+    if s["also_explained_by"]:
+        lines += [f"Nearly as good on the held-out segments: {', '.join(s['also_explained_by'])} (the data do not "
+                  f"tell these apart).", ""]
+    lines += [f"- data: `{s['data']}`; signals: {', '.join(s['signals'])}",
+              f"- noise (1 sd) estimated from the data: {', '.join(f'{v:.3g}' for v in s['noise']['estimated'])}; "
+              f"used (floored by the job): {', '.join(f'{v:.3g}' for v in s['noise']['used'])}",
+              f"- RMSE before {s['rmse_before']:.4g}{unit}, after {s['rmse_after']:.4g}; max error before "
+              f"{s['max_error_before']:.4g}, after {s['max_error_after']:.4g}; gap above the noise removed: "
+              f"{100 * s['gap_removed']:.0f} %",
+              f"- baseline parameters: " + ", ".join(f"{k} = {v:.5g}" for k, v in s["baseline"]["parameters"].items()),
+              ""]
+    if s["after"]:
+        lines += ["- after: " + ", ".join(f"{k} = {v:.5g}" for k, v in s["after"]["parameters"].items()), ""]
+    lines += ["## Candidates", "",
+              "Fitted on the even segments, scored on the odd ones (score: fraction of the baseline's held-out gap "
+              "above the noise that the candidate removes).", "",
+              "| effect | score | ΔBIC | ΔAIC | p (LR) | RMSE after | fitted parameters |", "|---|---|---|---|---|---|---|"]
+    for c in s["candidates"]:
+        params = ", ".join(f"{k} = {v:.4g}" for k, v in c["parameters"].items() if k in c["added_parameters"])
+        lines.append(f"| {c['effect']} | {c['score']:.3f} | {c['delta_bic']:.1f} | {c['delta_aic']:.1f} | "
+                     f"{c['p_value']:.2g} | {c['rmse_after']:.4g} | {params} |")
+    lines += ["", "## Where the gap is", "", "| segment | samples | bias before | RMSE before | × noise | shape | "
+              "RMSE after |", "|---|---|---|---|---|---|---|"]
+    for r in s["segments"]:
+        lines.append(f"| {r['segment']} | {r['samples']} | {r['bias_before']:+.3g} | {r['rmse_before']:.3g} | "
+                     f"{r['sigmas']:.1f}{' **!**' if r['significant'] else ''} | {r['shape']} | {r['rmse_after']:.3g} |")
+    for f in s["shapes"]:
+        lines += ["", f"- {f['shape']}: {f['detail']}"]
+    w, c = s["whiteness"], s["input_cross_correlation"]
+    lines += ["", "## Residual analysis (baseline)", "",
+              f"- whiteness: {w['outside']} of {len(w['acf'])} autocorrelations outside ±{w['band']:.3g}; Ljung-Box "
+              f"Q = {w['q']:.4g}, p = {w['p_value']:.2g} ({'white' if w['white'] else 'not white: structure left'})",
+              f"- cross-correlation with the input: {c['outside']} of {len(c['ccf'])} lags outside ±{c['band']:.3g} "
+              f"({'independent' if c['independent'] else 'the residual still depends on the input'})", ""]
+    lines += ["## Figures", ""] + [f"![{f}]({f})" for f in figures]
+    if diagnosis.variant_diff:
+        lines += ["", "## The change to the Modelica source", "",
+                  "`modelica/` holds the package with the variant; `variant.diff` is the change:", "", "```diff",
+                  diagnosis.variant_diff.rstrip(), "```"]
+    return "\n".join(lines) + "\n"
+
+
+def write_diagnosis(diagnosis, out, source=None):
+    """Write ``diagnosis.json``, ``report.md``, PNGs and (when an effect is named) ``modelica/<Pkg>/<file>`` and
+    ``variant.diff`` into ``out`` (replaced atomically; an existing ``out/fmu`` is kept)."""
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=".diagnosis-", dir=out.parent))
+    try:
+        figures = plot_diagnosis(diagnosis, staging)
+        (staging / "diagnosis.json").write_text(json.dumps(_json(diagnosis.summary), indent=2) + "\n",
+                                                encoding="utf-8")
+        (staging / "report.md").write_text(_report(diagnosis, figures), encoding="utf-8")
+        if diagnosis.variant_source and source is not None:
+            target = staging / "modelica" / Path(source).parent.name / Path(source).name
+            target.parent.mkdir(parents=True)
+            target.write_text(diagnosis.variant_source, encoding="utf-8")
+            (staging / "variant.diff").write_text(diagnosis.variant_diff, encoding="utf-8")
+        if (out / "fmu").is_dir():
+            shutil.move(str(out / "fmu"), staging / "fmu")
+        if out.exists():
+            shutil.rmtree(out)
+        staging.rename(out)
+    finally:
+        if staging.exists():
+            shutil.rmtree(staging)
+    return out

@@ -1,0 +1,288 @@
+"""The discrepancy workflow: replay and compare, locate, name, add and show.
+
+1. *Replay and compare*: the baseline's free parameters are calibrated on the cost samples (the settled end of
+   each hold of a staircase; every sample of an impact); the noise level of each channel is estimated from the
+   data themselves (differences inside the steady windows), floored by the job's stated noise.
+2. *Locate*: the experiment is cut into its natural segments; each segment's residual is compared with the
+   noise and given a shape; whiteness and cross-correlation with the input are reported.
+3. *Name*: every candidate effect is written as a Modelica variant of the baseline, calibrated on the even
+   segments (with the baseline's parameters free as well), and scored on the odd segments it was not fitted on:
+   ``score`` = fraction of the baseline's held-out excess gap (mean square residual above the noise) that the
+   candidate removes; BIC and a likelihood-ratio test on the fitted segments give the evidence against noise.
+   Candidates run in parallel (Dask). The winner is the best-scoring candidate that removes at least
+   ``min_gap_removed`` of the held-out gap and improves BIC by ``min_delta_bic``; "none" when no segment of the
+   baseline's residual is significant or no candidate qualifies.
+4. *Add and show*: the winner's variant is refitted on every cost sample, written into the Modelica source (a
+   copy of the package under ``OUT/modelica`` with a diff), built into an FMU and replayed; gaps before and after
+   per segment and overall.
+"""
+
+import os
+import sys
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from cosim.diagnose.analysis import (branch_shapes, cross_correlation, cut_segments, noise_level, segment_table,
+                                     steady_mask, whiteness)
+from cosim.diagnose.effects import EFFECTS, write_variant
+from cosim.diagnose.fitting import Replay, fit_samples
+
+__all__ = ["Diagnosis", "run_diagnosis"]
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """The result of a diagnosis: ``summary`` is the content of ``diagnosis.json``; the arrays feed the plots.
+
+    Attributes
+    ----------
+    effect : str
+        The named effect, or ``"none"``.
+    summary : dict
+    time : ndarray, shape (N,)
+    inputs : ndarray, shape (N, n_inputs)
+    measured, before, after : ndarray, shape (n_signals, N)
+        Measured outputs and the baseline's and the winner's replays (``after`` is ``before`` for "none").
+    mask : ndarray of bool, shape (N,)
+        Cost samples.
+    variant_source : str
+        Modelica text of the package with the winner's variant ("" for none).
+    variant_diff : str
+    """
+
+    effect: str
+    summary: dict
+    time: np.ndarray
+    inputs: np.ndarray
+    measured: np.ndarray
+    before: np.ndarray
+    after: np.ndarray
+    mask: np.ndarray
+    variant_source: str = ""
+    variant_diff: str = ""
+    candidate_predictions: dict = field(default_factory=dict)
+
+
+def _scales(values):
+    return np.array([abs(v) if v != 0 else 1.0 for v in values], float)
+
+
+def _fit_candidate(task):
+    """One candidate in a worker: lower its variant, fit on the training segments, replay everything."""
+    from cosim.compile import lower
+    from cosim.diagnose.job import load_experiment
+
+    job, effect = task["job"], EFFECTS[task["effect"]]
+    model = lower(task["variant_path"], task["variant_model"])
+    e = load_experiment(job, model)
+    defaults = dict(zip([p.name for p in model.parameters], model.parameter_values))
+    free = dict(task["baseline"])  # name -> (start, lo, hi), starts at the baseline's training fit
+    for p in effect.parameters:
+        start = p.start if isinstance(p.start, (int, float)) else \
+            free[p.start][0] if p.start in free else job.fixed.get(p.start, defaults[p.start])
+        free[p.name] = (float(np.clip(start, p.lower, p.upper)), p.lower, p.upper)
+    for name, lo, hi in effect.frees:
+        free[name] = (float(np.clip(job.fixed.get(name, defaults[name]), lo, hi)), lo, hi)
+    return _fit(model, e, job, free, task["weights"], task["mask"], task["effect"])
+
+
+def _fit(model, e, job, free, weights, mask, label):
+    starts = [v[0] for v in free.values()]
+    replay = Replay(model, e, [o for o, _, _ in job.signals], list(free), _scales(starts), fixed=job.fixed,
+                    rtol=job.rtol)
+    result = fit_samples(replay, e.measured.T, weights, mask, starts,
+                         ([v[1] for v in free.values()], [v[2] for v in free.values()]), max_nfev=job.max_nfev)
+    result["label"] = label
+    result["free"] = {n: list(v) for n, v in free.items()}
+    return result
+
+
+def _run_tasks(job, tasks, progress):
+    if job.workers <= 0 or len(tasks) <= 1 and not job.scheduler:
+        return [_fit_candidate(t) for t in tasks]
+    from distributed import Client, LocalCluster, as_completed
+    from tqdm import tqdm
+
+    cluster = None
+    if job.scheduler:
+        client = Client(job.scheduler)
+    else:
+        workers = max(1, min(len(tasks), job.workers, os.cpu_count() or 1))
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
+        client = Client(cluster)
+    try:
+        futures = [client.submit(_fit_candidate, t, pure=False) for t in tasks]
+        index = {f.key: k for k, f in enumerate(futures)}
+        results = [None] * len(futures)
+        bar = tqdm(total=len(futures), desc="candidate effects", unit="fit", file=sys.stderr, disable=not progress)
+        for future in as_completed(futures):
+            results[index[future.key]] = future.result()
+            bar.update()
+        bar.close()
+        return results
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _ms(pred, measured, weights, mask):
+    """Mean square of the weighted residual on ``mask`` (1 = at the noise level)."""
+    r = (pred - measured) * np.asarray(weights)[:, None]
+    return float(np.mean(r[:, mask] ** 2)) if mask.any() else float("nan")
+
+
+def _rmse(pred, measured, mask):
+    r = (pred - measured)[:, mask]
+    return [float(np.sqrt(np.mean(x ** 2))) for x in r], [float(np.max(np.abs(x))) for x in r]
+
+
+def run_diagnosis(job, progress=True, build=True, out=None):
+    """Run the workflow on a loaded :class:`~cosim.diagnose.job.DiagnoseJob`; returns a :class:`Diagnosis`.
+
+    ``build`` builds the winner's FMU (into ``out/fmu`` when ``out`` is given, else a temporary folder)."""
+    from cosim.compile import lower
+    from cosim.diagnose.job import load_experiment
+
+    model = lower(job.source, job.model)
+    e = load_experiment(job, model)
+    t, y = e.time, e.measured.T
+    if job.kind == "staircase" and job.steady_s > 0:
+        mask = steady_mask(t, e.inputs, job.steady_s, job.min_hold_s)
+    else:
+        mask = np.ones(len(t), bool)
+    if not mask.any():
+        from cosim.errors import ConfigError
+        raise ConfigError(f"{job.path}: no hold of the input lasts experiment.steady_s = {job.steady_s:g} s")
+    floor = np.array([n for _, _, n in job.signals])
+    estimated = noise_level(t, y, steady_mask(t, e.inputs, job.steady_s or 0.2, job.min_hold_s)
+                            if job.kind == "staircase" else mask)
+    if job.kind == "impact":
+        estimated = noise_level(t, y, np.ones(len(t), bool))
+    sigma = np.maximum(estimated, floor)
+    weights = 1.0 / sigma
+
+    # 1. replay and compare
+    base = _fit(model, e, job, dict(job.free), weights, mask, "baseline")
+    before = base["predicted"]
+    residual = before - y
+    rmse_before, max_before = _rmse(before, y, mask)
+
+    # 2. locate
+    segments = cut_segments(t, e.inputs, job.kind, y[0], sigma[0], job.min_hold_s)
+    rows = segment_table(t, residual, before, y, mask, segments, sigma, job.gap_sigmas)
+    findings = branch_shapes(segments, rows, sigma)
+    white = whiteness(residual[0, mask])
+    cross = cross_correlation(residual[0, mask], e.inputs[mask, 0])
+    gap_found = any(r["significant"] for r in rows)
+
+    # 3. name: fit on even segments, score on odd ones
+    seg_index = np.full(len(t), -1)
+    for s in segments:
+        seg_index[(t >= s.t0 - 1e-9) & (t <= s.t1 + 1e-9)] = s.index
+    train = mask & (seg_index % 2 == 0)
+    test = mask & (seg_index % 2 == 1)
+    if not test.any():
+        train, test = mask & (np.arange(len(t)) % 2 == 0), mask & (np.arange(len(t)) % 2 == 1)
+    base_free = {n: (base["parameters"][n], lo, hi) for n, (_, lo, hi) in job.free.items()}
+    base_train = _fit(model, e, job, base_free, weights, train, "baseline (even segments)")
+    candidates, tasks = [], []
+    folder = Path(tempfile.mkdtemp(prefix="cosim-diagnose-"))
+    train_free = {n: (base_train["parameters"][n], lo, hi) for n, (_, lo, hi) in job.free.items()}
+    for name in job.effects:
+        path, variant = write_variant(job.source, job.model, EFFECTS[name], folder / name)
+        tasks.append({"job": job, "effect": name, "variant_path": str(path), "variant_model": variant,
+                      "baseline": train_free, "weights": weights, "mask": train})
+    results = _run_tasks(job, tasks, progress) if tasks else []
+    n_train = int(train.sum()) * len(job.signals)
+    k_base = len(job.free)
+    ms_b_test = _ms(base_train["predicted"], y, weights, test)
+    chi2_b = base_train["chi2"]
+    for res in results:
+        k = len(res["free"])
+        ms_c = _ms(res["predicted"], y, weights, test)
+        removed = (ms_b_test - ms_c) / max(ms_b_test - 1.0, 1e-12) if ms_b_test > 1.0 else 0.0
+        delta = chi2_b - res["chi2"]
+        rmse_c, max_c = _rmse(res["predicted"], y, mask)
+        candidates.append({
+            "effect": res["label"], "score": float(removed),
+            "rmse_after": rmse_c[0], "max_error_after": max_c[0],
+            "parameters": {n: v for n, v in res["parameters"].items()},
+            "added_parameters": [p.name for p in EFFECTS[res["label"]].parameters] +
+                                [n for n, _, _ in EFFECTS[res["label"]].frees],
+            "heldout_ms_sigma2": ms_c, "aic": res["chi2"] + 2 * k, "bic": res["chi2"] + k * np.log(n_train),
+            "delta_aic": float(delta - 2 * (k - k_base)), "delta_bic": float(delta - (k - k_base) * np.log(n_train)),
+            "p_value": float(stats.chi2.sf(max(delta, 0.0), max(k - k_base, 1))),
+        })
+    qualified = [c for c in candidates if gap_found and c["score"] >= job.min_gap_removed
+                 and c["delta_bic"] >= job.min_delta_bic]
+    winner = max(qualified, key=lambda c: (c["score"], c["delta_bic"])) if qualified else None
+    effect = winner["effect"] if winner else "none"
+    rivals = [c["effect"] for c in qualified if winner and c is not winner and c["score"] >= winner["score"] - 0.1]
+
+    # 4. add and show
+    after, variant_source, variant_diff, final = before, "", "", None
+    if winner:
+        from cosim.compile import lower as lower_variant
+
+        path, variant = write_variant(job.source, job.model, EFFECTS[effect], folder / "winner")
+        vmodel = lower_variant(path, variant)
+        start = {n: (winner["parameters"][n], *next(r["free"][n][1:] for r in results if r["label"] == effect))
+                 for n in winner["parameters"]}
+        final = _fit(vmodel, load_experiment(job, vmodel), job, start, weights, mask, effect)
+        after = final["predicted"]
+        variant_source = path.read_text(encoding="utf-8")
+        import difflib
+
+        variant_diff = "".join(difflib.unified_diff(
+            Path(job.source).read_text(encoding="utf-8").splitlines(keepends=True),
+            variant_source.splitlines(keepends=True), fromfile=str(job.source), tofile=f"{job.source} ({effect})"))
+        if build:
+            from cosim.compile import build_fmu
+
+            target = Path(out) / "fmu" if out is not None else folder / "fmu"
+            fmu = build_fmu(path, variant, out_dir=target)
+            final["fmu"] = str(fmu)
+    rmse_after, max_after = _rmse(after, y, mask)
+    rows_after = segment_table(t, after - y, after, y, mask, segments, sigma, job.gap_sigmas)
+    seg_out = []
+    for rb, ra in zip(rows, rows_after):
+        seg_out.append({**{k: rb[k] for k in ("segment", "kind", "t0", "t1", "level", "samples", "significant",
+                                              "shape", "sigmas")},
+                        "signal": job.signals[rb["signal"]][0], "bias_before": rb["bias"], "rmse_before": rb["rmse"],
+                        "max_error_before": rb["max_error"], "bias_after": ra["bias"], "rmse_after": ra["rmse"],
+                        "max_error_after": ra["max_error"], "significant_after": ra["significant"]})
+    summary = {
+        "job": str(job.path), "model": job.model, "data": str(job.data_path),
+        "effect": effect,
+        "verdict": (f"missing effect: {effect} ({EFFECTS[effect].title})" if winner else
+                    "no missing effect found" + ("" if gap_found else ": the baseline fits within the noise")),
+        "also_explained_by": rivals,
+        "signals": [o for o, _, _ in job.signals],
+        "noise": {"estimated": estimated.tolist(), "floor": floor.tolist(), "used": sigma.tolist()},
+        "rmse_before": rmse_before[0], "rmse_after": rmse_after[0],
+        "max_error_before": max_before[0], "max_error_after": max_after[0],
+        "rmse_before_per_signal": rmse_before, "rmse_after_per_signal": rmse_after,
+        "gap_removed": (float(1 - (rmse_after[0] ** 2 - sigma[0] ** 2) / (rmse_before[0] ** 2 - sigma[0] ** 2))
+                        if rmse_before[0] > sigma[0] else 0.0),
+        "baseline": {"parameters": base["parameters"], "free": {n: list(v) for n, v in job.free.items()}},
+        "after": ({"parameters": final["parameters"], "fmu": final.get("fmu")} if final else None),
+        "segments": seg_out,
+        "gap_found": gap_found,
+        "shapes": findings,
+        "whiteness": white,
+        "input_cross_correlation": cross,
+        "folds": {"fit": "even segments", "score": "odd segments", "fit_samples": int(train.sum()),
+                  "score_samples": int(test.sum())},
+        "decision": {"min_gap_removed": job.min_gap_removed, "min_delta_bic": job.min_delta_bic,
+                     "gap_sigmas": job.gap_sigmas},
+        "candidates": sorted(candidates, key=lambda c: -c["score"]),
+    }
+    preds = {res["label"]: res["predicted"] for res in results}
+    return Diagnosis(effect=effect, summary=summary, time=t, inputs=e.inputs, measured=y, before=before,
+                     after=after, mask=mask, variant_source=variant_source, variant_diff=variant_diff,
+                     candidate_predictions=preds)

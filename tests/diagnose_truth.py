@@ -1,0 +1,91 @@
+"""Hidden-effect data for the discrepancy workflow's tests and benchmark: a quasi-static gripper written
+independently of the Modelica plant and of the candidates' Modelica.
+
+Formulation (not the Modelica one): the current staircase is slow against the drivetrain, so each step ends in
+static equilibrium; the force follows a Karnopp-type stick/slip rule on the force balance of one jaw, with
+efficiencies applied by the direction of power flow, Coulomb drag at the motor shaft and friction held at rest
+(no bristles, no ODE). Tightening reaches ``F_up``, releasing drops to ``F_down``; between the two the drivetrain
+is stuck and the force stays. The force then approaches each new level with a first-order transient (time
+constant ``tau_mech``), and the load cell is sampled at 100 Hz with Gaussian noise.
+
+Effects: ``backdrive_efficiency`` (eta_b != eta_d on the release branch), ``load_dependent_friction`` (guide
+friction mu_F*F while sliding and held at rest), ``loadcell_filter`` (a discrete first-order low-pass and an
+offset, applied to the sampled force). ``none``: the baseline's physics.
+"""
+
+import numpy as np
+
+__all__ = ["K_T", "GAIN", "staircase", "quasi_static_force", "make_case", "TRUTH_EFFECTS"]
+
+K_T = 0.0393939394           # N.m/A, torque constant at the motor shaft
+RATIO, R_P = 28.0, 0.008957  # gear ratio, pinion radius [m]
+GAIN = RATIO / (2 * R_P)     # jaw force per motor torque, N per N.m (two jaws)
+F_GUIDE = 0.0785             # N, sliding guide friction per jaw (the plant's default)
+
+TRUTH_EFFECTS = ("none", "backdrive_efficiency", "load_dependent_friction", "loadcell_filter")
+
+
+LEVELS = (0.0, 0.5, 0.75, 1.0, 1.25, 1.5, 1.25, 1.0, 0.75, 0.5, 0.25, 0.0)
+
+
+def staircase(levels=LEVELS, step_s=0.7, rate_hz=100.0, ramp_s=0.35):
+    """Time [s] and current [A] of a current staircase sampled at ``rate_hz``: each level is reached by a
+    ramp of ``ramp_s`` (held between samples) and then held; a level lasts ``step_s`` in all."""
+    per = int(round(step_s * rate_hz))
+    ramp = int(round(ramp_s * rate_hz))
+    current = [np.full(per, levels[0])]
+    for a, b in zip(levels[:-1], levels[1:]):
+        frac = np.minimum(np.arange(1, per + 1) / max(ramp, 1), 1.0)
+        current.append(np.round(a + (b - a) * frac, 6))
+    current = np.concatenate(current)
+    return np.arange(len(current)) / rate_hz, current
+
+
+def quasi_static_force(current, eta_d, T_c0, eta_b=None, mu_F=0.0):
+    """Steady force after each distinct current level, by the stick/slip rule (one value per run)."""
+    eta_b = eta_d if eta_b is None else eta_b
+    changes = np.flatnonzero(np.diff(current) != 0) + 1
+    runs = np.split(current, changes)
+    F, levels = 0.0, []
+    for run in runs:
+        i = run[0]
+        drive = eta_d * (K_T * i - T_c0) * GAIN          # rack force available when tightening
+        f_up = (drive - F_GUIDE) / (1 + mu_F)
+        f_down = ((K_T * i + T_c0) * GAIN / eta_b + F_GUIDE) / (1 - mu_F)
+        if f_up > F:
+            F = f_up
+        elif f_down < F:
+            F = max(f_down, 0.0)
+        levels.append(F)
+    return np.repeat(levels, [len(r) for r in runs])
+
+
+def make_case(effect, rng, noise=0.2, levels=LEVELS, step_s=0.7, rate_hz=100.0, tau_mech=0.02):
+    """A random hidden-effect case: returns (time, current, measured force, truth dict)."""
+    t, i = staircase(levels, step_s, rate_hz)
+    truth = {"effect": effect, "eta_d": rng.uniform(0.6, 0.8), "T_c0": rng.uniform(4e-3, 1.2e-2)}
+    kw = {}
+    if effect == "backdrive_efficiency":
+        sign = rng.choice([-1.0, 1.0])
+        truth["eta_b"] = float(np.clip(truth["eta_d"] + sign * rng.uniform(0.12, 0.25), 0.3, 0.97))
+        kw["eta_b"] = truth["eta_b"]
+    elif effect == "load_dependent_friction":
+        truth["mu_F"] = rng.uniform(0.1, 0.25)
+        kw["mu_F"] = truth["mu_F"]
+    F = quasi_static_force(i, truth["eta_d"], truth["T_c0"], **kw)
+    # first-order approach of each new level (the mechanical transient), exact for a piecewise-constant target
+    a = np.exp(-1.0 / (rate_hz * tau_mech))
+    y = np.empty_like(F)
+    y[0] = F[0]
+    for k in range(1, len(F)):
+        y[k] = a * y[k - 1] + (1 - a) * F[k]
+    if effect == "loadcell_filter":
+        truth["tau_lc"] = rng.uniform(0.02, 0.08)
+        truth["F_off"] = rng.choice([-1.0, 1.0]) * rng.uniform(1.0, 3.0)
+        b = np.exp(-1.0 / (rate_hz * truth["tau_lc"]))
+        z = np.empty_like(y)
+        z[0] = y[0]
+        for k in range(1, len(y)):
+            z[k] = b * z[k - 1] + (1 - b) * y[k]
+        y = z + truth["F_off"]
+    return t, i, y + rng.normal(0.0, noise, len(t)), truth
