@@ -83,7 +83,9 @@ def engine_for(config):
         return CompiledEngine(config)
     if numba_failed:
         warnings.warn(f"{config.name}: running the Python engine: {reason}", EngineFallbackWarning, stacklevel=2)
-    engine = Engine(config)
+    with warnings.catch_warnings():  # the controllers' own "runs in plain Python" warning: said just above
+        warnings.simplefilter("ignore", UserWarning)
+        engine = Engine(config)
     engine.engine_note = f"Python engine: {reason}"
     return engine
 

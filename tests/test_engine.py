@@ -1,0 +1,189 @@
+"""The compiled engine (issue 8): same results as the Python engine on every shipped config and on the
+FMI 2.0 ME/CS paths, fallback to the Python engine with a one-line reason, Ctrl-C, progress, compile time.
+
+Reference: the Python engine (cosim.master.engine.Engine), itself tested against exact solutions in
+test_master.py. Both engines do the same floating-point operations at the same instants, so the
+tolerance is 1e-9 of each signal's range (issue 8); in practice they agree bitwise.
+"""
+
+import _thread
+import json
+import threading
+import warnings
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from test_master_support import EXAMPLES, ROOT, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
+
+from cosim.config import load_config
+from cosim.master import run, run_config
+from cosim.master.compiled import CompiledEngine, EngineFallbackWarning, engine_for
+
+
+@pytest.fixture(scope="module")
+def haptic_dir(tmp_path_factory):
+    """HapticDevice11.fmu and HapticDevice7.fmu built from modelica/Haptic."""
+    from cosim.compile import build_fmu
+
+    out = tmp_path_factory.mktemp("engine_haptic")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name, model in (("HapticDevice11", "Device11"), ("HapticDevice7", "Device7")):
+            built = build_fmu(ROOT / "modelica" / "Haptic" / "package.mo", f"Haptic.{model}", out_dir=out / model)
+            built.rename(out / f"{name}.fmu")
+    return out
+
+
+def _both(path, sets):
+    """Run ``path`` with both engines; returns (compiled result, python result)."""
+    comp = run(load_config(path, sets + ["run.engine=compiled"]), progress=False)
+    py = run(load_config(path, sets + ["run.engine=python"]), progress=False)
+    assert comp.engine == "compiled" and py.engine == "python"
+    return comp, py
+
+
+def _assert_same(comp, py):
+    assert comp.data.dtype.names == py.data.dtype.names
+    assert len(comp.data) == len(py.data) > 0
+    assert comp.calls == py.calls
+    assert np.array_equal(comp.data["time"], py.data["time"])  # same instants, exactly
+    for name in comp.data.dtype.names[1:]:
+        rng = np.ptp(py.data[name]) or 1.0
+        assert_allclose(comp.data[name], py.data[name], atol=1e-9 * rng, rtol=0, err_msg=name)
+
+
+# shortened runs of every shipped config (the gripper ones include the impact at 0.32 s)
+GRIPPER = [
+    ("gripper_impact.toml", False, ["run.stop=0.45"]),
+    ("gripper_impact_p3.toml", False, ["run.stop=0.45"]),
+    ("gripper_impact_split.toml", True, ["run.stop=0.45"]),
+    ("gripper_static.toml", False, ["run.stop=0.6", "controllers.outer.parameters.step_A=0.5",
+                                    "controllers.outer.parameters.step_s=0.1"]),
+]
+
+
+@pytest.mark.parametrize("name,split,sets", GRIPPER, ids=[g[0] for g in GRIPPER])
+def test_engines_agree_on_gripper_configs(gripper_dir, name, split, sets):
+    comp, py = _both(EXAMPLES / name, gripper_overrides(gripper_dir, split) + sets)
+    _assert_same(comp, py)
+    force = "F_g"
+    assert comp.data[force].max() > 10.0  # the runs reach contact
+
+
+@pytest.mark.parametrize("name,fmu", [("haptic_wall.toml", "HapticDevice11"),
+                                      ("haptic_wall_adaptive.toml", "HapticDevice7")])
+def test_engines_agree_on_haptic_configs(haptic_dir, name, fmu):
+    comp, py = _both(EXAMPLES / name, [f'fmus.plant.path="{(haptic_dir / (fmu + ".fmu")).as_posix()}"', "run.stop=1.6"])
+    _assert_same(comp, py)
+    assert comp.data["wall.penetration"].max() > 0.0  # the runs reach the wall
+
+
+@pytest.mark.parametrize("kind", ["ME", "CS"])
+def test_engines_agree_on_fmi2_me_and_cs(master_dir, kind):
+    # the hand-written FMI 2.0 FMU: ME integrated by the kernel, CS through fmi2DoStep by address
+    path = osc_config(master_dir, stop=1.0)
+    comp, py = _both(path, ["fmus.plant.path=Osc2.fmu", f"fmus.plant.kind={kind}", 'record.signals=["plant.y", "src.u"]'])
+    _assert_same(comp, py)
+
+
+def test_engines_agree_on_cs_feeding_me_with_gain_offset_and_substeps(master_dir):
+    # FMI 2 CS -> FMI 3 ME, routed with a gain and an offset, 3 RK4 substeps, a recorder off the controller grid
+    path = osc_config(master_dir, stop=0.5, record_rate=300, extra="""
+        [fmus.cs]
+        path = "Osc2.fmu"
+        kind = "CS"
+        parameters = { k = 9.0 }
+        """)
+    sets = ['connections=[{from = "src.u", to = "cs.u"}, {from = "cs.y", to = "plant.u", gain = 0.5, offset = 0.1}]',
+            'record.signals=["cs.y", "plant.y", "src.u"]', "solver.substeps=3"]
+    comp, py = _both(path, sets)
+    _assert_same(comp, py)
+
+
+def test_compiled_is_the_default_and_reports_compile_time(master_dir, tmp_path):
+    cfg = load_config(osc_config(master_dir, stop=0.2))
+    assert cfg.run.engine == "compiled"
+    assert isinstance(engine_for(cfg), CompiledEngine)
+    result, summary, _ = run_config(osc_config(master_dir, stop=0.2), out=tmp_path / "o", progress=False)
+    assert result.engine == "compiled" and result.compile_s > 0.0
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["engine"] == "compiled" and s["compile_s"] == pytest.approx(result.compile_s)
+
+
+BAD_CTL = '''
+import numpy as np
+from controllers.base import Controller
+
+
+def _bad(t, u, y, x, p):
+    y[0] = dict(gain=p[0])["gain"]
+
+
+class Bad(Controller):
+    """Uses dict(key=value), which numba cannot compile."""
+    parameters = {"amp": 1.0}
+    outputs = ("u",)
+    kernel = staticmethod(_bad)
+'''
+
+
+def test_fallback_names_the_construct(master_dir, tmp_path):
+    (master_dir / "bad_ctl.py").write_text(BAD_CTL)
+    cfg = load_config(osc_config(master_dir, stop=0.1), ['controllers.src.class="bad_ctl.py:Bad"',
+                                                         "controllers.src.parameters={}"])
+    with pytest.warns(EngineFallbackWarning) as rec:
+        result = run(cfg, progress=False)
+    assert len(rec) == 1
+    msg = str(rec[0].message)
+    assert "\n" not in msg
+    assert "running the Python engine" in msg and "'src'" in msg and "Bad" in msg
+    assert "dict" in msg and 'dict(gain=p[0])["gain"]' in msg and "bad_ctl.py:7" in msg  # the construct and where it is
+    assert result.engine == "python" and len(result.data) == 11
+    assert_allclose(result.data["src.u"], 1.0)
+
+
+def test_python_controllers_run_the_python_engine_with_a_note(master_dir):
+    # a controller overriding step() in Python, or jit = false: the config asks for Python; a note, no warning
+    extra = """
+        [controllers.probe]
+        class = "ctl.py:Probe"
+        rate = 100
+        """
+    for sets in ([], ["controllers.src.jit=false"]):
+        cfg = load_config(osc_config(master_dir, stop=0.1, extra=extra if not sets else ""), sets)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            result = run(cfg, progress=False)
+        assert result.engine == "python"
+        assert ("overrides step()" in result.engine_note) if not sets else ("jit = false" in result.engine_note)
+
+
+def test_ctrl_c_keeps_what_was_recorded(gripper_dir):
+    # an interrupt during the kernel takes effect at the end of a chunk; the rows recorded so far are kept
+    cfg = load_config(EXAMPLES / "gripper_impact.toml", gripper_overrides(gripper_dir) + ["run.stop=60"])
+    engine = engine_for(cfg)
+    assert isinstance(engine, CompiledEngine)
+    timer = threading.Timer(1.0, _thread.interrupt_main)
+    timer.start()
+    try:
+        result = engine.run(progress=False)
+    finally:
+        timer.cancel()
+    assert result.interrupted
+    n = len(result.data)
+    assert 0 < n < 60 * 2660
+    t = result.data["time"]
+    assert_allclose(np.diff(t), 1 / 2660, rtol=1e-9)
+    assert not np.isnan(result.data["F_g"]).any()
+    # what was kept equals the start of an uninterrupted run
+    short = run(load_config(EXAMPLES / "gripper_impact.toml",
+                            gripper_overrides(gripper_dir) + [f"run.stop={t[-1]}"]),
+                progress=False)
+    assert np.array_equal(short.data["F_g"][:n], result.data["F_g"])
+
+
+def test_progress_bar_on_stderr(master_dir, capsys):
+    result = run(load_config(osc_config(master_dir, stop=0.5)), progress=True)
+    assert result.engine == "compiled"
+    assert "sim s" in capsys.readouterr().err
