@@ -11,7 +11,7 @@ from cosim.errors import ConfigError
 __all__ = ["load_measurements", "check_measurements"]
 
 
-def load_measurements(path, channels, field="data.path"):
+def load_measurements(path, channels, field="data.path", sparse=()):
     """Read ``path`` (``.csv`` or ``.parquet``) and check it holds ``time`` and every name in ``channels``.
 
     Parameters
@@ -19,6 +19,8 @@ def load_measurements(path, channels, field="data.path"):
     path : str or Path
     channels : iterable of str
         Column names the job needs (model inputs and measured outputs).
+    sparse : iterable of str
+        Channels that may be empty (NaN) at some rows: outputs sampled slower than the rest.
     field : str
         The job key that named the file, for error messages.
 
@@ -40,18 +42,24 @@ def load_measurements(path, channels, field="data.path"):
             raise ConfigError(f"{field}: {path} is neither .csv nor .parquet")
     except (ValueError, OSError) as err:
         raise ConfigError(f"{field}: cannot read {path}: {err}") from err
-    return check_measurements(frame, channels, f"{field} ({path.name})")
+    return check_measurements(frame, channels, f"{field} ({path.name})", sparse)
 
 
-def check_measurements(frame, channels, where="data"):
-    """Check a measured table: ``time`` strictly increasing, named channels present and finite."""
+def check_measurements(frame, channels, where="data", sparse=()):
+    """Check a measured table: ``time`` strictly increasing, named channels present and finite (channels in
+    ``sparse`` may be NaN where they were not sampled, but must hold some values and no inf)."""
     missing = [c for c in ["time", *channels] if c not in frame.columns]
     if missing:
         raise ConfigError(
             f"{where}: missing column(s) {', '.join(missing)}; the file has {', '.join(map(str, frame.columns))}")
     frame = frame[["time", *dict.fromkeys(channels)]].astype(float)
     for column in frame.columns:
-        bad = np.flatnonzero(~np.isfinite(frame[column].to_numpy()))
+        values = frame[column].to_numpy()
+        if column in sparse:
+            if np.isinf(values).any() or np.isnan(values).all():
+                raise ConfigError(f"{where}: column {column!r} has inf values or no value at all")
+            continue
+        bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:
             raise ConfigError(f"{where}: column {column!r} has {bad.size} NaN/inf value(s), first at row {bad[0]}")
     steps = np.diff(frame["time"].to_numpy())

@@ -111,7 +111,7 @@ class Calibrator:
     def _finish(self, tr, q, starts, cost_before, iterations, success, status, jac):
         """Store the fit and its uncertainty: covariance s^2 (J^T J)^-1 at the optimum."""
         cost_after, residual, _, Y = tr.evaluate(q)
-        dof = max(residual.size - q.size, 1)
+        dof = max(tr.experiment.fitted_entries() - q.size, 1)
         s2 = 2.0 * cost_after / dof
         cov_q = s2 * np.linalg.pinv(jac.T @ jac)
         cov = cov_q * np.outer(tr.scale, tr.scale)

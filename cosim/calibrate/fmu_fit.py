@@ -85,7 +85,7 @@ class FmuCalibrator:
         parameters = {**(self.fixed or {}), **dict(zip(self.free, values))}
         predicted = simulate_fmu_experiment(self.fmu, experiment, self.inputs, self.outputs, parameters,
                                             self.substeps)
-        weighted = (predicted - experiment.measured.T) * experiment.weights[:, None]
+        weighted = (predicted - experiment.measured_or_zero()) * experiment.residual_weights()
         return weighted[:, experiment.mask].ravel()
 
     def fit(self, experiment):

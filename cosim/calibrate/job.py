@@ -194,8 +194,8 @@ def experiment_for(job, inputs, outputs):
         if output not in outputs:
             raise ConfigError(f"{job.path}: fit.signals: {job.model} has no output {output!r}; it has "
                               f"{', '.join(outputs)}")
-    columns = [*job.inputs.values(), *(c for _, c, _ in job.signals)]
-    frame = load_measurements(job.data_path, columns)
+    measured = [c for _, c, _ in job.signals]
+    frame = load_measurements(job.data_path, [*job.inputs.values(), *measured], sparse=measured)
     t0, t1 = job.window
     frame = frame[(frame["time"] >= t0) & (frame["time"] <= t1)].iloc[::job.decimate].reset_index(drop=True)
     if len(frame) < 3:

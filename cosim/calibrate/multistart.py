@@ -1,6 +1,7 @@
 """Multi-start calibration: the same fit from several starting points, in parallel on a Dask cluster (a local
 one by default, an existing scheduler when the job names its address), with a progress bar."""
 
+import logging
 import os
 import sys
 
@@ -113,7 +114,8 @@ def _on_dask(job, points, progress):
         client = Client(job.scheduler)
     else:
         workers = max(1, min(len(points), os.cpu_count() or 1))
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                               silence_logs=logging.ERROR)
         client = Client(cluster)
     try:
         futures = [client.submit(_fit_one, job, p, pure=False) for p in points]

@@ -30,7 +30,8 @@ class Experiment:
     inputs : ndarray, shape (N, n_inputs)
         Model inputs in the model's input order, held from each sample to the next.
     measured : ndarray, shape (N, n_signals)
-        Measured values of the fitted outputs.
+        Measured values of the fitted outputs; NaN where a channel was not sampled (multi-rate data: a
+        100 Hz load cell beside a current logged at the controller rate).
     weights : ndarray, shape (n_signals,)
         Residual weights (1/noise standard deviation gives a cost in units of noise variance).
     mask : ndarray of bool, shape (N,)
@@ -42,6 +43,19 @@ class Experiment:
     measured: np.ndarray
     weights: np.ndarray
     mask: np.ndarray
+
+    def residual_weights(self):
+        """Weight of each (signal, sample): the signal's weight where it was measured, 0 where NaN or masked."""
+        sampled = np.isfinite(self.measured.T) & self.mask[None, :]
+        return self.weights[:, None] * sampled
+
+    def measured_or_zero(self):
+        """Measured values with the unsampled entries (NaN) set to 0; their weight is 0."""
+        return np.nan_to_num(self.measured.T, nan=0.0)
+
+    def fitted_entries(self):
+        """Number of (signal, sample) pairs that enter the cost."""
+        return int(np.count_nonzero(self.residual_weights()))
 
 
 class Transcription:
@@ -133,7 +147,7 @@ class Transcription:
         Xs = X[:, sample]
         Y = model.out.map(len(sample))(Xs, ca.DM(e.inputs.T), ca.repmat(P, 1, len(sample)), ca.DM(e.time).T)
         Y = Y[self.out_index, :]
-        weighted = (Y - ca.DM(e.measured.T)) * ca.repmat(ca.DM(e.weights), 1, len(sample))
+        weighted = (Y - ca.DM(e.measured_or_zero())) * ca.DM(e.residual_weights())
         residual = ca.vec(weighted[:, np.flatnonzero(e.mask).tolist()])
         self.z = ca.vertcat(ca.vec(X), q)
         self.nx, self.n, self.nq = nx, n, nq

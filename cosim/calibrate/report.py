@@ -5,6 +5,7 @@ import json
 from datetime import datetime, timezone
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -59,8 +60,11 @@ def _plot(job, result, path):
         ax.set_ylabel(f"{output} [{result['units'].get(output) or '1'}]")
         ax.legend(loc="best", fontsize=8)
         ax.set_title(f"{job.model}: {output}, cost {result['cost_before']:.4g} -> {result['cost_after']:.4g}")
-        res.plot(t, result["predicted_before"][k] - measured, "--", color="tab:red", lw=0.8, label="start")
-        res.plot(t, result["predicted"][k] - measured, color="tab:blue", lw=0.8, label="calibrated")
+        sampled = np.isfinite(measured)
+        res.plot(t[sampled], (result["predicted_before"][k] - measured)[sampled], "--", color="tab:red", lw=0.8,
+                 label="start")
+        res.plot(t[sampled], (result["predicted"][k] - measured)[sampled], color="tab:blue", lw=0.8,
+                 label="calibrated")
         res.axhspan(-noise, noise, color="0.9", label="noise (1 sd)")
         res.set_ylabel(f"residual [{result['units'].get(output) or '1'}]")
         res.legend(loc="best", fontsize=8)

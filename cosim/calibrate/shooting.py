@@ -73,7 +73,7 @@ class SingleShooting:
         X = ca.horzcat(*states[:len(e.time)])
         Y = m.out.map(len(e.time))(X, ca.DM(e.inputs.T), ca.repmat(p, 1, len(e.time)), ca.DM(e.time).T)
         Y = Y[self.out_index, :]
-        weighted = (Y - ca.DM(e.measured.T)) * ca.repmat(ca.DM(e.weights), 1, len(e.time))
+        weighted = (Y - ca.DM(e.measured_or_zero())) * ca.DM(e.residual_weights())
         r = ca.vec(weighted[:, np.flatnonzero(e.mask).tolist()])
         self._outputs = ca.Function("outputs", [q], [Y])
         self._residual = ca.Function("residual", [q], [r])
