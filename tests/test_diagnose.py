@@ -164,12 +164,12 @@ def test_bad_inputs_are_clear_errors(tmp_path):
     with pytest.raises(ConfigError, match="experiment.duration"):
         load_experiment(load_diagnose_job(path), model)
     # an effect that does not apply, an effect not built yet, an unknown key: all reported at once
-    path = _write_job(tmp_path, frame, effects=["contact_damping", "warp_drive"], extra="[compare.x]\n")
+    path = _write_job(tmp_path, frame, effects=["coating_relaxation", "warp_drive"], extra="[compare.x]\n")
     with pytest.raises(ConfigError) as err:
         load_diagnose_job(path)
     assert "not implemented yet" in str(err.value) and "unknown effect 'warp_drive'" in str(err.value)
     text = (tmp_path / "job.toml").read_text().replace("GripperCurrentDriven", "PMSM").replace(
-        '["contact_damping", "warp_drive"]', '["loadcell_filter"]')
+        '["coating_relaxation", "warp_drive"]', '["loadcell_filter"]')
     (tmp_path / "job.toml").write_text(text)
     with pytest.raises(ConfigError, match="does not apply to Gripper.PMSM"):
         load_diagnose_job(tmp_path / "job.toml")
@@ -194,3 +194,20 @@ def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
         # the fitted back-driven efficiency is the truth's within 0.05 (model-form error of the baseline ~1 N)
         assert abs(s["after"]["parameters"]["eta_b"] - truth["eta_b"]) < 0.05
         assert any(seg["significant"] for seg in s["segments"])
+
+
+def test_cli_writes_diagnosis_json_and_report(tmp_path):
+    """`cosim diagnose JOB --out DIR --set ...` on a short staircase with no candidates: the output files and the
+    diagnosis.json keys other tools rely on."""
+    from cosim.cli import main
+
+    t, i, y, _ = make_case("none", np.random.default_rng(5), noise=0.3, levels=(0.0, 0.5, 1.0, 0.5, 0.0))
+    path = _write_job(tmp_path, pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), effects=())
+    out = tmp_path / "out"
+    assert main(["diagnose", str(path), "--out", str(out), "--no-progress", "--set", "experiment.duration=3.4"]) == 0
+    summary = json.loads((out / "diagnosis.json").read_text())
+    assert summary["effect"] == "none"
+    assert {"effect", "rmse_before", "rmse_after", "segments", "candidates"} <= set(summary)
+    assert [s["kind"] for s in summary["segments"]] == ["hold", "up", "up", "down", "down"]
+    assert (out / "report.md").is_file() and (out / "fit.png").is_file() and (out / "curve.png").is_file()
+    assert main(["diagnose", str(path), "--out", str(out), "--set", "data.path=missing.csv"]) == 2

@@ -189,7 +189,8 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     if not test.any():
         train, test = mask & (np.arange(len(t)) % 2 == 0), mask & (np.arange(len(t)) % 2 == 1)
     base_free = {n: (base["parameters"][n], lo, hi) for n, (_, lo, hi) in job.free.items()}
-    base_train = _fit(model, e, job, base_free, weights, train, "baseline (even segments)")
+    base_train = _fit(model, e, job, base_free, weights, train, "baseline (even segments)") if job.effects \
+        else base
     candidates, tasks = [], []
     folder = Path(tempfile.mkdtemp(prefix="cosim-diagnose-"))
     train_free = {n: (base_train["parameters"][n], lo, hi) for n, (_, lo, hi) in job.free.items()}

@@ -294,6 +294,47 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       tau_lc*der(F_f) = F - F_f;
       F_meas = F_f + F_off;
     end LoadCell;
+
+    model HuntCrossleyContact "Components.FingerContact with a Hunt-Crossley damping term lambda_hc*F_s*v added to the linear damping (effect contact_damping)"
+      // As Components.FingerContact (copied: equations cannot be changed by extends); the damping force is
+      // (C + lambda_hc*F_s)*v, Hunt and Crossley's damping proportional to the elastic force (dissipation grows
+      // with penetration, no force jump at first touch), on top of the linear term.
+      // Elastic part: springs in series, k_f (finger), k_P/k_H (coating regions), k_obj (object), solved
+      // explicitly (massless intermediate nodes). Damping acts on the total penetration rate with a coefficient
+      // that blends from C_p to C_h across the coating's region boundary, limited as in ElastoBacklash so that
+      // the force is continuous at first touch and the contact cannot pull.
+      parameter Real gap0(unit = "m") = 0.002 "Gap between the bare finger surface and the object at x = 0";
+      parameter Real t_coat(unit = "m") = 0 "Coating thickness (0 for bare fingers)";
+      parameter Real k_f(unit = "N/m") = 1.46e6 "Finger stiffness (FEM)";
+      parameter Real k_obj(unit = "N/m") = 3.53e7 "Object stiffness on one side (cylinder)";
+      parameter Real k_P(unit = "N/m") = 1e12 "Coating first-region stiffness (1e12: no coating)";
+      parameter Real k_H_ratio(unit = "1") = 100 "Coating second-region stiffness / first-region stiffness";
+      parameter Real d_lim(unit = "m") = 0.0015 "Coating deflection at the region boundary";
+      parameter Real C_p(unit = "N.s/m") = 2000 "Contact damping, first region";
+      parameter Real C_h(unit = "N.s/m") = 2000 "Contact damping, second region";
+      parameter Real w_tr(unit = "m") = 5e-6 "Width of the damping blend across the region boundary";
+      parameter Real lambda_hc(unit = "s/m") = 0.1 "Hunt-Crossley damping per unit elastic force";
+      parameter Real k_H(unit = "N/m") = k_H_ratio*k_P "Coating second-region stiffness";
+      parameter Real c_1(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_P "Series compliance, coating first region";
+      parameter Real c_2(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_H "Series compliance, coating second region";
+      parameter Real F_lim(unit = "N") = k_P*d_lim "Force at the coating region boundary";
+      parameter Real p_lim(unit = "m") = F_lim*c_1 "Penetration at the coating region boundary";
+      input Real x(unit = "m") "Jaw displacement, positive closing";
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      output Real F(unit = "N") "Contact (gripping) force, >= 0";
+      output Real delta_c(unit = "m") "Coating deflection";
+      Real pen(unit = "m") "Penetration of the (coated) finger into the object";
+      Real F_s(unit = "N") "Elastic contact force";
+      Real C(unit = "N.s/m") "Current damping coefficient";
+      Real F_d(unit = "N") "Damping force before limiting";
+    equation
+      pen = x - (gap0 - t_coat);
+      F_s = max(pen, 0)/c_1 - max(pen - p_lim, 0)*(1/c_1 - 1/c_2);
+      delta_c = F_s/k_P - max(F_s - F_lim, 0)*(1/k_P - 1/k_H);
+      C = C_p + (C_h - C_p)*0.5*(1 + tanh((delta_c - d_lim)/w_tr));
+      F_d = (C + lambda_hc*F_s)*v;
+      F = max(0, F_s + min(F_s, F_d));
+    end HuntCrossleyContact;
   end Effects;
 
   package Parameters "Shared top-level parameter declarations (values and sources: docs/models/gripper.md)"
