@@ -78,9 +78,12 @@ def engine_for(config):
     """
     if config.run.engine == "python":
         return Engine(config)
-    reason, numba_failed = compiled_problem(config)
+    t0 = _time.perf_counter()
+    reason, numba_failed = compiled_problem(config)  # compiles the controllers' cfuncs (or loads them)
     if reason is None:
-        return CompiledEngine(config)
+        engine = CompiledEngine(config)
+        engine._cfunc_s += _time.perf_counter() - t0
+        return engine
     if numba_failed:
         warnings.warn(f"{config.name}: running the Python engine: {reason}", EngineFallbackWarning, stacklevel=2)
     with warnings.catch_warnings():  # the controllers' own "runs in plain Python" warning: said just above
@@ -121,6 +124,13 @@ class CompiledEngine(Engine):
         for i, n in enumerate(names):
             inst = plant.instances[n]
             ep = inst.entry_points()
+            need = ["GetReal", "SetReal"] + (["SetTime", "SetContinuousStates", "GetDerivatives"] if inst.kind == "ME"
+                                             else ["DoStep"])
+            if inst in plant._completed:
+                need.append("CompletedIntegratorStep")
+            missing = [f for f in need if not ep[f]]
+            if missing:  # a call through address 0 would crash the process: refuse here
+                raise FmiCallError("load", "missing entry points", f"{n}: {', '.join(missing)} not exported")
             row = [ep["component"], ep["SetTime"], ep["SetContinuousStates"], ep["GetDerivatives"], ep["GetReal"],
                    ep["SetReal"], ep["DoStep"], ep["CompletedIntegratorStep"], inst.version, x_off.get(n, 0),
                    inst.n_states, scr[i].ctypes.data]
