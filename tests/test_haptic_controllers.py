@@ -69,7 +69,7 @@ def fmu_dir(tmp_path_factory):
     src = FMUS.parent / "modelica" / "Haptic" / "package.mo"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for name, model in (("HapticDevice11", "Device11"), ("HapticDevice7", "Device7")):
+        for name, model in (("HapticDevice11", "Device11"), ("HapticDevice7", "Device7"), ("HapticDeviceArm", "DeviceArm")):
             built = build_fmu(src, f"Haptic.{model}", out_dir=out / model)
             built.rename(out / f"{name}.fmu")
     return out
@@ -112,7 +112,8 @@ def test_collision_reaches_target_force(fmu_dir):
     assert m["settling_s"] > 0
 
 
-@pytest.mark.parametrize("name,fmu", [("haptic_wall.toml", "HapticDevice11"), ("haptic_wall_adaptive.toml", "HapticDevice7")])
+@pytest.mark.parametrize("name,fmu", [("haptic_wall.toml", "HapticDevice11"), ("haptic_wall_adaptive.toml", "HapticDevice7"),
+                                      ("haptic_wall_arm.toml", "HapticDeviceArm")])
 def test_shipped_configs_run(fmu_dir, name, fmu):
     # the example configs load and run; final wall torque = tau_final = 0.1 N.m (statics)
     from cosim.config import load_config
