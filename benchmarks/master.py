@@ -28,10 +28,11 @@ def main(argv=None):
 
     fmus = Path(args.fmus)
     plant = fmus / "GripperPlant.fmu"
-    sets = [f"fmus.plant.path={plant}", f"run.stop={args.stop}", "record.rate=26600",
+    sets = [f"fmus.plant.path={plant}", f"run.stop={args.stop}", "run.engine=python", "record.rate=26600",
             'record.signals=["plant.F_g", "plant.i_q", "foc.v_d", "foc.v_q"]', "plot.panels=[]"]
     cfg = load_config(ROOT / "examples" / "gripper_impact.toml", sets)
-    run(load_config(ROOT / "examples" / "gripper_impact.toml", sets[:1] + ["run.stop=0.01"]), progress=False)  # warm-up
+    run(load_config(ROOT / "examples" / "gripper_impact.toml", sets[:1] + ["run.stop=0.01", "run.engine=python"]),
+        progress=False)  # warm-up
     res = run(cfg, progress=False)
     n_foc = res.calls["foc"]
     print(f"cosim master (python engine, RK4 1 substep, FOC 26.6 kHz + outer 100 Hz), GripperPlant: "
@@ -39,7 +40,7 @@ def main(argv=None):
 
     split = load_config(ROOT / "examples" / "gripper_impact_split.toml",
                         [f"fmus.plant.path={fmus / 'PMSM.fmu'}", f"fmus.drive.path={fmus / 'Drivetrain.fmu'}",
-                         f"run.stop={args.stop}", "plot.panels=[]"])
+                         f"run.stop={args.stop}", "run.engine=python", "plot.panels=[]"])
     rs = run(split, progress=False)
     print(f"cosim master, split PMSM + Drivetrain:                                       "
           f"{rs.wall_s / rs.sim_s:.3f} s wall per simulated s")
