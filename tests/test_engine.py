@@ -213,3 +213,24 @@ def test_every_shipped_controller_runs_as_a_cfunc(cls):
         a.step(j * 1e-4)
         call(addr, j * 1e-4, b.u, b.y, b.x, b.p)
         assert np.array_equal(a.y, b.y) and np.array_equal(a.x, b.x)
+
+
+def test_fmi_error_in_the_kernel_raises_fmi_call_error(master_dir):
+    # a GetReal of an unknown value reference (Osc2 answers fmi2Error) inside the kernel -> FmiCallError
+    from cosim.errors import FmiCallError
+
+    cfg = load_config(osc_config(master_dir, stop=0.1), ["fmus.plant.path=Osc2.fmu", 'record.signals=["plant.y"]'])
+    engine = engine_for(cfg)
+    assert isinstance(engine, CompiledEngine)
+    bad_vr = np.array([99], dtype=np.uint32)
+    tables = engine._tables
+
+    def broken(plant):
+        tab = tables(plant)
+        tab["port"][0, 1] = bad_vr.ctypes.data  # the sampled port now reads value reference 99
+        tab["port"][0, 2] = 1
+        return tab
+
+    engine._tables = broken
+    with pytest.raises(FmiCallError, match="GetReal.*Error"):
+        engine.run(progress=False)
