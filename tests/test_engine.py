@@ -234,3 +234,111 @@ def test_fmi_error_in_the_kernel_raises_fmi_call_error(master_dir):
     engine._tables = broken
     with pytest.raises(FmiCallError, match="GetReal.*Error"):
         engine.run(progress=False)
+
+
+# a hand-written FMI 3.0 Co-Simulation FMU of the oscillator (our compiler exports ME only): exercises
+# fmi3DoStep called by address (bool arguments, the terminate flag written through a pointer)
+OSC3_C = r"""/* FMI 3.0 CS oscillator der(x) = v, der(v) = -k x - c v + u, y = 2 x; 10 RK4 steps per doStep. Tests only. */
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdlib.h>
+typedef struct { double x[2], u, k, c; } M;
+static void f(const M *m, const double *x, double *dx) { dx[0] = x[1]; dx[1] = -m->k * x[0] - m->c * x[1] + m->u; }
+void* fmi3InstantiateCoSimulation(const char* n, const char* tok, const char* res, bool vis, bool log, bool ev, bool er,
+    const unsigned* req, size_t nreq, void* env, void* logger, void* upd) {
+    M *m = calloc(1, sizeof(M)); m->x[0] = 1.0; m->k = 4.0; m->c = 0.5; return m; }
+void fmi3FreeInstance(void* c) { free(c); }
+int fmi3EnterInitializationMode(void* c, bool td, double tol, double t0, bool sd, double t1) { return 0; }
+int fmi3ExitInitializationMode(void* c) { return 0; }
+int fmi3Terminate(void* c) { return 0; }
+int fmi3SetDebugLogging(void* c, bool on, size_t n, const char* const cat[]) { return 0; }
+const char* fmi3GetVersion(void) { return "3.0"; }
+int fmi3GetFloat64(void* c, const unsigned vr[], size_t n, double v[], size_t nv) {
+    M *m = c;
+    for (size_t i = 0; i < n; i++) switch (vr[i]) {
+        case 0: v[i] = m->x[0]; break; case 1: v[i] = m->x[1]; break; case 4: v[i] = m->u; break;
+        case 5: v[i] = 2 * m->x[0]; break; case 6: v[i] = m->k; break; case 7: v[i] = m->c; break; default: return 3; }
+    return 0; }
+int fmi3SetFloat64(void* c, const unsigned vr[], size_t n, const double v[], size_t nv) {
+    M *m = c;
+    for (size_t i = 0; i < n; i++) switch (vr[i]) {
+        case 4: m->u = v[i]; break; case 6: m->k = v[i]; break; case 7: m->c = v[i]; break; default: return 3; }
+    return 0; }
+int fmi3DoStep(void* c, double t, double H, bool noSet, bool* ev, bool* term, bool* early, double* last) {
+    M *m = c; double h = H / 10, k1[2], k2[2], k3[2], k4[2], y[2];
+    if (H < 0 || !noSet) return 3;
+    for (int j = 0; j < 10; j++) {
+        f(m, m->x, k1); for (int i = 0; i < 2; i++) y[i] = m->x[i] + h / 2 * k1[i];
+        f(m, y, k2); for (int i = 0; i < 2; i++) y[i] = m->x[i] + h / 2 * k2[i];
+        f(m, y, k3); for (int i = 0; i < 2; i++) y[i] = m->x[i] + h * k3[i];
+        f(m, y, k4); for (int i = 0; i < 2; i++) m->x[i] += h / 6 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i]);
+    }
+    *ev = false; *term = (t + H > 0.75 && m->k == 99.0); *early = false; *last = t + H; return 0; }
+#define STUB(name) int name(void) { return 3; }
+""" + "\n".join(f"STUB({n})" for n in (
+    "fmi3ActivateModelPartition", "fmi3CompletedIntegratorStep", "fmi3DeserializeFMUState", "fmi3EnterConfigurationMode",
+    "fmi3EnterContinuousTimeMode", "fmi3EnterEventMode", "fmi3EnterStepMode", "fmi3EvaluateDiscreteStates",
+    "fmi3ExitConfigurationMode", "fmi3FreeFMUState", "fmi3GetAdjointDerivative", "fmi3GetBinary", "fmi3GetBoolean",
+    "fmi3GetClock", "fmi3GetContinuousStateDerivatives", "fmi3GetContinuousStates", "fmi3GetDirectionalDerivative",
+    "fmi3GetEventIndicators", "fmi3GetFMUState", "fmi3GetFloat32", "fmi3GetInt16", "fmi3GetInt32", "fmi3GetInt64",
+    "fmi3GetInt8", "fmi3GetIntervalDecimal", "fmi3GetIntervalFraction", "fmi3GetNominalsOfContinuousStates",
+    "fmi3GetNumberOfContinuousStates", "fmi3GetNumberOfEventIndicators", "fmi3GetNumberOfVariableDependencies",
+    "fmi3GetOutputDerivatives", "fmi3GetShiftDecimal", "fmi3GetShiftFraction", "fmi3GetString", "fmi3GetUInt16",
+    "fmi3GetUInt32", "fmi3GetUInt64", "fmi3GetUInt8", "fmi3GetVariableDependencies", "fmi3InstantiateModelExchange",
+    "fmi3InstantiateScheduledExecution", "fmi3Reset", "fmi3SerializeFMUState", "fmi3SerializedFMUStateSize",
+    "fmi3SetBinary", "fmi3SetBoolean", "fmi3SetClock", "fmi3SetContinuousStates", "fmi3SetFMUState", "fmi3SetFloat32",
+    "fmi3SetInt16", "fmi3SetInt32", "fmi3SetInt64", "fmi3SetInt8", "fmi3SetIntervalDecimal", "fmi3SetIntervalFraction",
+    "fmi3SetShiftDecimal", "fmi3SetShiftFraction", "fmi3SetString", "fmi3SetTime", "fmi3SetUInt16", "fmi3SetUInt32",
+    "fmi3SetUInt64", "fmi3SetUInt8", "fmi3UpdateDiscreteStates")) + "\n"
+
+OSC3_XML = """<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="3.0" modelName="Osc3" instantiationToken="{5b1e0c3a-0d6f-4a39-9b7e-3f3c1e0a0003}">
+  <CoSimulation modelIdentifier="Osc3" canHandleVariableCommunicationStepSize="true"/>
+  <ModelVariables>
+    <Float64 name="x" valueReference="0" start="1"/>
+    <Float64 name="v" valueReference="1" start="0"/>
+    <Float64 name="u" valueReference="4" causality="input" start="0"/>
+    <Float64 name="y" valueReference="5" causality="output"/>
+    <Float64 name="k" valueReference="6" causality="parameter" variability="fixed" start="4"/>
+    <Float64 name="c" valueReference="7" causality="parameter" variability="fixed" start="0.5"/>
+  </ModelVariables>
+  <ModelStructure>
+    <Output valueReference="5"/>
+  </ModelStructure>
+</fmiModelDescription>
+"""
+
+
+@pytest.fixture(scope="module")
+def osc3(master_dir):
+    """Osc3.fmu (FMI 3.0 CS) next to the master tests' configs."""
+    import subprocess
+    import zipfile
+
+    src = master_dir / "osc3_src"
+    src.mkdir(exist_ok=True)
+    (src / "osc3.c").write_text(OSC3_C)
+    so = src / "Osc3.so"
+    subprocess.run(["gcc", "-shared", "-fPIC", "-O2", "-o", str(so), str(src / "osc3.c")], check=True)
+    fmu = master_dir / "Osc3.fmu"
+    with zipfile.ZipFile(fmu, "w") as zf:
+        zf.writestr("modelDescription.xml", OSC3_XML)
+        zf.write(so, "binaries/x86_64-linux/Osc3.so")
+    return fmu
+
+
+def test_engines_agree_on_fmi3_cs(master_dir, osc3):
+    path = osc_config(master_dir, stop=1.0)
+    comp, py = _both(path, ["fmus.plant.path=Osc3.fmu", 'record.signals=["plant.y", "src.u"]'])
+    assert load_config(path, ["fmus.plant.path=Osc3.fmu", 'record.signals=["plant.y"]']).fmus["plant"].info.fmi_version == 3
+    _assert_same(comp, py)
+    assert comp.data["y"].std() > 0.1
+
+
+def test_fmi3_cs_terminate_request_stops_the_compiled_run(master_dir, osc3):
+    from cosim.errors import FmiCallError
+
+    cfg = load_config(osc_config(master_dir, stop=1.0), ["fmus.plant.path=Osc3.fmu", "fmus.plant.parameters={ k = 99.0 }",
+                                                         'record.signals=["plant.y"]', "run.engine=compiled"])
+    with pytest.raises(FmiCallError, match="terminateSimulation"):
+        run(cfg, progress=False)
