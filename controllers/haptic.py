@@ -26,7 +26,6 @@ UserIntent
     intent -> same approach velocity and same final force in every run.
 """
 
-import math
 
 import numpy as np
 

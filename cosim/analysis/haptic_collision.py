@@ -25,7 +25,7 @@ import pandas as pd
 from cosim.analysis.haptic_fmu import fmu_parameters
 from cosim.analysis.haptic_ident import device_user_ss
 from cosim.analysis.haptic_margins import adaptive_damping, wall_margins
-from cosim.analysis.haptic_params import POSITIONS, USERS, load_user_params
+from cosim.analysis.haptic_params import POSITIONS, load_user_params
 from cosim.analysis.haptic_tf import tf_user
 
 __all__ = [

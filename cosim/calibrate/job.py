@@ -16,7 +16,6 @@ Job schema (paths relative to the job file)::
 import math
 import shutil
 import tempfile
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,7 +24,7 @@ import numpy as np
 from cosim.calibrate.data import load_measurements
 from cosim.calibrate.problem import METHODS, Experiment
 from cosim.errors import ConfigError
-from cosim.config import _Locator, _Problems, _apply_override, _fmt_path, parse_overrides
+from cosim.tomldoc import read_toml
 
 __all__ = ["CalibrationJob", "load_job", "run_job"]
 
@@ -60,23 +59,6 @@ class CalibrationJob:
     starts: int
     seed: int
     scheduler: str
-    text: str
-
-
-def _read_toml(path, overrides):
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{path}: job file does not exist")
-    text = path.read_text(encoding="utf-8")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"{path}: malformed TOML: {err}") from err
-    set_keys = set()
-    for key, value in parse_overrides(overrides):
-        _apply_override(data, key, value)
-        set_keys.add(_fmt_path(key))
-    return path, text, data, _Problems(str(path), _Locator(text), set_keys)
 
 
 def _number(problems, table, key, where, default=None, positive=False, integer=False):
@@ -96,7 +78,8 @@ def _number(problems, table, key, where, default=None, positive=False, integer=F
 
 def load_job(path, overrides=()):
     """Read and validate a calibration job; every problem is reported at once with file:line and key."""
-    path, text, data, problems = _read_toml(path, overrides)
+    path = Path(path)
+    data, problems = read_toml(path, overrides, what="job")
     for key in sorted(set(data) - set(_SCHEMA) - {"parameters"}):
         problems.add((key,), f"unknown section; expected {', '.join([*_SCHEMA, 'parameters'])}")
     tables = {}
@@ -180,7 +163,7 @@ def load_job(path, overrides=()):
         path=path, source=source, model=model_t.get("name", str(fmu)), fmu=fmu, fixed=dict(model_t.get("parameters", {})),
         data_path=base / data_t["path"], inputs=dict(inputs), window=(start, stop), decimate=decimate,
         signals=tuple(signals), segments=tuple(tuple(s) for s in segments), steady_s=steady_s, method=method, substeps=substeps,
-        max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler, text=text)
+        max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler)
 
 
 def experiment_for(job, inputs, outputs):

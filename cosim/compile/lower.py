@@ -124,7 +124,7 @@ class _Blocks:
         self.constraints = []   # (expression in knowns, location)
 
 
-def _causalise(equations, unknowns, state_names, input_names):
+def _causalise(equations, unknowns, state_names):
     """Solve ``0 = equations`` for ``unknowns`` (SX symbols) in terms of everything else."""
     result = _Blocks()
     index = {u.name(): u for u in unknowns}
@@ -254,14 +254,13 @@ def lower_system(system):
     algebraics = [v for v in system.variables if v.role in ("algebraic", "output")]
     inputs = system.by_role("input")
     equations = [(params.substitute(e.residual), e.location) for e in system.equations]
-    state_names = {s.name for s in states}
     input_names = {u.name for u in inputs}
     ders = [system.derivatives[s.name] for s in states]
     demoted, extra = [], []
     for _ in range(len(states) + 1):
         unknowns = ders + [z.sym for z in algebraics] + [states[k].sym for k in demoted]
         active_names = {s.name for k, s in enumerate(states) if k not in demoted}
-        blocks = _causalise(equations + extra, unknowns, active_names, input_names)
+        blocks = _causalise(equations + extra, unknowns, active_names)
         if not blocks.constraints:
             break
         for g, loc in blocks.constraints:
@@ -382,7 +381,7 @@ def _initial_state(system, params, active, P):
         targets = [s.sym for s in active if _names(ca.vertcat(*[e.residual for e in system.initial_equations]))
                    & {s.name}]
         eqs = [(params.substitute(e.residual), e.location) for e in system.initial_equations]
-        blocks = _causalise(eqs, targets, set(), set())
+        blocks = _causalise(eqs, targets, set())
         if blocks.nonlinear or blocks.constraints:
             raise StructureError("initial equations must determine the states they mention, explicitly",
                                  *_file_line(eqs[0][1]))

@@ -1,0 +1,203 @@
+"""TOML documents for run configs and jobs: parse once, apply ``--set key=value`` overrides, and collect every
+problem with its ``file:line`` (or ``--set key``) and key path before raising one :class:`ConfigError`.
+
+tomllib gives no line numbers for keys: :class:`Locator` finds them by scanning the text (best effort)."""
+
+import re
+import tomllib
+from pathlib import Path
+
+from cosim.errors import ConfigError
+
+__all__ = ["read_toml", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
+
+
+# ----------------------------------------------------------------------------------------------
+# locating keys in the text
+# ----------------------------------------------------------------------------------------------
+_HEADER = re.compile(r"^\s*(\[\[?)\s*([^\]]+?)\s*\]\]?\s*(#.*)?$")
+_KEYLINE = re.compile(r"""^\s*((?:[A-Za-z0-9_\-]+|"[^"]*"|'[^']*')(?:\s*\.\s*(?:[A-Za-z0-9_\-]+|"[^"]*"|'[^']*'))*)\s*=""")
+
+
+def _split_dotted(s):
+    parts = re.findall(r"""[A-Za-z0-9_\-]+|"[^"]*"|'[^']*'""", s)
+    return [p[1:-1] if p[:1] in "\"'" else p for p in parts]
+
+
+class Locator:
+    """Best-effort map from key paths to 1-based line numbers of the TOML text."""
+
+    def __init__(self, text):
+        self.entries = []  # (path tuple, line, rest of line)
+        header = ()
+        counts = {}
+        for i, line in enumerate(text.splitlines(), start=1):
+            m = _HEADER.match(line)
+            if m and "=" not in line.split("]")[0]:
+                parts = tuple(_split_dotted(m.group(2)))
+                if m.group(1) == "[[":
+                    n = counts.get(parts, -1) + 1
+                    counts[parts] = n
+                    header = parts + (n,)
+                else:
+                    # a sub-table of an array-of-tables element refers to its last element
+                    fixed = []
+                    for j in range(len(parts)):
+                        fixed.append(parts[j])
+                        if tuple(parts[: j + 1]) in counts and j < len(parts) - 1:
+                            fixed.append(counts[tuple(parts[: j + 1])])
+                    header = tuple(fixed)
+                self.entries.append((header, i, ""))
+                continue
+            m = _KEYLINE.match(line)
+            if m:
+                self.entries.append((header + tuple(_split_dotted(m.group(1))), i, line[m.end():]))
+
+    def line(self, path):
+        """Line of ``path`` (tuple of str/int), or of its closest located ancestor; None if unknown."""
+        path = tuple(path)
+        for n in range(len(path), 0, -1):
+            prefix = path[:n]
+            for p, i, rest in self.entries:
+                if p == prefix:
+                    if n < len(path) and isinstance(path[n], str):
+                        # an inline table on this line may hold the rest of the path
+                        if re.search(r"(^|[{,\s])" + re.escape(path[-1]) + r"\s*=", rest):
+                            return i
+                    return i
+        return None
+
+
+def format_key(path):
+    out = ""
+    for p in path:
+        out += f"[{p}]" if isinstance(p, int) else (("." if out else "") + str(p))
+    return out
+
+
+class Problems:
+    def __init__(self, file, locator, set_keys):
+        self.file = file
+        self.locator = locator
+        self.set_keys = set_keys
+        self.items = []
+
+    def add(self, path, message):
+        path = tuple(path)
+        key = format_key(path)
+        where = None
+        for n in range(len(path), 0, -1):
+            if format_key(path[:n]) in self.set_keys:
+                where = f"--set {self.set_keys[format_key(path[:n])]}"
+                break
+        if where is None:
+            line = self.locator.line(path) if self.locator else None
+            where = f"{self.file}:{line}" if line else f"{self.file}"
+        self.items.append((where, key, message))
+
+    def raise_if_any(self):
+        if self.items:
+            def order(item):
+                m = re.search(r":(\d+)$", item[0])
+                return (item[0].startswith("--set"), int(m.group(1)) if m else 0)
+
+            lines = [f"{w}: {k}: {m}" if k else f"{w}: {m}" for w, k, m in sorted(self.items, key=order)]
+            err = ConfigError(
+                f"{len(lines)} problem{'s' if len(lines) > 1 else ''} in {self.file}:\n  - " + "\n  - ".join(lines)
+            )
+            err.problems = lines
+            raise err
+
+
+# ----------------------------------------------------------------------------------------------
+# overrides
+# ----------------------------------------------------------------------------------------------
+def parse_overrides(items):
+    """Turn ``["a.b=1", ...]`` into a list of (path tuple, value); values are TOML, else plain strings.
+
+    Raises
+    ------
+    ConfigError
+        An item has no ``=`` or an empty key.
+    """
+    out = []
+    for item in items or ():
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise ConfigError(f"--set {item!r}: expected key=value, e.g. --set run.stop=2.0")
+        try:
+            v = tomllib.loads(f"v = {value.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            v = value.strip()
+        parts = []
+        for p in _split_dotted(key):
+            parts.append(int(p) if p.isdigit() else p)
+        out.append((tuple(parts), v))
+    return out
+
+
+def apply_override(data, path, value):
+    node = data
+    for i, p in enumerate(path[:-1]):
+        if isinstance(node, list):
+            if not isinstance(p, int) or p >= len(node):
+                raise ConfigError(f"--set {format_key(path)}: {format_key(path[: i + 1])} is not an element of the list")
+            node = node[p]
+        else:
+            if isinstance(p, int):
+                p = str(p)
+            nxt = node.get(p)
+            if nxt is None:
+                nxt = node[p] = {}
+            elif not isinstance(nxt, (dict, list)):
+                raise ConfigError(f"--set {format_key(path)}: {format_key(path[: i + 1])} is a value, not a table")
+            node = nxt
+    last = path[-1]
+    if isinstance(node, list):
+        if not isinstance(last, int) or last >= len(node):
+            raise ConfigError(f"--set {format_key(path)}: no such list element")
+        node[last] = value
+    else:
+        node[str(last)] = value
+
+
+def read_toml(path, overrides=(), what="config"):
+    """Read a TOML file, apply ``--set`` overrides, and return ``(data, problems)``.
+
+    Parameters
+    ----------
+    path : Path
+    overrides : sequence of str
+        ``"key.path=value"`` items.
+    what : str
+        What the file is, for the "does not exist" message.
+
+    Returns
+    -------
+    data : dict
+        The parsed document with the overrides applied.
+    problems : Problems
+        An empty collector that locates each problem by ``file:line`` (or ``--set key``).
+
+    Raises
+    ------
+    ConfigError
+        The file is missing, the TOML is malformed (with line and column), or an override is malformed.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: {what} file does not exist")
+    text = path.read_text(encoding="utf-8")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        m = re.search(r"\(at line (\d+), column (\d+)\)", str(err))
+        where = f"{path}:{m.group(1)}:{m.group(2)}" if m else str(path)
+        msg = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(err))
+        raise ConfigError(f"{where}: malformed TOML: {msg}") from err
+    set_keys = {}
+    for (p, v), item in zip(parse_overrides(overrides), overrides or ()):
+        apply_override(data, p, v)
+        set_keys[format_key(p)] = item.partition("=")[0].strip()
+    return data, Problems(str(path), Locator(text), set_keys)
