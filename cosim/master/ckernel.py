@@ -36,6 +36,11 @@ Tables (all int64 unless said):
     error status, event FMU + 1, event tick.
 ``scr`` (n_fmu, 16) uint8
     the scratch bytes whose addresses are in ``fmu`` (flags written by the FMUs).
+
+The kernel is compiled without numba's reference counting (``_nrt=False``: nothing is allocated in
+it; with reference counting the array arguments of the helpers cost two atomic operations per call
+and made the loop four times slower). numba's on-disk cache keys on this file only: after editing
+:mod:`cosim.fmi.native`, touch this file (or delete its ``__pycache__`` entries) so the kernel recompiles.
 """
 
 import math
