@@ -9,7 +9,7 @@ The schema (see docs/config.md for the full reference)::
 
     [run]         start, stop, seed, engine, progress
     [solver]      method (rk4|bdf|radau|lsoda), substeps, max_step, rtol, atol
-    [fmus.NAME]   path, kind (ME|CS), parameters = {...}, start = {...}
+    [fmus.NAME]   path, kind (ME|CS), parameters_file = "calibrated.toml", parameters = {...}, start = {...}
     [controllers.NAME]  class = "module:Class", rate, jit, parameters = {...}
     [[connections]]     from = "inst.var", to = "inst.var", gain, offset
     [record]      rate, signals = ["inst.var", ...]
@@ -20,6 +20,7 @@ The schema (see docs/config.md for the full reference)::
 import difflib
 import math
 import re
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -167,13 +168,30 @@ def _close(name, names):
 _TOP = ("run", "solver", "fmus", "controllers", "connections", "record", "plot", "summary")
 _RUN = {"start": 0.0, "stop": None, "seed": 0, "engine": "compiled", "progress": "auto"}
 _SOLVER = {"method": "rk4", "substeps": 1, "max_step": 0.0, "rtol": 1e-6, "atol": 1e-9}
-_FMU = ("path", "kind", "parameters", "start")
+_FMU = ("path", "kind", "parameters_file", "parameters", "start")
 _CTRL = ("class", "rate", "jit", "parameters")
 _CONN = ("from", "to", "gain", "offset")
 _RECORD = ("rate", "signals")
 _PLOT = ("file", "panels")
 _SUMMARY = ("kind", "force", "controller")
 _METHODS = ("rk4", "bdf", "radau", "lsoda")
+
+
+def _parameters_file(table, base_dir, problems, path):
+    """The ``[parameters]`` table of a TOML file (as ``cosim calibrate`` writes it); ``parameters`` override it."""
+    name = table.get("parameters_file")
+    if name is None:
+        return {}
+    file = base_dir / str(name)
+    try:
+        values = tomllib.loads(file.read_text(encoding="utf-8")).get("parameters", {})
+    except (OSError, tomllib.TOMLDecodeError) as err:
+        problems.add(path + ("parameters_file",), f"cannot read a [parameters] table from {file}: {err}")
+        return {}
+    if not isinstance(values, dict):
+        problems.add(path + ("parameters_file",), f"{file}: [parameters] must be a table of name = value")
+        return {}
+    return values
 
 
 def _is_num(v):
@@ -315,7 +333,7 @@ def load_config(path, overrides=()):
         kind = t.get("kind", "ME" if "ME" in info.kinds else "CS")
         if kind not in info.kinds:
             problems.add(p + ("kind",), f"{full.name} provides {', '.join(info.kinds)}, not {kind!r}")
-        params = _table(t, "parameters", problems, p)
+        params = {**_parameters_file(t, base_dir, problems, p), **_table(t, "parameters", problems, p)}
         for pn, pv in params.items():
             var = info.variables.get(pn)
             if var is None:

@@ -152,3 +152,20 @@ def test_fmu_only_model_falls_back_to_finite_differences(tmp_path, compiler_fmu)
     assert summary["derivatives"].startswith("finite differences through the FMU")
     k = summary["parameters"]["k"]
     assert abs(k["value"] - K_TRUE) < 2 * k["std_error"]
+
+
+def test_a_run_config_loads_the_calibrated_parameter_set(tmp_path, compiler_fmu):
+    from cosim.config import load_config
+
+    (tmp_path / "parameters.toml").write_text("[parameters]\nk = 210.5  # +- 0.1 (1 s.e.)\nd = 1.25\n")
+    config = tmp_path / "run.toml"
+    config.write_text(f"""[run]
+stop = 0.1
+
+[fmus.plant]
+path = "{compiler_fmu("MassSpringDamper")}"
+parameters_file = "parameters.toml"
+parameters = {{ d = 1.5 }}
+""")
+    spec = load_config(config)
+    assert spec.fmus["plant"].parameters == {"k": 210.5, "d": 1.5}  # the config's own values win

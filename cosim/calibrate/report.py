@@ -39,7 +39,7 @@ def write_results(job, result, out):
     (out / "calibration.json").write_text(json.dumps(summary, indent=2))
     stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     lines = [f"# Calibrated by `cosim calibrate {job.path.name}` ({stamp}), model {job.model}",
-             "# Load into a run config with: --set fmus.plant.parameters.NAME=VALUE, or copy the table.",
+             "# Load into a run config: [fmus.plant] parameters_file = \"<this file>\" (or --set ...parameters.NAME=V).",
              "[parameters]"]
     lines += [f"{n} = {result['parameters'][n]!r}  # +- {result['std_errors'][n]:.3g} (1 s.e.)" for n in names]
     (out / "parameters.toml").write_text("\n".join(lines) + "\n")
