@@ -3,13 +3,14 @@ problem with its ``file:line`` (or ``--set key``) and key path before raising on
 
 tomllib gives no line numbers for keys: :class:`Locator` finds them by scanning the text (best effort)."""
 
+import math
 import re
 import tomllib
 from pathlib import Path
 
 from cosim.errors import ConfigError
 
-__all__ = ["read_toml", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
+__all__ = ["read_toml", "number", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -201,3 +202,20 @@ def read_toml(path, overrides=(), what="config"):
         apply_override(data, p, v)
         set_keys[format_key(p)] = item.partition("=")[0].strip()
     return data, Problems(str(path), Locator(text), set_keys)
+
+
+def number(problems, table, key, where, default=None, positive=False, integer=False):
+    """``table[key]`` as a finite number (``default`` when absent; required when the default is None); a
+    problem is recorded at ``where + (key,)`` when it is missing, not a number, not whole or not positive."""
+    value = table.get(key, default)
+    if value is None:
+        problems.add(where + (key,), "is required")
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        problems.add(where + (key,), f"must be a number; got {value!r}")
+        return None
+    if integer and int(value) != value:
+        problems.add(where + (key,), f"must be a whole number; got {value!r}")
+    if positive and value <= 0:
+        problems.add(where + (key,), f"must be > 0; got {value!r}")
+    return int(value) if integer else float(value)

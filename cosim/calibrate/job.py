@@ -24,7 +24,7 @@ import numpy as np
 from cosim.calibrate.data import load_measurements
 from cosim.calibrate.problem import METHODS, Experiment
 from cosim.errors import ConfigError
-from cosim.tomldoc import read_toml
+from cosim.tomldoc import number, read_toml
 
 __all__ = ["CalibrationJob", "load_job", "run_job"]
 
@@ -59,21 +59,6 @@ class CalibrationJob:
     starts: int
     seed: int
     scheduler: str
-
-
-def _number(problems, table, key, where, default=None, positive=False, integer=False):
-    value = table.get(key, default)
-    if value is None:
-        problems.add(where + (key,), "is required")
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        problems.add(where + (key,), f"must be a number; got {value!r}")
-        return None
-    if integer and int(value) != value:
-        problems.add(where + (key,), f"must be a whole number; got {value!r}")
-    if positive and value <= 0:
-        problems.add(where + (key,), f"must be > 0; got {value!r}")
-    return int(value) if integer else float(value)
 
 
 def load_job(path, overrides=()):
@@ -113,9 +98,9 @@ def load_job(path, overrides=()):
     if not isinstance(inputs, dict) or not all(isinstance(v, str) for v in inputs.values()):
         problems.add(("data", "inputs"), "must map model inputs to data columns, e.g. {i_ref = \"i_ref\"}")
         inputs = {}
-    start = _number(problems, data_t, "start", ("data",), default=-math.inf) if "start" in data_t else -math.inf
-    stop = _number(problems, data_t, "stop", ("data",), default=math.inf) if "stop" in data_t else math.inf
-    decimate = _number(problems, data_t, "decimate", ("data",), default=1, positive=True, integer=True)
+    start = number(problems, data_t, "start", ("data",), default=-math.inf) if "start" in data_t else -math.inf
+    stop = number(problems, data_t, "stop", ("data",), default=math.inf) if "stop" in data_t else math.inf
+    decimate = number(problems, data_t, "decimate", ("data",), default=1, positive=True, integer=True)
     signals = []
     for k, s in enumerate(fit_t.get("signals", [])):
         where = ("fit", "signals", k)
@@ -124,7 +109,7 @@ def load_job(path, overrides=()):
             continue
         for key in sorted(set(s) - {"output", "column", "noise"}):
             problems.add(where + (key,), "unknown key; allowed: output, column, noise")
-        noise = _number(problems, s, "noise", where, default=1.0, positive=True)
+        noise = number(problems, s, "noise", where, default=1.0, positive=True)
         signals.append((s["output"], s.get("column", s["output"]), noise))
     if not signals:
         problems.add(("fit", "signals"), "name at least one output to fit: [{output = \"F_g\", noise = 0.5}]")
@@ -133,12 +118,12 @@ def load_job(path, overrides=()):
                                                for s in segments)):
         problems.add(("fit", "segments"), "must be a list of [start, stop] time windows in s")
         segments = [[-math.inf, math.inf]]
-    steady_s = _number(problems, fit_t, "steady_s", ("fit",), positive=True) if "steady_s" in fit_t else 0.0
+    steady_s = number(problems, fit_t, "steady_s", ("fit",), positive=True) if "steady_s" in fit_t else 0.0
     method = fit_t.get("method", "rk4")
     if method not in METHODS:
         problems.add(("fit", "method"), f"must be one of {', '.join(METHODS)}; got {method!r}")
-    substeps = _number(problems, fit_t, "substeps", ("fit",), default=1, positive=True, integer=True)
-    max_iter = _number(problems, fit_t, "max_iter", ("fit",), default=200, positive=True, integer=True)
+    substeps = number(problems, fit_t, "substeps", ("fit",), default=1, positive=True, integer=True)
+    max_iter = number(problems, fit_t, "max_iter", ("fit",), default=200, positive=True, integer=True)
     free = {}
     params_t = data.get("parameters", {})
     if not params_t:
@@ -150,13 +135,13 @@ def load_job(path, overrides=()):
             continue
         for key in sorted(set(p) - {"start", "min", "max"}):
             problems.add(where + (key,), "unknown key; allowed: start, min, max")
-        s, lo, hi = (_number(problems, p, key, where) for key in ("start", "min", "max"))
+        s, lo, hi = (number(problems, p, key, where) for key in ("start", "min", "max"))
         if None not in (s, lo, hi):
             if not lo <= s <= hi:
                 problems.add(where + ("start",), f"{s:g} is outside the bounds [{lo:g}, {hi:g}]")
             free[name] = (s, lo, hi)
-    count = _number(problems, ms_t, "count", ("multistart",), default=1, positive=True, integer=True)
-    seed = _number(problems, ms_t, "seed", ("multistart",), default=0, integer=True)
+    count = number(problems, ms_t, "count", ("multistart",), default=1, positive=True, integer=True)
+    seed = number(problems, ms_t, "seed", ("multistart",), default=0, integer=True)
     scheduler = ms_t.get("scheduler", "")
     problems.raise_if_any()
     return CalibrationJob(

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from cosim.calibrate.data import load_measurements
-from cosim.calibrate.job import _number, _read_toml
+from cosim.tomldoc import number, read_toml
 from cosim.calibrate.problem import Experiment
 from cosim.diagnose.effects import EFFECTS, PLANNED, variant_text
 from cosim.errors import ConfigError
@@ -70,7 +70,8 @@ class DiagnoseJob:
 
 def load_diagnose_job(path, overrides=()):
     """Read and validate a diagnosis job; every problem is reported at once with file:line and key."""
-    path, text, data, problems = _read_toml(path, overrides)
+    path = Path(path)
+    data, problems = read_toml(path, overrides, what="job")
     for key in sorted(set(data) - set(_SCHEMA) - {"parameters"}):
         problems.add((key,), f"unknown section; expected {', '.join([*_SCHEMA, 'parameters'])}")
     t = {}
@@ -100,16 +101,16 @@ def load_diagnose_job(path, overrides=()):
         problems.add(("data", "inputs"), "must map model inputs to data columns, e.g. {i_ref = \"i_ref\"}")
         inputs = {}
     d = t["data"]
-    start = _number(problems, d, "start", ("data",)) if "start" in d else -math.inf
-    stop = _number(problems, d, "stop", ("data",)) if "stop" in d else math.inf
-    decimate = _number(problems, d, "decimate", ("data",), default=1, positive=True, integer=True)
+    start = number(problems, d, "start", ("data",)) if "start" in d else -math.inf
+    stop = number(problems, d, "stop", ("data",)) if "stop" in d else math.inf
+    decimate = number(problems, d, "decimate", ("data",), default=1, positive=True, integer=True)
     e = t["experiment"]
     kind = e.get("kind", "staircase")
     if kind not in ("staircase", "impact"):
         problems.add(("experiment", "kind"), f"must be 'staircase' or 'impact'; got {kind!r}")
-    duration = _number(problems, e, "duration", ("experiment",), positive=True) if "duration" in e else None
-    steady_s = _number(problems, e, "steady_s", ("experiment",), default=0.0) if "steady_s" in e else 0.0
-    min_hold_s = _number(problems, e, "min_hold_s", ("experiment",), positive=True) \
+    duration = number(problems, e, "duration", ("experiment",), positive=True) if "duration" in e else None
+    steady_s = number(problems, e, "steady_s", ("experiment",), default=0.0) if "steady_s" in e else 0.0
+    min_hold_s = number(problems, e, "min_hold_s", ("experiment",), positive=True) \
         if "min_hold_s" in e else max(steady_s or 0.0, 0.05)
     signals = []
     for k, s in enumerate(t["compare"].get("signals", [])):
@@ -119,12 +120,12 @@ def load_diagnose_job(path, overrides=()):
             continue
         for key in sorted(set(s) - {"output", "column", "noise"}):
             problems.add(where + (key,), "unknown key; allowed: output, column, noise")
-        noise = _number(problems, s, "noise", where, default=1e-9, positive=True)
+        noise = number(problems, s, "noise", where, default=1e-9, positive=True)
         signals.append((s["output"], s.get("column", s["output"]), noise))
     if not signals:
         problems.add(("compare", "signals"), "name at least one measured output: [{output = \"F_g\", noise = 0.5}]")
-    rtol = _number(problems, t["compare"], "rtol", ("compare",), default=1e-6, positive=True)
-    max_nfev = _number(problems, t["compare"], "max_nfev", ("compare",), default=40, positive=True, integer=True)
+    rtol = number(problems, t["compare"], "rtol", ("compare",), default=1e-6, positive=True)
+    max_nfev = number(problems, t["compare"], "max_nfev", ("compare",), default=40, positive=True, integer=True)
     free = {}
     for name, p in data.get("parameters", {}).items():
         where = ("parameters", name)
@@ -133,7 +134,7 @@ def load_diagnose_job(path, overrides=()):
             continue
         for key in sorted(set(p) - {"start", "min", "max"}):
             problems.add(where + (key,), "unknown key; allowed: start, min, max")
-        s, lo, hi = (_number(problems, p, key, where) for key in ("start", "min", "max"))
+        s, lo, hi = (number(problems, p, key, where) for key in ("start", "min", "max"))
         if None not in (s, lo, hi):
             if not lo <= s <= hi:
                 problems.add(where + ("start",), f"{s:g} is outside the bounds [{lo:g}, {hi:g}]")
@@ -158,10 +159,10 @@ def load_diagnose_job(path, overrides=()):
                 except ConfigError as err:
                     problems.add(("candidates", "effects"), str(err))
     dec = t["decision"]
-    min_gap = _number(problems, dec, "min_gap_removed", ("decision",), default=0.5, positive=True)
-    min_bic = _number(problems, dec, "min_delta_bic", ("decision",), default=10.0, positive=True)
-    gap_sigmas = _number(problems, dec, "gap_sigmas", ("decision",), default=3.0, positive=True)
-    workers = _number(problems, t["parallel"], "workers", ("parallel",), default=2, integer=True)
+    min_gap = number(problems, dec, "min_gap_removed", ("decision",), default=0.5, positive=True)
+    min_bic = number(problems, dec, "min_delta_bic", ("decision",), default=10.0, positive=True)
+    gap_sigmas = number(problems, dec, "gap_sigmas", ("decision",), default=3.0, positive=True)
+    workers = number(problems, t["parallel"], "workers", ("parallel",), default=2, integer=True)
     problems.raise_if_any()
     return DiagnoseJob(
         path=path, source=source, model=model, fixed=dict(t["model"].get("parameters", {})),
