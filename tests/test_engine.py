@@ -24,13 +24,14 @@ from cosim.master.compiled import CompiledEngine, EngineFallbackWarning, engine_
 
 @pytest.fixture(scope="module")
 def haptic_dir(tmp_path_factory):
-    """HapticDevice11.fmu and HapticDevice7.fmu built from modelica/Haptic."""
+    """HapticDevice11.fmu, HapticDevice7.fmu and HapticDeviceArm.fmu built from modelica/Haptic."""
     from cosim.compile import build_fmu
 
     out = tmp_path_factory.mktemp("engine_haptic")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for name, model in (("HapticDevice11", "Device11"), ("HapticDevice7", "Device7")):
+        for name, model in (("HapticDevice11", "Device11"), ("HapticDevice7", "Device7"),
+                            ("HapticDeviceArm", "DeviceArm")):
             built = build_fmu(ROOT / "modelica" / "Haptic" / "package.mo", f"Haptic.{model}", out_dir=out / model)
             built.rename(out / f"{name}.fmu")
     return out
@@ -73,7 +74,8 @@ def test_engines_agree_on_gripper_configs(gripper_dir, name, split, sets):
 
 
 @pytest.mark.parametrize("name,fmu", [("haptic_wall.toml", "HapticDevice11"),
-                                      ("haptic_wall_adaptive.toml", "HapticDevice7")])
+                                      ("haptic_wall_adaptive.toml", "HapticDevice7"),
+                                      ("haptic_wall_arm.toml", "HapticDeviceArm")])
 def test_engines_agree_on_haptic_configs(haptic_dir, name, fmu):
     comp, py = _both(EXAMPLES / name, [f'fmus.plant.path="{(haptic_dir / (fmu + ".fmu")).as_posix()}"', "run.stop=1.6"])
     _assert_same(comp, py)
