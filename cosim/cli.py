@@ -56,7 +56,9 @@ def _cmd_run(args):
                                         progress=False if args.no_progress else None)
     for f in files:
         print(f"wrote {f}")
-    print(f"simulated {result.sim_s:.6g} s in {result.wall_s:.3g} s wall")
+    compiled = f"; kernels compiled or loaded in {result.compile_s:.2g} s" if result.engine == "compiled" else ""
+    note = f"; {result.engine_note}" if result.engine_note else ""
+    print(f"simulated {result.sim_s:.6g} s in {result.wall_s:.3g} s wall ({result.engine} engine{compiled}{note})")
     if result.interrupted:
         print("cosim run: interrupted; kept what was recorded", file=sys.stderr)
         return 130
