@@ -10,7 +10,7 @@ from pathlib import Path
 
 from cosim.errors import ConfigError
 
-__all__ = ["read_toml", "number", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
+__all__ = ["read_toml", "sections", "bounded_parameters", "number", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -219,3 +219,51 @@ def number(problems, table, key, where, default=None, positive=False, integer=Fa
     if positive and value <= 0:
         problems.add(where + (key,), f"must be > 0; got {value!r}")
     return int(value) if integer else float(value)
+
+
+def sections(data, problems, schema, free_form=("parameters",)):
+    """The tables of a job document by section name; unknown sections and keys are problems.
+
+    Parameters
+    ----------
+    data : dict
+        The parsed document.
+    problems : Problems
+    schema : dict
+        section -> tuple of allowed keys.
+    free_form : tuple of str
+        Sections whose keys are the user's names (e.g. ``[parameters.eta_g]``), not checked here.
+    """
+    for key in sorted(set(data) - set(schema) - set(free_form)):
+        problems.add((key,), f"unknown section; expected {', '.join([*schema, *free_form])}")
+    tables = {}
+    for section, allowed in schema.items():
+        table = data.get(section, {})
+        if not isinstance(table, dict):
+            problems.add((section,), "must be a table")
+            table = {}
+        for key in sorted(set(table) - set(allowed)):
+            problems.add((section, key), f"unknown key; allowed: {', '.join(allowed)}")
+        tables[section] = table
+    return tables
+
+
+def bounded_parameters(data, problems, required=True):
+    """``[parameters.NAME] start, min, max`` tables as ``{name: (start, min, max)}``, checked (start in bounds)."""
+    tables = data.get("parameters", {})
+    if required and not tables:
+        problems.add(("parameters",), "name at least one parameter to fit: [parameters.eta_g] start, min, max")
+    free = {}
+    for name, p in tables.items():
+        where = ("parameters", name)
+        if not isinstance(p, dict):
+            problems.add(where, "must be a table with start, min, max")
+            continue
+        for key in sorted(set(p) - {"start", "min", "max"}):
+            problems.add(where + (key,), "unknown key; allowed: start, min, max")
+        s, lo, hi = (number(problems, p, key, where) for key in ("start", "min", "max"))
+        if None not in (s, lo, hi):
+            if not lo <= s <= hi:
+                problems.add(where + ("start",), f"{s:g} is outside the bounds [{lo:g}, {hi:g}]")
+            free[name] = (s, lo, hi)
+    return free

@@ -24,7 +24,7 @@ import numpy as np
 from cosim.calibrate.data import load_measurements
 from cosim.calibrate.problem import METHODS, Experiment
 from cosim.errors import ConfigError
-from cosim.tomldoc import number, read_toml
+from cosim.tomldoc import bounded_parameters, number, read_toml, sections
 
 __all__ = ["CalibrationJob", "load_job", "run_job"]
 
@@ -65,17 +65,7 @@ def load_job(path, overrides=()):
     """Read and validate a calibration job; every problem is reported at once with file:line and key."""
     path = Path(path)
     data, problems = read_toml(path, overrides, what="job")
-    for key in sorted(set(data) - set(_SCHEMA) - {"parameters"}):
-        problems.add((key,), f"unknown section; expected {', '.join([*_SCHEMA, 'parameters'])}")
-    tables = {}
-    for section, allowed in _SCHEMA.items():
-        table = data.get(section, {})
-        if not isinstance(table, dict):
-            problems.add((section,), "must be a table")
-            table = {}
-        for key in sorted(set(table) - set(allowed)):
-            problems.add((section, key), f"unknown key; allowed: {', '.join(allowed)}")
-        tables[section] = table
+    tables = sections(data, problems, _SCHEMA)
     base = path.parent
     model_t, data_t, fit_t, ms_t = (tables[s] for s in ("model", "data", "fit", "multistart"))
     fmu = None
@@ -124,22 +114,7 @@ def load_job(path, overrides=()):
         problems.add(("fit", "method"), f"must be one of {', '.join(METHODS)}; got {method!r}")
     substeps = number(problems, fit_t, "substeps", ("fit",), default=1, positive=True, integer=True)
     max_iter = number(problems, fit_t, "max_iter", ("fit",), default=200, positive=True, integer=True)
-    free = {}
-    params_t = data.get("parameters", {})
-    if not params_t:
-        problems.add(("parameters",), "name at least one parameter to fit: [parameters.eta_g] start, min, max")
-    for name, p in params_t.items():
-        where = ("parameters", name)
-        if not isinstance(p, dict):
-            problems.add(where, "must be a table with start, min, max")
-            continue
-        for key in sorted(set(p) - {"start", "min", "max"}):
-            problems.add(where + (key,), "unknown key; allowed: start, min, max")
-        s, lo, hi = (number(problems, p, key, where) for key in ("start", "min", "max"))
-        if None not in (s, lo, hi):
-            if not lo <= s <= hi:
-                problems.add(where + ("start",), f"{s:g} is outside the bounds [{lo:g}, {hi:g}]")
-            free[name] = (s, lo, hi)
+    free = bounded_parameters(data, problems)
     count = number(problems, ms_t, "count", ("multistart",), default=1, positive=True, integer=True)
     seed = number(problems, ms_t, "seed", ("multistart",), default=0, integer=True)
     scheduler = ms_t.get("scheduler", "")

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from cosim.calibrate.data import load_measurements
-from cosim.tomldoc import number, read_toml
+from cosim.tomldoc import bounded_parameters, number, read_toml, sections
 from cosim.calibrate.problem import Experiment
 from cosim.diagnose.effects import EFFECTS, PLANNED, variant_text
 from cosim.errors import ConfigError
@@ -72,17 +72,7 @@ def load_diagnose_job(path, overrides=()):
     """Read and validate a diagnosis job; every problem is reported at once with file:line and key."""
     path = Path(path)
     data, problems = read_toml(path, overrides, what="job")
-    for key in sorted(set(data) - set(_SCHEMA) - {"parameters"}):
-        problems.add((key,), f"unknown section; expected {', '.join([*_SCHEMA, 'parameters'])}")
-    t = {}
-    for section, allowed in _SCHEMA.items():
-        table = data.get(section, {})
-        if not isinstance(table, dict):
-            problems.add((section,), "must be a table")
-            table = {}
-        for key in sorted(set(table) - set(allowed)):
-            problems.add((section, key), f"unknown key; allowed: {', '.join(allowed)}")
-        t[section] = table
+    t = sections(data, problems, _SCHEMA)
     base = path.parent
     for key in ("source", "name"):
         if not isinstance(t["model"].get(key), str):
@@ -126,19 +116,7 @@ def load_diagnose_job(path, overrides=()):
         problems.add(("compare", "signals"), "name at least one measured output: [{output = \"F_g\", noise = 0.5}]")
     rtol = number(problems, t["compare"], "rtol", ("compare",), default=1e-6, positive=True)
     max_nfev = number(problems, t["compare"], "max_nfev", ("compare",), default=40, positive=True, integer=True)
-    free = {}
-    for name, p in data.get("parameters", {}).items():
-        where = ("parameters", name)
-        if not isinstance(p, dict):
-            problems.add(where, "must be a table with start, min, max")
-            continue
-        for key in sorted(set(p) - {"start", "min", "max"}):
-            problems.add(where + (key,), "unknown key; allowed: start, min, max")
-        s, lo, hi = (number(problems, p, key, where) for key in ("start", "min", "max"))
-        if None not in (s, lo, hi):
-            if not lo <= s <= hi:
-                problems.add(where + ("start",), f"{s:g} is outside the bounds [{lo:g}, {hi:g}]")
-            free[name] = (s, lo, hi)
+    free = bounded_parameters(data, problems, required=False)
     effects = t["candidates"].get("effects")
     model = t["model"].get("name", "")
     if effects is None:
