@@ -177,7 +177,10 @@ def test_bad_inputs_are_clear_errors(tmp_path):
 
 # -- hidden-effect cases ------------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("effect, seed", [("backdrive_efficiency", 2), ("none", 1)])
+# Seeds: 2 gives eta_b = eta_d - 0.13; 8 gives a 2.7 N load-cell offset (offsets near 1 N are comparable to the
+# baseline's model-form floor against the quasi-static truth, 0.5-1 N, and are named but with < 80 % of the gap
+# removed: docs/diagnose.md).
+@pytest.mark.parametrize("effect, seed", [("backdrive_efficiency", 2), ("loadcell_filter", 8), ("none", 1)])
 def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     frame, truth = _case_frame(effect, seed)
     job = load_diagnose_job(_write_job(tmp_path, frame, effects=("backdrive_efficiency", "loadcell_filter")))
@@ -191,8 +194,11 @@ def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     else:
         assert s["gap_removed"] >= 0.8
         assert s["rmse_after"] < 0.5 * s["rmse_before"]
-        # the fitted back-driven efficiency is the truth's within 0.05 (model-form error of the baseline ~1 N)
-        assert abs(s["after"]["parameters"]["eta_b"] - truth["eta_b"]) < 0.05
+        # fitted values against the truth; tolerances allow for the baseline's ~1 N model-form error
+        if effect == "backdrive_efficiency":
+            assert abs(s["after"]["parameters"]["eta_b"] - truth["eta_b"]) < 0.05
+        else:
+            assert abs(s["after"]["parameters"]["F_off"] - truth["F_off"]) < 0.5
         assert any(seg["significant"] for seg in s["segments"])
 
 
