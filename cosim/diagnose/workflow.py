@@ -17,7 +17,9 @@
    per segment and overall.
 """
 
+import logging
 import os
+import shutil
 import sys
 import tempfile
 from dataclasses import dataclass, field
@@ -112,7 +114,8 @@ def _run_tasks(job, tasks, progress):
         client = Client(job.scheduler)
     else:
         workers = max(1, min(len(tasks), job.workers, os.cpu_count() or 1))
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                               silence_logs=logging.ERROR)
         client = Client(cluster)
     try:
         futures = [client.submit(_fit_candidate, t, pure=False) for t in tasks]
@@ -284,6 +287,8 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         "candidates": sorted(candidates, key=lambda c: -c["score"]),
     }
     preds = {res["label"]: res["predicted"] for res in results}
+    if not (build and winner and out is None):  # keep the folder only when it holds the built FMU
+        shutil.rmtree(folder, ignore_errors=True)
     return Diagnosis(effect=effect, summary=summary, time=t, inputs=e.inputs, measured=y, before=before,
                      after=after, mask=mask, variant_source=variant_source, variant_diff=variant_diff,
                      candidate_predictions=preds)
