@@ -193,7 +193,7 @@ def variant_text(source_text, model, effect):
     known = base + _block(source_text, "package", "Parameters")
     blocks = []
     decls = "".join(
-        f'    parameter Real {p.name}(unit = "{p.unit}") = {_default(p)} "{p.description} (effect {tag})";\n'
+        f'    parameter Real {p.name}(unit = "{p.unit}") = {_default(p, known)} "{p.description} (effect {tag})";\n'
         for p in effect.parameters if not _exists(known, p.name))
     if effect.drive:
         drive = _block(source_text, "model", "DrivetrainMechanics")
@@ -203,7 +203,7 @@ def variant_text(source_text, model, effect):
         for old, new in effect.drive:
             drive = _replace(drive, old, new, effect, "Gripper.DrivetrainMechanics")
         drive_decls = "".join(
-            f'    parameter Real {p.name}(unit = "{p.unit}") = {_default(p)} "{p.description} (effect {tag})";\n'
+            f'    parameter Real {p.name}(unit = "{p.unit}") = {_default(p, known)} "{p.description} (effect {tag})";\n'
             for p in effect.parameters if p.name in effect.drive_parameters)
         drive = drive.replace("    extends Gripper.Parameters.DrivetrainParameters;\n",
                               "    extends Gripper.Parameters.DrivetrainParameters;\n" + drive_decls, 1)
@@ -232,8 +232,15 @@ def _exists(text, name):
     return re.search(rf"parameter Real {re.escape(name)}\(", text) is not None
 
 
-def _default(p):
-    return p.start if isinstance(p.start, (int, float)) else {"eta_g": 0.68, "F_cj": 0.0785}.get(p.start, 0.0)
+def _default(p, known):
+    """The declared default: the effect's start value, or the baseline default of the parameter it starts from."""
+    if isinstance(p.start, (int, float)):
+        return p.start
+    match = re.search(rf"parameter Real {re.escape(p.start)}\([^)]*\) = ([-+0-9.eE]+)", known)
+    if match is None:
+        raise ConfigError(f"effect parameter {p.name} starts from {p.start!r}, which the baseline does not declare "
+                          f"with a numeric default")
+    return float(match.group(1))
 
 
 def _indent(block):
