@@ -74,15 +74,18 @@ def _scales(values):
 
 
 def _fit_candidate(task):
-    """One candidate in a worker: lower its variant, fit on the training segments, replay everything."""
+    """One fit in a worker (a candidate's variant, or the baseline itself for ``effect = "baseline"``) on one
+    fold's training segments; replays every sample."""
     from cosim.compile import lower
+    from cosim.diagnose.effects import Effect
     from cosim.diagnose.job import load_experiment
 
-    job, effect = task["job"], EFFECTS[task["effect"]]
+    job = task["job"]
+    effect = Effect("baseline", "", ()) if task["effect"] == "baseline" else EFFECTS[task["effect"]]
     model = lower(task["variant_path"], task["variant_model"])
     e = load_experiment(job, model)
     defaults = dict(zip([p.name for p in model.parameters], model.parameter_values))
-    free = dict(task["baseline"])  # name -> (start, lo, hi), starts at the baseline's training fit
+    free = dict(task["baseline"])  # name -> (start, lo, hi), starts at the baseline's fit on every sample
     for p in effect.parameters:
         start = p.start if isinstance(p.start, (int, float)) else \
             free[p.start][0] if p.start in free else job.fixed.get(p.start, defaults[p.start])
@@ -183,44 +186,61 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     cross = cross_correlation(residual[0, mask], e.inputs[mask, 0])
     gap_found = any(r["significant"] for r in rows)
 
-    # 3. name: fit on even segments, score on odd ones
+    # 3. name: two-fold cross-validation over segments (fit on the even ones, score on the odd ones, and back)
     seg_index = np.full(len(t), -1)
     for s in segments:
         seg_index[(t >= s.t0 - 1e-9) & (t <= s.t1 + 1e-9)] = s.index
-    train = mask & (seg_index % 2 == 0)
-    test = mask & (seg_index % 2 == 1)
-    if not test.any():
-        train, test = mask & (np.arange(len(t)) % 2 == 0), mask & (np.arange(len(t)) % 2 == 1)
-    base_free = {n: (base["parameters"][n], lo, hi) for n, (_, lo, hi) in job.free.items()}
-    base_train = _fit(model, e, job, base_free, weights, train, "baseline (even segments)") if job.effects \
-        else base
-    candidates, tasks = [], []
+    folds = [(mask & (seg_index % 2 == 0), mask & (seg_index % 2 == 1)),
+             (mask & (seg_index % 2 == 1), mask & (seg_index % 2 == 0))]
+    if not all(train.any() and test.any() for train, test in folds):
+        even = np.arange(len(t)) % 2 == 0
+        folds = [(mask & even, mask & ~even), (mask & ~even, mask & even)]
+    candidates = []
     folder = Path(tempfile.mkdtemp(prefix="cosim-diagnose-"))
-    train_free = {n: (base_train["parameters"][n], lo, hi) for n, (_, lo, hi) in job.free.items()}
-    for name in job.effects:
-        path, variant = write_variant(job.source, job.model, EFFECTS[name], folder / name)
-        tasks.append({"job": job, "effect": name, "variant_path": str(path), "variant_model": variant,
-                      "baseline": train_free, "weights": weights, "mask": train})
-    results = _run_tasks(job, tasks, progress) if tasks else []
-    n_train = int(train.sum()) * len(job.signals)
+    results = {}
+    if job.effects:
+        base_free = {n: (base["parameters"][n], lo, hi) for n, (_, lo, hi) in job.free.items()}
+        tasks = [{"job": job, "effect": "baseline", "variant_path": str(job.source), "variant_model": job.model,
+                  "baseline": base_free, "weights": weights, "mask": train, "fold": f}
+                 for f, (train, _) in enumerate(folds)]
+        for name in job.effects:
+            path, variant = write_variant(job.source, job.model, EFFECTS[name], folder / name)
+            tasks += [{"job": job, "effect": name, "variant_path": str(path), "variant_model": variant,
+                       "baseline": base_free, "weights": weights, "mask": train, "fold": f}
+                      for f, (train, _) in enumerate(folds)]
+        for task, res in zip(tasks, _run_tasks(job, tasks, progress)):
+            results.setdefault(task["effect"], [None, None])[task["fold"]] = res
+    n_fit = int(mask.sum()) * len(job.signals)
+
+    def pooled(fits):
+        """Held-out weighted residuals of both folds (each cost sample predicted by the fit that did not see it),
+        and the summed training chi-square."""
+        r = np.concatenate([((fit["predicted"] - y) * weights[:, None])[:, test].ravel()
+                            for fit, (_, test) in zip(fits, folds)])
+        return r, sum(fit["chi2"] for fit in fits)
+
     k_base = len(job.free)
-    ms_b_test = _ms(base_train["predicted"], y, weights, test)
-    chi2_b = base_train["chi2"]
-    for res in results:
-        k = len(res["free"])
-        ms_c = _ms(res["predicted"], y, weights, test)
+    if results:
+        r_b, chi2_b = pooled(results["baseline"])
+        ms_b_test = float(np.mean(r_b ** 2))
+    for name in job.effects:
+        fits = results[name]
+        k = len(fits[0]["free"])
+        r_c, chi2_c = pooled(fits)
+        ms_c = float(np.mean(r_c ** 2))
         removed = (ms_b_test - ms_c) / max(ms_b_test - 1.0, 1e-12) if ms_b_test > 1.0 else 0.0
-        delta = chi2_b - res["chi2"]
-        rmse_c, max_c = _rmse(res["predicted"], y, mask)
+        delta = chi2_b - chi2_c
+        heldout = np.concatenate([(fit["predicted"] - y)[0, test] for fit, (_, test) in zip(fits, folds)])
         candidates.append({
-            "effect": res["label"], "score": float(removed),
-            "rmse_after": rmse_c[0], "max_error_after": max_c[0],
-            "parameters": {n: v for n, v in res["parameters"].items()},
-            "added_parameters": [p.name for p in EFFECTS[res["label"]].parameters] +
-                                [n for n, _, _ in EFFECTS[res["label"]].frees],
-            "heldout_ms_sigma2": ms_c, "aic": res["chi2"] + 2 * k, "bic": res["chi2"] + k * np.log(n_train),
-            "delta_aic": float(delta - 2 * (k - k_base)), "delta_bic": float(delta - (k - k_base) * np.log(n_train)),
+            "effect": name, "score": float(removed),
+            "rmse_after": float(np.sqrt(np.mean(heldout ** 2))), "max_error_after": float(np.max(np.abs(heldout))),
+            "parameters": dict(fits[0]["parameters"]),
+            "parameters_other_fold": dict(fits[1]["parameters"]),
+            "added_parameters": [p.name for p in EFFECTS[name].parameters] + [n for n, _, _ in EFFECTS[name].frees],
+            "heldout_ms_sigma2": ms_c, "aic": chi2_c + 2 * k, "bic": chi2_c + k * np.log(n_fit),
+            "delta_aic": float(delta - 2 * (k - k_base)), "delta_bic": float(delta - (k - k_base) * np.log(n_fit)),
             "p_value": float(stats.chi2.sf(max(delta, 0.0), max(k - k_base, 1))),
+            "free": fits[0]["free"],
         })
     qualified = [c for c in candidates if gap_found and c["score"] >= job.min_gap_removed
                  and c["delta_bic"] >= job.min_delta_bic]
@@ -235,7 +255,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
 
         path, variant = write_variant(job.source, job.model, EFFECTS[effect], folder / "winner")
         vmodel = lower_variant(path, variant)
-        start = {n: (winner["parameters"][n], *next(r["free"][n][1:] for r in results if r["label"] == effect))
+        start = {n: (0.5 * (winner["parameters"][n] + winner["parameters_other_fold"][n]), *winner["free"][n][1:])
                  for n in winner["parameters"]}
         final = _fit(vmodel, load_experiment(job, vmodel), job, start, weights, mask, effect)
         after = final["predicted"]
@@ -280,13 +300,15 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         "shapes": findings,
         "whiteness": white,
         "input_cross_correlation": cross,
-        "folds": {"fit": "even segments", "score": "odd segments", "fit_samples": int(train.sum()),
-                  "score_samples": int(test.sum())},
+        "folds": {"scheme": "two-fold over segments: fit on the even ones, score on the odd ones, and back",
+                  "samples": [int(train.sum()) for train, _ in folds]},
         "decision": {"min_gap_removed": job.min_gap_removed, "min_delta_bic": job.min_delta_bic,
                      "gap_sigmas": job.gap_sigmas},
         "candidates": sorted(candidates, key=lambda c: -c["score"]),
     }
-    preds = {res["label"]: res["predicted"] for res in results}
+    preds = {name: fits[0]["predicted"] for name, fits in results.items()}
+    for c in candidates:
+        del c["free"]
     if not (build and winner and out is None):  # keep the folder only when it holds the built FMU
         shutil.rmtree(folder, ignore_errors=True)
     return Diagnosis(effect=effect, summary=summary, time=t, inputs=e.inputs, measured=y, before=before,
