@@ -91,7 +91,7 @@ def _report(diagnosis, figures):
               f"- RMSE before {s['rmse_before']:.4g}{unit}, after {s['rmse_after']:.4g}; max error before "
               f"{s['max_error_before']:.4g}, after {s['max_error_after']:.4g}; gap above the noise removed: "
               f"{100 * s['gap_removed']:.0f} %",
-              f"- baseline parameters: " + ", ".join(f"{k} = {v:.5g}" for k, v in s["baseline"]["parameters"].items()),
+              "- baseline parameters: " + ", ".join(f"{k} = {v:.5g}" for k, v in s["baseline"]["parameters"].items()),
               ""]
     if s["after"]:
         lines += ["- after: " + ", ".join(f"{k} = {v:.5g}" for k, v in s["after"]["parameters"].items()), ""]

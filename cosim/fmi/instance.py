@@ -9,7 +9,6 @@ with argument arrays built once, over numpy buffers the caller fills in place.
 import ctypes
 import shutil
 import tempfile
-from pathlib import Path
 
 import numpy as np
 
