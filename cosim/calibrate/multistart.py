@@ -1,6 +1,7 @@
 """Multi-start calibration: the same fit from several starting points, in parallel on a Dask cluster (a local
 one by default, an existing scheduler when the job names its address), with a progress bar."""
 
+import functools
 import logging
 import os
 import sys
@@ -10,7 +11,7 @@ from tqdm import tqdm
 
 from cosim.calibrate.estimator import Calibrator
 
-__all__ = ["fit_multistart", "start_points"]
+__all__ = ["fit_multistart", "start_points", "map_on_dask"]
 
 
 def start_points(free, count, seed):
@@ -100,34 +101,42 @@ def fit_multistart(job, progress=True):
     if len(points) == 1 and not job.scheduler:
         runs = [_fit_one(job, points[0])]
     else:
-        runs = _on_dask(job, points, progress)
+        runs = map_on_dask(functools.partial(_fit_one, job), points, job.scheduler, desc="multi-start fits",
+                           progress=progress)
     best = min(runs, key=lambda r: (not r["success"], r["cost_after"]))
     return dict(best, runs=[{k: r[k] for k in ("start", "parameters", "cost_after", "iterations", "success")}
                             for r in runs])
 
 
-def _on_dask(job, points, progress):
+def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", progress=True):
+    """``[function(item) for item in items]`` on a Dask cluster with a progress bar, results in item order.
+
+    Parameters
+    ----------
+    scheduler : str
+        Address of an existing Dask scheduler; empty: a local cluster of processes (one per item, at most
+        ``max_workers`` and the number of cores), closed afterwards.
+    """
     from distributed import Client, LocalCluster, as_completed
 
     cluster = None
-    if job.scheduler:
-        client = Client(job.scheduler)
+    if scheduler:
+        client = Client(scheduler)
     else:
-        workers = max(1, min(len(points), os.cpu_count() or 1))
+        workers = max(1, min(len(items), max_workers or len(items), os.cpu_count() or 1))
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                                silence_logs=logging.ERROR)
         client = Client(cluster)
     try:
-        futures = [client.submit(_fit_one, job, p, pure=False) for p in points]
-        runs = [None] * len(futures)
+        futures = [client.submit(function, item, pure=False) for item in items]
         index = {f.key: k for k, f in enumerate(futures)}
-        bar = tqdm(total=len(futures), desc="multi-start fits", unit="fit", file=sys.stderr,
-                   disable=not progress)
+        results = [None] * len(futures)
+        bar = tqdm(total=len(futures), desc=desc, unit="fit", file=sys.stderr, disable=not progress)
         for future in as_completed(futures):
-            runs[index[future.key]] = future.result()
+            results[index[future.key]] = future.result()
             bar.update()
         bar.close()
-        return runs
+        return results
     finally:
         client.close()
         if cluster is not None:

@@ -17,10 +17,7 @@
    per segment and overall.
 """
 
-import logging
-import os
 import shutil
-import sys
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,6 +27,7 @@ from scipy import stats
 
 from cosim.diagnose.analysis import (branch_shapes, cross_correlation, cut_segments, noise_level, segment_table,
                                      steady_mask, whiteness)
+from cosim.calibrate.multistart import map_on_dask
 from cosim.diagnose.effects import EFFECTS, write_variant
 from cosim.diagnose.fitting import Replay, fit_samples
 
@@ -109,31 +107,8 @@ def _fit(model, e, job, free, weights, mask, label):
 def _run_tasks(job, tasks, progress):
     if job.workers <= 0 or len(tasks) <= 1 and not job.scheduler:
         return [_fit_candidate(t) for t in tasks]
-    from distributed import Client, LocalCluster, as_completed
-    from tqdm import tqdm
-
-    cluster = None
-    if job.scheduler:
-        client = Client(job.scheduler)
-    else:
-        workers = max(1, min(len(tasks), job.workers, os.cpu_count() or 1))
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                               silence_logs=logging.ERROR)
-        client = Client(cluster)
-    try:
-        futures = [client.submit(_fit_candidate, t, pure=False) for t in tasks]
-        index = {f.key: k for k, f in enumerate(futures)}
-        results = [None] * len(futures)
-        bar = tqdm(total=len(futures), desc="candidate effects", unit="fit", file=sys.stderr, disable=not progress)
-        for future in as_completed(futures):
-            results[index[future.key]] = future.result()
-            bar.update()
-        bar.close()
-        return results
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+    return map_on_dask(_fit_candidate, tasks, job.scheduler, max_workers=job.workers, desc="candidate effects",
+                       progress=progress)
 
 
 def _ms(pred, measured, weights, mask):
