@@ -8,11 +8,23 @@ from cosim.calibrate.problem import Transcription
 from cosim.calibrate.shooting import SingleShooting
 from cosim.errors import ConfigError, CosimError
 
-__all__ = ["Calibrator", "NotFittedError"]
+__all__ = ["Calibrator", "NotFittedError", "gauss_newton_uncertainty"]
 
 
 class NotFittedError(CosimError, AttributeError):
     """A result was asked of a Calibrator before ``fit`` ran."""
+
+
+def gauss_newton_uncertainty(jac, cost, fitted, scale=1.0):
+    """Standard errors and correlation matrix from the Jacobian of the weighted residuals at the optimum:
+    covariance s^2 (J^T J)^-1 with s^2 = 2 cost / (fitted residuals - parameters); ``scale`` converts the
+    optimiser's scaled parameters back to physical ones."""
+    s2 = 2.0 * cost / max(fitted - jac.shape[1], 1)
+    scale = np.broadcast_to(np.asarray(scale, dtype=float), (jac.shape[1],))
+    cov = s2 * np.linalg.pinv(jac.T @ jac) * np.outer(scale, scale)
+    std = np.sqrt(np.clip(np.diag(cov), 0, None))
+    correlation = cov / np.outer(std, std) if np.all(std > 0) else np.full_like(cov, np.nan)
+    return std, correlation
 
 
 class Calibrator:
@@ -111,15 +123,10 @@ class Calibrator:
     def _finish(self, tr, q, starts, cost_before, iterations, success, status, jac):
         """Store the fit and its uncertainty: covariance s^2 (J^T J)^-1 at the optimum."""
         cost_after, residual, _, Y = tr.evaluate(q)
-        dof = max(tr.experiment.fitted_entries() - q.size, 1)
-        s2 = 2.0 * cost_after / dof
-        cov_q = s2 * np.linalg.pinv(jac.T @ jac)
-        cov = cov_q * np.outer(tr.scale, tr.scale)
-        std = np.sqrt(np.clip(np.diag(cov), 0, None))
+        std, self.correlation_ = gauss_newton_uncertainty(jac, cost_after, tr.experiment.fitted_entries(), tr.scale)
         names = list(self.free)
         self.parameters_ = dict(zip(names, (q * tr.scale).tolist()))
         self.std_errors_ = dict(zip(names, std.tolist()))
-        self.correlation_ = cov / np.outer(std, std) if np.all(std > 0) else np.full_like(cov, np.nan)
         self.cost_before_, self.cost_after_ = cost_before, cost_after
         self.iterations_, self.success_, self.return_status_ = iterations, success, status
         self.predicted_ = Y

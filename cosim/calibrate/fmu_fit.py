@@ -5,6 +5,7 @@ finite-difference derivatives. Slower and less accurate than the exact-derivativ
 import numpy as np
 from scipy.optimize import least_squares
 
+from cosim.calibrate.estimator import gauss_newton_uncertainty
 from cosim.fmi import FmuInstance
 
 __all__ = ["simulate_fmu_experiment", "FmuCalibrator"]
@@ -95,11 +96,7 @@ class FmuCalibrator:
         r0 = self._residual(start, experiment)
         solution = least_squares(self._residual, start, bounds=bounds, args=(experiment,), x_scale=np.abs(start),
                                  xtol=1e-10, ftol=1e-10)
-        jac = solution.jac
-        s2 = 2 * solution.cost / max(solution.fun.size - start.size, 1)
-        cov = s2 * np.linalg.pinv(jac.T @ jac)
-        std = np.sqrt(np.clip(np.diag(cov), 0, None))
-        self.correlation_ = cov / np.outer(std, std) if np.all(std > 0) else np.full_like(cov, np.nan)
+        std, self.correlation_ = gauss_newton_uncertainty(solution.jac, solution.cost, experiment.fitted_entries())
         self.start_ = dict(zip(self.free, start.tolist()))
         self.parameters_ = dict(zip(self.free, solution.x.tolist()))
         self.std_errors_ = dict(zip(self.free, std.tolist()))
