@@ -21,41 +21,11 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from diagnose_truth import TRUTH_EFFECTS, make_case  # noqa: E402
+from diagnose_truth import TRUTH_EFFECTS, make_case, write_job  # noqa: E402
 
 from cosim.diagnose import load_diagnose_job, run_diagnosis  # noqa: E402
 
 CANDIDATES = ("backdrive_efficiency", "load_dependent_friction", "loadcell_filter")
-
-JOB = """
-[model]
-source = "{source}"
-name = "Gripper.GripperCurrentDriven"
-parameters = {{ gap0 = 0.0, play = 0.0, k_obj = 1.2e9, t_coat = 0.0, k_P = 1e12, C_p = 2000.0 }}
-[data]
-path = "data.csv"
-inputs = {{ i_ref = "i_ref" }}
-[experiment]
-kind = "staircase"
-steady_s = 0.3
-[compare]
-signals = [{{ output = "F_g", noise = 0.1 }}]
-rtol = 1e-5
-max_nfev = 20
-[parameters.eta_g]
-start = 0.7
-min = 0.3
-max = 1.0
-[parameters.T_c0]
-start = 8e-3
-min = 1e-4
-max = 0.05
-[candidates]
-effects = [{effects}]
-[parallel]
-workers = {workers}
-"""
-
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -74,13 +44,9 @@ def main(argv=None):
         for effect in labels:
             t, i, y, truth = make_case(effect, rng, noise=args.noise)
             with tempfile.TemporaryDirectory() as folder:
-                folder = Path(folder)
-                pd.DataFrame({"time": t, "i_ref": i, "F_g": y}).to_csv(folder / "data.csv", index=False)
-                (folder / "job.toml").write_text(JOB.format(
-                    source=(ROOT / "modelica/Gripper/package.mo").as_posix(),
-                    effects=", ".join(f'"{c}"' for c in CANDIDATES), workers=args.workers))
+                path = write_job(folder, pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), CANDIDATES, args.workers)
                 t0 = time.time()
-                s = run_diagnosis(load_diagnose_job(folder / "job.toml"), progress=False, build=False).summary
+                s = run_diagnosis(load_diagnose_job(path), progress=False, build=False).summary
             matrix.loc[effect, s["effect"]] += 1
             if effect != "none" and s["effect"] == effect:
                 gaps.append(s["gap_removed"])

@@ -2,8 +2,10 @@
 
 A controller is a plain Python class with
 
-* ``parameters``: a dict of parameter names to default values (float, int, bool, or a tuple of
-  allowed strings whose first entry is the default); a user overrides them by keyword;
+* ``parameters``: a dict of parameter names to default values (float, int, bool, a tuple of
+  allowed strings whose first entry is the default, or a string such as a file name, which ``pack``
+  reads and turns into numbers); a user overrides them by keyword; ``path_parameters`` names the
+  string parameters that are file paths (a run config resolves them against its own folder);
 * ``inputs`` / ``outputs``: tuples of signal names (what the config's ``[[connections]]`` wire);
 * ``units``: an optional dict of signal or parameter name to unit string (recorded with results);
 * numeric state in numpy arrays: ``self.u`` (inputs, float64), ``self.y`` (outputs, float64),
@@ -74,6 +76,7 @@ class Controller:
     """
 
     parameters: dict = {}
+    path_parameters: tuple = ()
     inputs: tuple = ()
     outputs: tuple = ()
     units: dict = {}
@@ -101,12 +104,14 @@ class Controller:
     def pack(self):
         """Return the float64 parameter array the kernel reads (default: values in declaration order).
 
-        Choice parameters (tuples of strings) are packed as the index of the chosen string.
+        Choice parameters (tuples of strings) are packed as the index of the chosen string; string
+        parameters are not packed (a class that has them overrides ``pack``).
         """
         out = []
         for name, default in self.parameters.items():
             v = self.values[name]
-            out.append(float(default.index(v)) if isinstance(default, tuple) else float(v))
+            if not isinstance(default, str):
+                out.append(float(default.index(v)) if isinstance(default, tuple) else float(v))
         return np.array(out, dtype=np.float64)
 
     def initial_state(self):
@@ -150,6 +155,9 @@ class Controller:
                     raise ValueError(
                         f"{type(self).__name__}: parameter {name!r} must be one of {default}; got {v!r}"
                     )
+            elif isinstance(default, str):
+                if not isinstance(v, str):
+                    raise TypeError(f"{type(self).__name__}: parameter {name!r} must be a string; got {v!r}")
             elif isinstance(default, bool):
                 if not isinstance(v, (bool, int)):
                     raise TypeError(f"{type(self).__name__}: parameter {name!r} must be a bool; got {v!r}")

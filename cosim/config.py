@@ -370,7 +370,7 @@ def load_config(path, overrides=()):
         jit = t.get("jit", True)
         if not isinstance(jit, bool):
             problems.add(p + ("jit",), f"must be true or false; got {jit!r}")
-        params = _table(t, "parameters", problems, p)
+        params = dict(_table(t, "parameters", problems, p))
         cpath = t.get("class")
         if not isinstance(cpath, str):
             problems.add(p + ("class",), "is required: \"module:Class\" or \"file.py:Class\"")
@@ -380,6 +380,9 @@ def load_config(path, overrides=()):
         except ImportError as err:
             problems.add(p + ("class",), str(err))
             continue
+        for pn in cls.path_parameters:
+            if isinstance(params.get(pn), str) and params[pn]:
+                params[pn] = str(base_dir / params[pn])
         for pn in params:
             if pn not in cls.parameters:
                 problems.add(p + ("parameters", pn), f"{cls.__name__} has no parameter {pn!r}{_close(pn, cls.parameters)}")

@@ -13,9 +13,12 @@ friction mu_F*F while sliding and held at rest), ``loadcell_filter`` (a discrete
 offset, applied to the sampled force). ``none``: the baseline's physics.
 """
 
+import json
+from pathlib import Path
+
 import numpy as np
 
-__all__ = ["K_T", "GAIN", "staircase", "quasi_static_force", "make_case", "TRUTH_EFFECTS"]
+__all__ = ["K_T", "GAIN", "staircase", "quasi_static_force", "make_case", "TRUTH_EFFECTS", "write_job"]
 
 K_T = 0.0393939394           # N.m/A, torque constant at the motor shaft
 RATIO, R_P = 28.0, 0.008957  # gear ratio, pinion radius [m]
@@ -25,7 +28,10 @@ F_GUIDE = 0.0785             # N, sliding guide friction per jaw (the plant's de
 TRUTH_EFFECTS = ("none", "backdrive_efficiency", "load_dependent_friction", "loadcell_filter")
 
 
-LEVELS = (0.0, 0.5, 0.75, 1.0, 1.25, 1.5, 1.25, 1.0, 0.75, 0.5, 0.25, 0.0)
+# Rising in 0.25 A steps, releasing in 0.15 A steps: the release branch carries the evidence of the effects that
+# change the held force (a low back-driven efficiency holds it down to the last few levels), so it gets the finer
+# steps; with 0.25 A release steps that evidence fell into one segment and the held-out score could not see it.
+LEVELS = (0.0, 0.5, 0.75, 1.0, 1.25, 1.5, 1.35, 1.2, 1.05, 0.9, 0.75, 0.6, 0.45, 0.3, 0.15, 0.0)
 
 
 def staircase(levels=LEVELS, step_s=0.7, rate_hz=100.0, ramp_s=0.35):
@@ -89,3 +95,48 @@ def make_case(effect, rng, noise=0.2, levels=LEVELS, step_s=0.7, rate_hz=100.0, 
             z[k] = b * z[k - 1] + (1 - b) * y[k]
         y = z + truth["F_off"]
     return t, i, y + rng.normal(0.0, noise, len(t)), truth
+
+
+SOURCE = Path(__file__).resolve().parent.parent / "modelica" / "Gripper" / "package.mo"
+
+# The diagnosis job the tests and benchmarks/diagnose.py run on a case: the baseline GripperCurrentDriven on the
+# stiff object with eta_g and T_c0 free (the truth's eta_d and T_c0).
+JOB = """
+[model]
+source = "{source}"
+name = "Gripper.GripperCurrentDriven"
+parameters = {{ gap0 = 0.0, play = 0.0, k_obj = 1.2e9, t_coat = 0.0, k_P = 1e12, C_p = 2000.0 }}
+[data]
+path = "data.csv"
+inputs = {{ i_ref = "i_ref" }}
+[experiment]
+kind = "staircase"
+steady_s = 0.3
+[compare]
+signals = [{{ output = "F_g", noise = 0.1 }}]
+rtol = 1e-5
+max_nfev = 20
+[parameters.eta_g]
+start = 0.7
+min = 0.3
+max = 1.0
+[parameters.T_c0]
+start = 8e-3
+min = 1e-4
+max = 0.05
+[candidates]
+effects = {effects}
+[parallel]
+workers = {workers}
+"""
+
+
+def write_job(folder, frame, effects, workers=2, extra=""):
+    """Write ``frame`` (time, i_ref, F_g) as ``folder/data.csv`` and the job diagnosing it as ``folder/job.toml``
+    (``extra``: TOML text appended); returns the job's path."""
+    folder = Path(folder)
+    frame.to_csv(folder / "data.csv", index=False)
+    path = folder / "job.toml"
+    path.write_text(JOB.format(source=SOURCE.as_posix(), effects=json.dumps(list(effects)), workers=workers)
+                    + extra)
+    return path

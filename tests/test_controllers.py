@@ -7,6 +7,7 @@ import pkgutil
 import textwrap
 
 import numpy as np
+import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
 from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir  # noqa: F401
@@ -15,6 +16,7 @@ import controllers
 from controllers.base import Controller
 from controllers.foc import FOC, foc_gains
 from controllers.outer import OuterLoop, staircase_current, staircase_steps
+from controllers.playback import Playback
 from cosim.config import load_config
 from cosim.master import run
 
@@ -31,9 +33,18 @@ def _all_controller_classes():
     return sorted(seen, key=lambda c: (c.__module__, c.__name__))
 
 
+def _required(cls, folder):
+    """Parameters a class cannot default: the data file a Playback plays."""
+    if cls is not Playback:
+        return {}
+    pd.DataFrame({"time": [0.0, 1e-4, 2e-4], "u": [1.0, 2.0, 3.0]}).to_csv(folder / "u.csv", index=False)
+    return {"file": str(folder / "u.csv"), "column": "u"}
+
+
 @pytest.mark.parametrize("cls", _all_controller_classes(), ids=lambda c: f"{c.__module__}.{c.__name__}")
-def test_controller_contract(cls):
-    c = cls(rate=10000.0)
+def test_controller_contract(cls, tmp_path):
+    required = _required(cls, tmp_path)
+    c = cls(rate=10000.0, **required)
     assert c.u.shape == (len(cls.inputs),) and c.y.shape == (len(cls.outputs),)
     assert c.p.dtype == np.float64 and c.x.dtype == np.float64
     assert c.compiled, "step must compile with numba"
@@ -42,14 +53,33 @@ def test_controller_contract(cls):
         c.step(t)
     assert np.all(np.isfinite(c.y))
     # the compiled and the plain kernels agree
-    d = cls(rate=10000.0, jit=False)
+    d = cls(rate=10000.0, jit=False, **required)
     for t in (0.0, 1e-4, 2e-4):
         d.step(t)
     assert_allclose(d.y, c.y, rtol=1e-12, atol=1e-12)
     with pytest.raises(TypeError, match="unknown parameter"):
-        cls(rate=10000.0, no_such_parameter_xyz=1.0)
+        cls(rate=10000.0, no_such_parameter_xyz=1.0, **required)
     with pytest.raises(ValueError, match="rate"):
-        cls(rate=-1.0)
+        cls(rate=-1.0, **required)
+
+
+def test_playback_holds_each_sample_until_the_next(tmp_path):
+    """Zero-order hold of a recorded column at instants between, on and before its time stamps (reference:
+    numpy's searchsorted on the same table); the first value before the first stamp; a clear error without a
+    file."""
+    t_data = np.array([0.0, 0.01, 0.02, 0.05])
+    v_data = np.array([0.5, 1.5, -2.0, 4.0])
+    pd.DataFrame({"time": t_data, "i": v_data}).to_csv(tmp_path / "d.csv", index=False)
+    c = Playback(rate=1000.0, file=str(tmp_path / "d.csv"), column="i")
+    instants = np.arange(0, 70) * 1e-3
+    played = []
+    for t in instants:
+        c.step(t)
+        played.append(c.y[0])
+    expected = v_data[np.maximum(np.searchsorted(t_data, instants + 1e-12, side="right") - 1, 0)]
+    assert_allclose(played, expected, rtol=0, atol=0)
+    with pytest.raises(ValueError, match="'file' and 'column' are required"):
+        Playback(rate=1000.0)
 
 
 # -- FOC ----------------------------------------------------------------------------------------------

@@ -16,47 +16,13 @@ from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis
 from cosim.diagnose.analysis import cut_segments, noise_level, steady_mask, whiteness
 from cosim.diagnose.effects import variant_text
 from cosim.errors import ConfigError
-from diagnose_truth import make_case
-from test_gripper_support import ROOT
+from diagnose_truth import SOURCE, make_case, write_job
 
-SOURCE = ROOT / "modelica" / "Gripper" / "package.mo"
-
-JOB = """
-[model]
-source = "{source}"
-name = "Gripper.GripperCurrentDriven"
-parameters = {{ gap0 = 0.0, play = 0.0, k_obj = 1.2e9, t_coat = 0.0, k_P = 1e12, C_p = 2000.0 }}
-[data]
-path = "data.csv"
-inputs = {{ i_ref = "i_ref" }}
-[experiment]
-kind = "staircase"
-steady_s = 0.3
-duration = 8.0
-[compare]
-signals = [{{ output = "F_g", noise = 0.1 }}]
-rtol = 1e-5
-max_nfev = 20
-[parameters.eta_g]
-start = 0.7
-min = 0.3
-max = 1.0
-[parameters.T_c0]
-start = 8e-3
-min = 1e-4
-max = 0.05
-[candidates]
-effects = {effects}
-[parallel]
-workers = {workers}
-"""
+CANDIDATES = ("backdrive_efficiency", "loadcell_filter")
 
 
-def _write_job(folder, frame, effects=("backdrive_efficiency", "loadcell_filter"), workers=2, extra=""):
-    frame.to_csv(folder / "data.csv", index=False)
-    path = folder / "job.toml"
-    path.write_text(JOB.format(source=SOURCE.as_posix(), effects=json.dumps(list(effects)), workers=workers) + extra)
-    return path
+def _write_job(folder, frame, effects=CANDIDATES, workers=2, extra=""):
+    return write_job(folder, frame, effects, workers, extra)
 
 
 def _case_frame(effect, seed, noise=0.3):
@@ -162,7 +128,7 @@ def test_bad_inputs_are_clear_errors(tmp_path):
     # data shorter than the experiment
     path = _write_job(tmp_path, frame[frame["time"] < 5.0])
     with pytest.raises(ConfigError, match="experiment.duration"):
-        load_experiment(load_diagnose_job(path), model)
+        load_experiment(load_diagnose_job(path, ["experiment.duration=8.0"]), model)
     # an effect that does not apply, an effect not built yet, an unknown key: all reported at once
     path = _write_job(tmp_path, frame, effects=["coating_relaxation", "warp_drive"], extra="[compare.x]\n")
     with pytest.raises(ConfigError) as err:
@@ -183,8 +149,9 @@ def test_bad_inputs_are_clear_errors(tmp_path):
 @pytest.mark.parametrize("effect, seed", [("backdrive_efficiency", 2), ("loadcell_filter", 8), ("none", 1)])
 def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     frame, truth = _case_frame(effect, seed)
-    job = load_diagnose_job(_write_job(tmp_path, frame, effects=("backdrive_efficiency", "loadcell_filter")))
-    result = run_diagnosis(job, progress=False, build=False)
+    job = load_diagnose_job(_write_job(tmp_path, frame))
+    rebuild = effect == "backdrive_efficiency"  # one case also builds the FMUs and re-runs them through the master
+    result = run_diagnosis(job, progress=False, build=rebuild, out=tmp_path / "out")
     s = result.summary
     assert s["effect"] == effect, s["verdict"]
     assert {c["effect"] for c in s["candidates"]} == {"backdrive_efficiency", "loadcell_filter"}
@@ -200,6 +167,14 @@ def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
         else:
             assert abs(s["after"]["parameters"]["F_off"] - truth["F_off"]) < 0.5
         assert any(seg["significant"] for seg in s["segments"])
+    if rebuild:
+        # the FMUs (generated C, the master's BDF, inputs played by controllers.playback) against the CVODES replay
+        # of the same equations: the gap before and after is the same within the two solvers' tolerances
+        r = s["rerun"]
+        assert max(r["max_difference_to_replay_before"], r["max_difference_to_replay_after"]) < 0.05  # N
+        assert r["rmse_before"] == pytest.approx(s["rmse_before"], abs=0.01)
+        assert r["rmse_after"] == pytest.approx(s["rmse_after"], abs=0.01)
+        assert (tmp_path / "out" / "rerun" / f"{effect}.toml").is_file()
 
 
 def test_cli_writes_diagnosis_json_and_report(tmp_path):

@@ -18,13 +18,14 @@ def diagnose(path, out="out/diagnosis", overrides=(), progress=True, build=True)
     path : str or Path
         Job file (TOML, see :mod:`cosim.diagnose.job`).
     out : str or Path, default "out/diagnosis"
-        Output folder: diagnosis.json, report.md, PNGs, the variant's Modelica and diff, fmu/.
+        Output folder: diagnosis.json, report.md, PNGs, the variant's Modelica and diff, fmu/ (the baseline's and
+        the winner's FMUs) and rerun/ (the run configs that replay them through the master).
     overrides : sequence of str
         ``key=value`` job overrides (``--set``).
     progress : bool, default True
         Progress bar over the candidate fits.
     build : bool, default True
-        Build the winner's FMU into ``out/fmu``.
+        Build the baseline's and the winner's FMUs into ``out/fmu`` and re-run them through the master.
     """
     from pathlib import Path
 
@@ -32,10 +33,11 @@ def diagnose(path, out="out/diagnosis", overrides=(), progress=True, build=True)
 
     job = load_diagnose_job(path, overrides)
     out = Path(out)
-    if (out / "fmu").exists():
-        import shutil
+    import shutil
 
-        shutil.rmtree(out / "fmu")
+    for stale in ("fmu", "rerun"):  # the workflow writes these before the report replaces the rest
+        if (out / stale).exists():
+            shutil.rmtree(out / stale)
     result = run_diagnosis(job, progress=progress, build=build, out=out)
     write_diagnosis(result, out, source=job.source)
     return result

@@ -41,7 +41,8 @@ def plot_diagnosis(diagnosis, folder):
         if d.effect != "none":
             ax.plot(d.time, d.after[j], color="C3", lw=1.2,
                     label=f"with {d.effect} (RMSE {s['rmse_after_per_signal'][j]:.3g})")
-        ax.set_ylabel(s["signals"][j])
+        label = f"{s['signals'][j]} [{s['units'].get(s['signals'][j], '')}]"
+        ax.set_ylabel(label)
         ax.legend(loc="best", fontsize=8)
         ax.grid(alpha=0.3)
         sigma = s["noise"]["used"][j]
@@ -50,7 +51,7 @@ def plot_diagnosis(diagnosis, folder):
             ar.plot(d.time[d.mask], (d.after[j] - d.measured[j])[d.mask], ".", ms=2, color="C3",
                     label=d.effect)
         ar.axhspan(-3 * sigma, 3 * sigma, color="0.85", label="±3 noise")
-        ar.set_ylabel(f"residual {s['signals'][j]}")
+        ar.set_ylabel(f"residual {label}")
         ar.legend(loc="best", fontsize=8)
         ar.grid(alpha=0.3)
     axes[-1].set_xlabel("time [s]")
@@ -66,8 +67,8 @@ def plot_diagnosis(diagnosis, folder):
         ax.plot(d.inputs[m, 0], d.before[0, m], ".", ms=3, color="C0", label="baseline")
         if d.effect != "none":
             ax.plot(d.inputs[m, 0], d.after[0, m], ".", ms=3, color="C3", label=f"with {d.effect}")
-        ax.set_xlabel("input (held level)")
-        ax.set_ylabel(s["signals"][0])
+        ax.set_xlabel(f"{s['inputs'][0]} (held level) [{s['units'].get(s['inputs'][0], '')}]")
+        ax.set_ylabel(f"{s['signals'][0]} [{s['units'].get(s['signals'][0], '')}]")
         ax.grid(alpha=0.3)
         ax.legend()
         ax.set_title("steady values: rising and falling branches")
@@ -80,31 +81,46 @@ def plot_diagnosis(diagnosis, folder):
 
 def _report(diagnosis, figures):
     s = diagnosis.summary
-    unit = ""
+    unit = f" {s['units'].get(s['signals'][0], '')}".rstrip()
+    pu = s["parameter_units"]
+
+    def values(params, names=None):
+        return ", ".join(f"{k} = {v:.5g}" + (f" {pu[k]}" if pu.get(k, "1") != "1" else "")
+                         for k, v in params.items() if names is None or k in names)
+
     lines = [f"# Diagnosis: {s['model']}", "", f"**{s['verdict']}**", ""]
     if s["also_explained_by"]:
         lines += [f"Nearly as good on the held-out segments: {', '.join(s['also_explained_by'])} (the data do not "
                   f"tell these apart).", ""]
     lines += [f"- data: `{s['data']}`; signals: {', '.join(s['signals'])}",
-              f"- noise (1 sd) estimated from the data: {', '.join(f'{v:.3g}' for v in s['noise']['estimated'])}; "
-              f"used (floored by the job): {', '.join(f'{v:.3g}' for v in s['noise']['used'])}",
-              f"- RMSE before {s['rmse_before']:.4g}{unit}, after {s['rmse_after']:.4g}; max error before "
-              f"{s['max_error_before']:.4g}, after {s['max_error_after']:.4g}; gap above the noise removed: "
-              f"{100 * s['gap_removed']:.0f} %",
-              "- baseline parameters: " + ", ".join(f"{k} = {v:.5g}" for k, v in s["baseline"]["parameters"].items()),
-              ""]
+              f"- noise (1 sd) estimated from the data: {', '.join(f'{v:.3g}' for v in s['noise']['estimated'])}"
+              f"{unit}; used (floored by the job): {', '.join(f'{v:.3g}' for v in s['noise']['used'])}{unit}",
+              f"- {s['signals'][0]} on the cost samples, model replayed by CVODES on the lowered equations: RMSE "
+              f"before {s['rmse_before']:.4g}{unit}, after {s['rmse_after']:.4g}{unit}; max error before "
+              f"{s['max_error_before']:.4g}{unit}, after {s['max_error_after']:.4g}{unit}; gap above the noise "
+              f"removed: {100 * s['gap_removed']:.0f} %",
+              "- baseline parameters: " + values(s["baseline"]["parameters"]), ""]
     if s["after"]:
-        lines += ["- after: " + ", ".join(f"{k} = {v:.5g}" for k, v in s["after"]["parameters"].items()), ""]
+        lines += ["- after: " + values(s["after"]["parameters"]), ""]
+    if s.get("rerun"):
+        r = s["rerun"]
+        lines += [f"- re-run of the built FMUs through the master ({', '.join(f'`{c}`' for c in r['configs'].values())}"
+                  f"; BDF, measured inputs played): RMSE before {r['rmse_before']:.4g}{unit}, after "
+                  f"{r['rmse_after']:.4g}{unit}; max error before {r['max_error_before']:.4g}{unit}, after "
+                  f"{r['max_error_after']:.4g}{unit}; largest difference to the CVODES replay "
+                  f"{max(r['max_difference_to_replay_before'], r['max_difference_to_replay_after']):.3g}{unit}", ""]
     lines += ["## Candidates", "",
               "Fitted on the even segments, scored on the odd ones (score: fraction of the baseline's held-out gap "
               "above the noise that the candidate removes).", "",
-              "| effect | score | ΔBIC | ΔAIC | p (LR) | RMSE after | fitted parameters |", "|---|---|---|---|---|---|---|"]
+              f"| effect | score | ΔBIC | ΔAIC | p (LR) | RMSE after [{unit.strip()}] | fitted parameters |",
+              "|---|---|---|---|---|---|---|"]
     for c in s["candidates"]:
-        params = ", ".join(f"{k} = {v:.4g}" for k, v in c["parameters"].items() if k in c["added_parameters"])
+        params = values(c["parameters"], c["added_parameters"])
         lines.append(f"| {c['effect']} | {c['score']:.3f} | {c['delta_bic']:.1f} | {c['delta_aic']:.1f} | "
                      f"{c['p_value']:.2g} | {c['rmse_after']:.4g} | {params} |")
-    lines += ["", "## Where the gap is", "", "| segment | samples | bias before | RMSE before | × noise | shape | "
-              "RMSE after |", "|---|---|---|---|---|---|---|"]
+    u = unit.strip()
+    lines += ["", "## Where the gap is", "", f"| segment | samples | bias before [{u}] | RMSE before [{u}] | × noise | "
+              f"shape | RMSE after [{u}] |", "|---|---|---|---|---|---|---|"]
     for r in s["segments"]:
         lines.append(f"| {r['segment']} | {r['samples']} | {r['bias_before']:+.3g} | {r['rmse_before']:.3g} | "
                      f"{r['sigmas']:.1f}{' **!**' if r['significant'] else ''} | {r['shape']} | {r['rmse_after']:.3g} |")
@@ -126,7 +142,8 @@ def _report(diagnosis, figures):
 
 def write_diagnosis(diagnosis, out, source=None):
     """Write ``diagnosis.json``, ``report.md``, PNGs and (when an effect is named) ``modelica/<Pkg>/<file>`` and
-    ``variant.diff`` into ``out`` (replaced atomically; an existing ``out/fmu`` is kept)."""
+    ``variant.diff`` into ``out`` (replaced atomically; ``out/fmu`` and ``out/rerun``, written by the workflow, are
+    kept)."""
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=".diagnosis-", dir=out.parent))
@@ -140,8 +157,9 @@ def write_diagnosis(diagnosis, out, source=None):
             target.parent.mkdir(parents=True)
             target.write_text(diagnosis.variant_source, encoding="utf-8")
             (staging / "variant.diff").write_text(diagnosis.variant_diff, encoding="utf-8")
-        if (out / "fmu").is_dir():
-            shutil.move(str(out / "fmu"), staging / "fmu")
+        for kept in ("fmu", "rerun"):
+            if (out / kept).is_dir():
+                shutil.move(str(out / kept), staging / kept)
         if out.exists():
             shutil.rmtree(out)
         staging.rename(out)

@@ -13,8 +13,8 @@
    ``min_gap_removed`` of the held-out gap and improves BIC by ``min_delta_bic``; "none" when no segment of the
    baseline's residual is significant or no candidate qualifies.
 4. *Add and show*: the winner's variant is refitted on every cost sample, written into the Modelica source (a
-   copy of the package under ``OUT/modelica`` with a diff), built into an FMU and replayed; gaps before and after
-   per segment and overall.
+   copy of the package under ``OUT/modelica`` with a diff), built into an FMU and, with the baseline's FMU, re-run
+   through the master with the measured inputs; gaps before and after per segment and overall.
 """
 
 import shutil
@@ -122,10 +122,36 @@ def _rmse(pred, measured, mask):
     return [float(np.sqrt(np.mean(x ** 2))) for x in r], [float(np.max(np.abs(x))) for x in r]
 
 
+def _rerun_both(job, e, model, base, variant_path, variant, final, folder, t, y, mask):
+    """Build the baseline's and the winner's FMUs into ``folder/fmu`` and re-run both through the master with the
+    measured inputs (:mod:`cosim.diagnose.rerun`, configs in ``folder/rerun``); returns the summary's ``rerun``
+    entry."""
+    from cosim.compile import build_fmu
+    from cosim.diagnose.rerun import rerun
+
+    outputs = [o for o, _, _ in job.signals]
+    inputs = [u.name for u in model.inputs]
+    fmus = {"baseline": build_fmu(job.source, job.model, out_dir=folder / "fmu"),
+            final["label"]: build_fmu(variant_path, variant, out_dir=folder / "fmu")}
+    final["fmu"] = str(fmus[final["label"]])
+    entry = {"how": "the built FMUs run by the master (BDF) with the measured inputs played at the data rate",
+             "configs": {}}
+    for label, fit in (("baseline", base), (final["label"], final)):
+        predicted = rerun(fmus[label], {**job.fixed, **fit["parameters"]}, e, inputs, outputs, folder / "rerun",
+                          label, job.rtol)
+        rmse, max_error = _rmse(predicted, y, mask)
+        key = "before" if label == "baseline" else "after"
+        entry[f"rmse_{key}"], entry[f"max_error_{key}"] = rmse[0], max_error[0]
+        entry[f"max_difference_to_replay_{key}"] = float(np.max(np.abs(predicted - fit["predicted"])[:, mask]))
+        entry["configs"][label] = str(folder / "rerun" / f"{label}.toml")
+    return entry
+
+
 def run_diagnosis(job, progress=True, build=True, out=None):
     """Run the workflow on a loaded :class:`~cosim.diagnose.job.DiagnoseJob`; returns a :class:`Diagnosis`.
 
-    ``build`` builds the winner's FMU (into ``out/fmu`` when ``out`` is given, else a temporary folder)."""
+    ``build`` builds the baseline's and the winner's FMUs and re-runs them through the master (into ``out/fmu`` and
+    ``out/rerun`` when ``out`` is given, else a temporary folder)."""
     from cosim.compile import lower
     from cosim.diagnose.job import load_experiment
 
@@ -224,7 +250,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     rivals = [c["effect"] for c in qualified if winner and c is not winner and c["score"] >= winner["score"] - 0.1]
 
     # 4. add and show
-    after, variant_source, variant_diff, final = before, "", "", None
+    after, variant_source, variant_diff, final, rerun_out = before, "", "", None, None
     if winner:
         from cosim.compile import lower as lower_variant
 
@@ -241,11 +267,8 @@ def run_diagnosis(job, progress=True, build=True, out=None):
             Path(job.source).read_text(encoding="utf-8").splitlines(keepends=True),
             variant_source.splitlines(keepends=True), fromfile=str(job.source), tofile=f"{job.source} ({effect})"))
         if build:
-            from cosim.compile import build_fmu
-
-            target = Path(out) / "fmu" if out is not None else folder / "fmu"
-            fmu = build_fmu(path, variant, out_dir=target)
-            final["fmu"] = str(fmu)
+            rerun_out = _rerun_both(job, e, model, base, path, variant, final, Path(out) if out is not None
+                                    else folder, t, y, mask)
     rmse_after, max_after = _rmse(after, y, mask)
     rows_after = segment_table(t, after - y, after, y, mask, segments, sigma, job.gap_sigmas)
     seg_out = []
@@ -262,6 +285,10 @@ def run_diagnosis(job, progress=True, build=True, out=None):
                     "no missing effect found" + ("" if gap_found else ": the baseline fits within the noise")),
         "also_explained_by": rivals,
         "signals": [o for o, _, _ in job.signals],
+        "inputs": [u.name for u in model.inputs],
+        "units": {v.name: v.unit for v in [*model.inputs, *model.outputs]},
+        "parameter_units": {**{p.name: p.unit for p in model.parameters},
+                            **{p.name: p.unit for n in job.effects for p in EFFECTS[n].parameters}},
         "noise": {"estimated": estimated.tolist(), "floor": floor.tolist(), "used": sigma.tolist()},
         "rmse_before": rmse_before[0], "rmse_after": rmse_after[0],
         "max_error_before": max_before[0], "max_error_after": max_after[0],
@@ -270,6 +297,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
                         if rmse_before[0] > sigma[0] else 0.0),
         "baseline": {"parameters": base["parameters"], "free": {n: list(v) for n, v in job.free.items()}},
         "after": ({"parameters": final["parameters"], "fmu": final.get("fmu")} if final else None),
+        "rerun": rerun_out,
         "segments": seg_out,
         "gap_found": gap_found,
         "shapes": findings,
