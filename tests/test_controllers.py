@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
-from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir  # noqa: F401
+from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
 
 import controllers
 from controllers.base import Controller
@@ -33,7 +33,7 @@ def _all_controller_classes():
     return sorted(seen, key=lambda c: (c.__module__, c.__name__))
 
 
-def _required(cls, folder):
+def required_parameters(cls, folder):
     """Parameters a class cannot default: the data file a Playback plays."""
     if cls is not Playback:
         return {}
@@ -43,7 +43,7 @@ def _required(cls, folder):
 
 @pytest.mark.parametrize("cls", _all_controller_classes(), ids=lambda c: f"{c.__module__}.{c.__name__}")
 def test_controller_contract(cls, tmp_path):
-    required = _required(cls, tmp_path)
+    required = required_parameters(cls, tmp_path)
     c = cls(rate=10000.0, **required)
     assert c.u.shape == (len(cls.inputs),) and c.y.shape == (len(cls.outputs),)
     assert c.p.dtype == np.float64 and c.x.dtype == np.float64
@@ -80,6 +80,24 @@ def test_playback_holds_each_sample_until_the_next(tmp_path):
     assert_allclose(played, expected, rtol=0, atol=0)
     with pytest.raises(ValueError, match="'file' and 'column' are required"):
         Playback(rate=1000.0)
+
+
+def test_playback_drives_an_fmu_from_a_config_beside_its_data(master_dir, tmp_path, monkeypatch):
+    """A config plays u.csv (a path relative to the config's folder, run from elsewhere) into the Osc FMU: the
+    recorded input is the table held between its stamps."""
+    t_data = np.arange(0, 21) * 0.05
+    u_data = np.sin(7.0 * t_data)
+    pd.DataFrame({"time": t_data, "u": u_data}).to_csv(master_dir / "play_u.csv", index=False)
+    text = osc_config(master_dir, stop=1.0, rate=100, record_rate=100).read_text()
+    text = text.replace('class = "ctl.py:Sine"', 'class = "controllers.playback:Playback"').replace(
+        "parameters = { amp = 2.0, f = 1.0 }", 'parameters = { file = "play_u.csv", column = "u" }').replace(
+        '"src.u"', '"src.y"')
+    (master_dir / "play.toml").write_text(text)
+    monkeypatch.chdir(tmp_path)
+    result = run(load_config(master_dir / "play.toml"), progress=False)
+    t = result.data["time"][:-1]  # controllers do not step at the stop instant: its row holds the last step
+    expected = u_data[np.searchsorted(t_data, t + 1e-9, side="right") - 1]
+    assert_allclose(result.data["src.y"][:-1], expected, rtol=0, atol=1e-15)
 
 
 # -- FOC ----------------------------------------------------------------------------------------------

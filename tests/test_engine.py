@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
-from test_controllers import _all_controller_classes
+from test_controllers import _all_controller_classes, required_parameters
 from test_master_support import EXAMPLES, ROOT, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
 
 from cosim.config import load_config
@@ -193,7 +193,7 @@ def test_progress_bar_on_stderr(master_dir, capsys):
 
 
 @pytest.mark.parametrize("cls", _all_controller_classes(), ids=lambda c: f"{c.__module__}.{c.__name__}")
-def test_every_shipped_controller_runs_as_a_cfunc(cls):
+def test_every_shipped_controller_runs_as_a_cfunc(cls, tmp_path):
     # the compiled engine calls each kernel through its cfunc wrapper: same outputs and state as step()
     import numba
 
@@ -205,7 +205,8 @@ def test_every_shipped_controller_runs_as_a_cfunc(cls):
         native.call_kernel(addr, t, u.ctypes.data, u.shape[0], y.ctypes.data, y.shape[0], x.ctypes.data, x.shape[0],
                            p.ctypes.data, p.shape[0])
 
-    a, b = cls(rate=10000.0), cls(rate=10000.0)
+    required = required_parameters(cls, tmp_path)
+    a, b = cls(rate=10000.0, **required), cls(rate=10000.0, **required)
     rng = np.random.default_rng(1)
     addr = native_kernel(cls.kernel).address
     for j in range(20):

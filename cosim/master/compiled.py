@@ -25,7 +25,6 @@ from cosim.errors import FmiCallError
 from cosim.fmi import check
 from cosim.master import ckernel
 from cosim.master.engine import Engine, RunResult
-from cosim.master.plant import PlantSystem
 
 __all__ = ["CompiledEngine", "EngineFallbackWarning", "engine_for", "compiled_problem"]
 
@@ -199,22 +198,9 @@ class CompiledEngine(Engine):
         """
         cfg = self.config
         tb = self.tb
-        k_stop = self.k_stop
-        clocks = tb.clocks
-        rec_p = clocks["record"].period
-        periods = sorted({c.period for c in clocks.values()})
-        n_rows = k_stop // rec_p + 1
-        rec = np.full((n_rows, len(self.rec_idx)), np.nan)
-        times = np.zeros(n_rows)
+        _, rec, times, plant, progress = self._start_run(progress)
         order = list(self.layout.ctrl_order)
         calls = np.zeros(len(order), dtype=np.int64)
-        for c in self.controllers.values():
-            c.reset()
-        self.buf[:] = 0.0
-        self.plant = plant = PlantSystem(cfg, self.layout, self.buf)
-        n_inst = sum(k_stop // p + 1 for p in periods)
-        if progress is None:
-            progress = cfg.run.progress if cfg.run.progress != "auto" else n_inst > 200_000
         st = np.zeros(len(ckernel.ST), dtype=np.int64)
         st[2] = -1  # synced tick
         st[3] = 1  # first chunk: send the initial FMU inputs
@@ -231,10 +217,7 @@ class CompiledEngine(Engine):
             ckernel.run_chunk(*args, 0)  # compile, or load from numba's cache
             self.compile_s = self._cfunc_s + _time.perf_counter() - c0
             if progress:
-                from tqdm import tqdm
-
-                bar = tqdm(total=round(cfg.run.stop - cfg.run.start, 6), unit="sim s", desc=cfg.name, leave=False,
-                           bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} sim s [{elapsed}<{remaining}]")
+                bar = self._progress_bar()
             wall0 = _time.perf_counter()
             try:
                 while True:

@@ -237,6 +237,33 @@ class Engine:
             self.units[name] = unit
         self.rec_idx = np.array([self.layout.index[s] for s in self.signals.values()], dtype=np.int64)
 
+    def _start_run(self, progress):
+        """What both engines do before the loop: controllers reset, a fresh plant, empty recording arrays, and
+        whether to show progress (None: when the run has more than 200,000 instants).
+
+        Returns (sorted clock periods, rec, times, plant, progress)."""
+        cfg = self.config
+        periods = sorted({c.period for c in self.tb.clocks.values()})
+        n_rows = self.k_stop // self.tb.clocks["record"].period + 1
+        rec = np.full((n_rows, len(self.rec_idx)), np.nan)
+        times = np.zeros(n_rows)
+        for c in self.controllers.values():
+            c.reset()
+        self.buf[:] = 0.0
+        self.plant = PlantSystem(cfg, self.layout, self.buf)
+        n_inst = sum(self.k_stop // p + 1 for p in periods)
+        if progress is None:
+            progress = cfg.run.progress if cfg.run.progress != "auto" else n_inst > 200_000
+        return periods, rec, times, self.plant, progress
+
+    def _progress_bar(self):
+        """A tqdm bar on stderr counting simulated seconds."""
+        from tqdm import tqdm
+
+        cfg = self.config
+        return tqdm(total=round(cfg.run.stop - cfg.run.start, 6), unit="sim s", desc=cfg.name, leave=False,
+                    bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} sim s [{elapsed}<{remaining}]")
+
     def run(self, progress=None):
         """Run from start to stop; returns a :class:`RunResult` (partial if interrupted by Ctrl-C).
 
@@ -252,30 +279,15 @@ class Engine:
         rec_p = clocks["record"].period
         ctrl = [(name, self.controllers[name], clocks[f"ctrl:{name}"].period, self.layout.route_ctrl_in[name])
                 for name in self.layout.ctrl_order]
-        periods = sorted({c.period for c in clocks.values()})
-        n_rows = k_stop // rec_p + 1
-        rec = np.full((n_rows, len(self.rec_idx)), np.nan)
-        times = np.zeros(n_rows)
+        periods, rec, times, plant, progress = self._start_run(progress)
         calls = {name: 0 for name in self.controllers}
-        for c in self.controllers.values():
-            c.reset()
-        self.buf[:] = 0.0
-        self.plant = plant = PlantSystem(cfg, self.layout, self.buf)
         c2f = self.layout.route_ctrl_to_fmu
         has_c2f = len(c2f[0]) > 0
         rec_idx = self.rec_idx
         buf = self.buf
         h_max = self.h_max
         route = kernels.route
-        n_inst = sum(k_stop // p + 1 for p in periods)
-        if progress is None:
-            progress = cfg.run.progress if cfg.run.progress != "auto" else n_inst > 200_000
-        bar = None
-        if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(total=round(cfg.run.stop - cfg.run.start, 6), unit="sim s", desc=cfg.name, leave=False,
-                       bar_format="{l_bar}{bar}| {n:.3f}/{total:.3f} sim s [{elapsed}<{remaining}]")
+        bar = self._progress_bar() if progress else None
         interrupted = False
         row = 0
         k = 0
