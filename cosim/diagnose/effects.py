@@ -152,7 +152,7 @@ EFFECTS = {
         parameters=(EffectParameter("k_rel", 0.5, 0.0, 10.0, "1",
                                     "Maxwell branch stiffness per unit coating first-region stiffness"),
                     EffectParameter("tau_rel", 0.1, 0.02, 2.0, "s",
-                                    "Coating relaxation time constant (slower than the impact: a faster branch is damping)")),
+                                    "Coating relaxation time constant (slower than the impact, else it is damping)")),
         drive=(("Gripper.Components.FingerContact contact(gap0 = gap0,",
                 "Gripper.Effects.RelaxingCoatingContact contact(k_rel = k_rel, tau_rel = tau_rel, gap0 = gap0,"),),
         drive_parameters=("k_rel", "tau_rel"),
