@@ -31,7 +31,7 @@ with a Stribeck curve), or ``none``. Every case draws ``eta`` and ``T_c0`` near 
 baseline's free parameters).
 
 Integration: semi-implicit Euler with a fixed step ``DT`` (stable for the stiffest element, the dead-band spring
-on the jaw, and for the contact damping; halving it changes the sampled force by < 0.05 N).
+on the jaw, and for the contact damping; a quarter of it changes the sampled force by <= 0.1 N).
 """
 
 import json

@@ -66,7 +66,7 @@ def test_coating_relaxation_variant_exposes_parameters_and_is_neutral_at_k_rel_0
 def test_truth_baseline_agrees_with_the_modelica_baseline():
     """Model-form gap: the truth without effect against the Modelica baseline at the same (nominal) parameters.
     Measured: force RMSE 0.15 N (the load-cell noise is 0.5 N), angle RMSE 1.0 count."""
-    t, i, force, angle = simulate()
+    _, _, force, angle = simulate()
     e = _experiment()
     y = Replay(lower(SOURCE, MODEL), e, ["F_g", "theta_m"], ["eta_g"], [1.0], dict(CONDITION),
                rtol=1e-8).outputs([0.68])
@@ -77,7 +77,7 @@ def test_truth_baseline_agrees_with_the_modelica_baseline():
 
 def test_jaw_stiction_does_not_show_in_the_impact():
     """Why stiction has no hidden-effect case here: a 10 N breakaway in the jaw guides (127x the sliding level)
-    changes the truth's force record by less than the load-cell noise; the rack pushes the jaw with ~40 N and,
+    changes the truth's force record by less than the load-cell noise; the rack pushes the jaw with ~34 N and,
     once clamped, the gear's holding band, not the guide, holds the force."""
     _, _, force, angle = simulate()
     _, _, sticky, sticky_angle = simulate(F_s=10.0)
