@@ -130,12 +130,12 @@ def test_bad_inputs_are_clear_errors(tmp_path):
     with pytest.raises(ConfigError, match="experiment.duration"):
         load_experiment(load_diagnose_job(path, ["experiment.duration=8.0"]), model)
     # an effect that does not apply, an effect not built yet, an unknown key: all reported at once
-    path = _write_job(tmp_path, frame, effects=["coating_relaxation", "warp_drive"], extra="[compare.x]\n")
+    path = _write_job(tmp_path, frame, effects=["hand_mass", "warp_drive"], extra="[compare.x]\n")
     with pytest.raises(ConfigError) as err:
         load_diagnose_job(path)
     assert "not implemented yet" in str(err.value) and "unknown effect 'warp_drive'" in str(err.value)
     text = (tmp_path / "job.toml").read_text().replace("GripperCurrentDriven", "PMSM").replace(
-        '["coating_relaxation", "warp_drive"]', '["loadcell_filter"]')
+        '["hand_mass", "warp_drive"]', '["loadcell_filter"]')
     (tmp_path / "job.toml").write_text(text)
     with pytest.raises(ConfigError, match="does not apply to Gripper.PMSM"):
         load_diagnose_job(tmp_path / "job.toml")

@@ -15,6 +15,8 @@ from cosim.errors import ConfigError
 
 __all__ = ["Replay", "fit_samples"]
 
+_FAILED_REPLAY = 1e3  # weighted residual (noise levels) of every sample when a trial replay fails
+
 
 class Replay:
     """Outputs of ``model`` along ``experiment`` for values of the ``free`` parameters.
@@ -85,7 +87,10 @@ def fit_samples(replay, measured, weights, mask, start, bounds, max_nfev=40):
     w = np.asarray(weights, float)[:, None]
 
     def residual(q):
-        y = replay.shooting.evaluate(q)[3]
+        try:
+            y = replay.shooting.evaluate(q)[3]
+        except RuntimeError:  # CVODES failed at these values (e.g. a stiff impact): a step the solver must reject
+            return np.full(int(mask.sum()) * len(w), _FAILED_REPLAY)
         return ((y - measured) * w)[:, mask].ravel()
 
     if len(q0):

@@ -335,6 +335,49 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       F_d = (C + lambda_hc*F_s)*v;
       F = max(0, F_s + min(F_s, F_d));
     end HuntCrossleyContact;
+    model RelaxingCoatingContact "Components.FingerContact whose coating relaxes: a Maxwell branch (spring k_rel*k_P, time constant tau_rel) in parallel with the coating's elastic element, a standard linear solid (effect coating_relaxation)"
+      // The coating force is F_el(delta_c) + k_rel*k_P*(delta_c - z): the elastic two-region element plus a Maxwell
+      // branch whose dashpot (k_rel*k_P*tau_rel) yields at rate der(z) = (delta_c - z)/tau_rel. Right after an impact
+      // the coating is stiffer by k_rel*k_P; held still, its force relaxes to F_el with time constant ~tau_rel.
+      // The massless coating node balances k_s*(pen - delta_c) = F_el(delta_c) + k_rel*k_P*(delta_c - z), with k_s
+      // the finger and object in series; F_el is piecewise linear, so delta_c is explicit in each region. Bare
+      // fingers (k_P = 1e12) give delta_c ~ 0 and the baseline force: the branch has nothing to relax.
+      // Damping as in Components.FingerContact. k_rel = 0 is Components.FingerContact.
+      parameter Real gap0(unit = "m") = 0.002 "Gap between the bare finger surface and the object at x = 0";
+      parameter Real t_coat(unit = "m") = 0 "Coating thickness (0 for bare fingers)";
+      parameter Real k_f(unit = "N/m") = 1.46e6 "Finger stiffness (FEM)";
+      parameter Real k_obj(unit = "N/m") = 3.53e7 "Object stiffness on one side (cylinder)";
+      parameter Real k_P(unit = "N/m") = 1e12 "Coating first-region stiffness (1e12: no coating)";
+      parameter Real k_H_ratio(unit = "1") = 100 "Coating second-region stiffness / first-region stiffness";
+      parameter Real d_lim(unit = "m") = 0.0015 "Coating deflection at the region boundary";
+      parameter Real C_p(unit = "N.s/m") = 2000 "Contact damping, first region";
+      parameter Real C_h(unit = "N.s/m") = 2000 "Contact damping, second region";
+      parameter Real w_tr(unit = "m") = 5e-6 "Width of the damping blend across the region boundary";
+      parameter Real k_rel(unit = "1") = 1 "Maxwell branch stiffness / coating first-region stiffness";
+      parameter Real tau_rel(unit = "s") = 0.1 "Relaxation time constant of the Maxwell branch";
+      parameter Real k_H(unit = "N/m") = k_H_ratio*k_P "Coating second-region stiffness";
+      parameter Real k_s(unit = "N/m") = 1/(1/k_f + 1/k_obj) "Finger and object in series";
+      parameter Real k_m(unit = "N/m") = k_rel*k_P "Maxwell branch stiffness";
+      input Real x(unit = "m") "Jaw displacement, positive closing";
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      output Real F(unit = "N") "Contact (gripping) force, >= 0";
+      output Real delta_c(unit = "m") "Coating deflection";
+      Real z(unit = "m", start = 0.0, fixed = true) "Dashpot displacement of the Maxwell branch";
+      Real pen(unit = "m") "Penetration of the (coated) finger into the object";
+      Real delta_1(unit = "m") "Coating deflection if it stays in the first region";
+      Real F_s(unit = "N") "Elastic contact force (negative: not touching)";
+      Real C(unit = "N.s/m") "Current damping coefficient";
+      Real F_d(unit = "N") "Damping force before limiting";
+    equation
+      pen = x - (gap0 - t_coat);
+      delta_1 = (k_s*max(pen, 0) + k_m*z)/(k_s + k_P + k_m);
+      delta_c = noEvent(if delta_1 <= d_lim then delta_1 else (k_s*max(pen, 0) + k_m*z + (k_H - k_P)*d_lim)/(k_s + k_H + k_m));
+      der(z) = (delta_c - z)/tau_rel;
+      F_s = k_s*(max(pen, 0) - delta_c);
+      C = C_p + (C_h - C_p)*0.5*(1 + tanh((delta_c - d_lim)/w_tr));
+      F_d = C*v;
+      F = noEvent(if pen > 0 then max(0, F_s + min(F_s, F_d)) else 0);
+    end RelaxingCoatingContact;
   end Effects;
 
   package Parameters "Shared top-level parameter declarations (values and sources: docs/models/gripper.md)"

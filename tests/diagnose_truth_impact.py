@@ -1,0 +1,219 @@
+"""Hidden-effect impact data for the discrepancy workflow's tests and benchmark: a reduced gripper written from the
+gripper paper's equations (3-11) in numpy, independently of the Modelica plant and of the candidates' Modelica.
+
+The experiment: the q current steps from 0 to ``I_STEP`` at ``T_STEP`` and is held; the P2-coated fingers close
+5 mm onto the ABS cylinders (condition ``P2_dynamic_abs`` of cosim/data/gripper_conditions.csv), hit, and the
+gear holds the force the impact leaves. Measured as on the paper's test bench: the load cell at 100 Hz with
+Gaussian noise, the 2048 cpt motor encoder (whole counts, truncated) at the same instants.
+
+Formulation (each element written differently from the Modelica):
+
+* motor: ``J*dw/dt = k_t*i - B_r*w - tau_f - tau_L``, ``tau_L`` the gear's load referred to the motor;
+* drag ``T_c0`` and the mesh loss are one *Karnopp* friction on the motor shaft: its capacity is the drag plus
+  ``(1/eta - 1)*|tau_L|`` when the motor drives the load and ``(1 - eta)*|tau_L|`` when the load drives it;
+  inside the speed window ``W_STICK`` the shaft sticks while the torque it must hold lies inside that band. While
+  sliding, the friction is that capacity times a *Dahl* state ``s`` that turns towards the direction of motion
+  over the presliding angle ``PHI_DAHL`` (the Modelica: elasto-plastic bristle states with their own law);
+* play: a *dead-band spring* at the gear output (stiffness ``C_PLAY`` while engaged; damping ``D_PLAY`` no larger
+  than the spring torque, so the torque is continuous at engagement and never pulls), bearing damping
+  ``B_g = T_max*(1 - eta)*N^2/omega_max`` (eq. 9);
+* jaws: rack and pinion, grease ``4*eta_grease*S/d*v`` (eq. 11) and guide friction as a Karnopp friction (window
+  ``V_STICK``, static level = sliding level unless the effect ``stiction`` raises it);
+* contact: finger, coating and object springs in series, the coating two-region; Kelvin-Voigt damping switched
+  (not blended) between ``C_p`` and ``C_h`` at the region boundary, clamped so the contact cannot pull.
+
+Hidden effects: ``gear_play`` (play 0.3-0.55 deg or 1.1-1.6 deg instead of 0.8 deg), ``contact_damping`` (a
+dissipative law ``c_hc*pen^p_hc*v`` with an exponent ``p_hc`` in [1.2, 1.8], not the candidate's force-proportional
+Hunt-Crossley term), ``coating_relaxation`` (one Prony term: an internal coating force ``q`` updated by the
+recursive exponential integrator of finite-element viscoelasticity, not the candidate's dashpot state),
+``stiction`` (Karnopp breakaway ``F_s`` 3-10 N above the sliding guide friction, against the candidate's LuGre
+with a Stribeck curve), or ``none``. Every case draws ``eta`` and ``T_c0`` near their nominal values (the
+baseline's free parameters).
+
+Integration: semi-implicit Euler with a fixed step ``DT`` (stable for the stiffest element, the dead-band spring
+on the jaw, and for the contact damping; a quarter of it changes the sampled force by <= 0.1 N).
+"""
+
+import json
+import math
+
+import numpy as np
+
+__all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "make_case", "write_job"]
+
+TRUTH_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction")
+
+# the paper's values (Table 1, Sec. 3; docs/models/gripper.md) where the Modelica plant takes them
+K_T, J_M, B_R = 0.0393939394, 1.01e-5, 1.01e-5    # N.m/A, kg.m2 (rotor + gear input), N.m.s/rad
+RATIO, T_MAX, OMEGA_MAX = 28.0, 0.13, 628.3185    # 1, N.m, rad/s
+PLAY_NOMINAL, C_PLAY, D_PLAY = math.radians(0.8), 1000.0, 0.05  # rad, N.m/rad, N.m.s/rad (gear output)
+R_P, J_P, M_JF = 0.008957, 7.94e-7, 0.08          # m, kg.m2, kg
+C_GREASE = 4 * 0.2 * 2e-4 / 5e-5                  # N.s/m, eq. (11): n_s*eta*S/d
+F_GUIDE = 0.0785                                  # N, sliding guide friction per jaw
+K_F = 1.46e6                                      # N/m, finger
+# contact condition P2_dynamic_abs (cosim/data/gripper_conditions.csv)
+CONDITION = {"gap0": 0.0075, "t_coat": 0.0025, "k_obj": 3.53e7, "k_P": 1.8e5, "k_H_ratio": 100.0,
+             "d_lim": 0.0015, "C_p": 10.0, "C_h": 2000.0}
+
+T_STEP, I_STEP, DURATION = 0.05, 1.0, 1.0         # s, A, s
+RATE_HZ, FORCE_NOISE, COUNTS = 100.0, 0.5, 2048   # Hz, N (1 sd), counts per revolution
+DT = 1e-5                                         # s, integrator step
+W_STICK, V_STICK = 1e-3, 1e-5                     # rad/s, m/s: Karnopp stick windows
+PHI_DAHL = 1e-3                                   # rad, presliding angle of the motor-shaft friction
+
+
+def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p_hc=1.5, k_prony=0.0,
+             tau_prony=0.1, rate_hz=RATE_HZ, duration=DURATION):
+    """Noise-free force [N] and motor angle [rad] at ``rate_hz`` for the current step; returns (time, i, F, theta).
+
+    Parameters: mesh efficiency ``eta`` [1], drag ``T_c0`` [N.m], total play ``play`` [rad], guide breakaway
+    ``F_s`` [N] per jaw, extra contact damping ``c_hc*pen^p_hc`` [N.s/m, pen in m], Prony stiffness ``k_prony``
+    [N/m] and time constant ``tau_prony`` [s] of the coating."""
+    c = CONDITION
+    k_s = 1.0 / (1.0 / K_F + 1.0 / c["k_obj"])
+    k_P, k_H, d_lim = c["k_P"], c["k_H_ratio"] * c["k_P"], c["d_lim"]
+    B_g = T_MAX * (1 - eta) * RATIO ** 2 / OMEGA_MAX
+    m = M_JF + J_P / (2 * R_P ** 2)
+    decay = math.exp(-DT / tau_prony)
+    gain = k_prony * (1 - decay) * tau_prony / DT  # Prony increment per unit coating deflection change
+    steps_per_sample = int(round(1.0 / (rate_hz * DT)))
+    n = int(round(duration * rate_hz))
+    theta = w = x = v = q = delta = s = F_contact = 0.0
+    out = np.empty((n, 2))
+    for k in range(n * steps_per_sample):
+        if k % steps_per_sample == 0:
+            out[k // steps_per_sample] = F_contact, theta
+        current = I_STEP if k * DT >= T_STEP - 1e-12 else 0.0
+        # dead-band spring at the gear output
+        rel = theta / RATIO - x / R_P
+        rel_rate = w / RATIO - v / R_P
+        engaged = abs(rel) - play / 2
+        tau_bl = 0.0
+        if engaged > 0:
+            side = 1.0 if rel > 0 else -1.0
+            spring = C_PLAY * engaged
+            tau_bl = side * (spring + min(max(D_PLAY * side * rel_rate, -spring), spring))
+        tau_L = (tau_bl + B_g * w / RATIO) / RATIO
+        # motor shaft: Karnopp friction with the efficiency band
+        drive = K_T * current - B_R * w - tau_L
+        if abs(w) < W_STICK:
+            direction = 1.0 if drive > 0 else -1.0
+            band = T_c0 + ((1 / eta - 1) if direction * tau_L > 0 else (1 - eta)) * abs(tau_L)
+            if abs(drive) <= band:
+                w_new, s = 0.0, drive / band  # stuck: the friction holds the torque, its state says how much
+            else:
+                w_new = w + DT * (drive - direction * band) / J_M
+        else:
+            capacity = T_c0 + ((1 / eta - 1) if s * tau_L > 0 else (1 - eta)) * abs(tau_L)
+            w_new = w + DT * (drive - s * capacity) / J_M
+            if w_new * w < 0:
+                w_new = 0.0
+        # contact: finger + object springs in series with the two-region coating and its Prony term
+        pen = x - (c["gap0"] - c["t_coat"])
+        carried = decay * q - gain * delta
+        delta_new = (k_s * max(pen, 0.0) - carried) / (k_s + k_P + gain)
+        if delta_new > d_lim:
+            delta_new = (k_s * max(pen, 0.0) - carried - (k_P - k_H) * d_lim) / (k_s + k_H + gain)
+        F_el = k_s * (max(pen, 0.0) - delta_new)
+        if pen <= 0 or F_el < 0:  # not touching: the free coating relaxes under its internal force alone
+            delta_new = -carried / (k_P + gain)
+            F_el = 0.0
+        q = carried + gain * delta_new
+        delta = delta_new
+        C = c["C_p"] if delta < d_lim else c["C_h"]
+        F_contact = max(0.0, F_el + (C + c_hc * max(pen, 0.0) ** p_hc) * v) if pen > 0 else 0.0
+        # jaw: rack force, grease, Karnopp guide friction
+        F_jaw = tau_bl / (2 * R_P) - C_GREASE * v - F_contact
+        if abs(v) < V_STICK:
+            direction = 1.0 if F_jaw > 0 else -1.0
+            v_new = 0.0 if abs(F_jaw) <= F_s else v + DT * (F_jaw - direction * F_GUIDE) / m
+        else:
+            v_new = v + DT * (F_jaw - (F_GUIDE if v > 0 else -F_GUIDE)) / m
+            if v_new * v < 0:
+                v_new = 0.0
+        # Dahl state of the motor-shaft friction: turns towards the direction of motion over PHI_DAHL
+        if w_new != 0.0:
+            sign = 1.0 if w_new > 0 else -1.0
+            s = sign + (s - sign) * math.exp(-abs(w_new) * DT / PHI_DAHL)
+        w, v = w_new, v_new
+        theta += DT * w
+        x += DT * v
+    time = np.arange(n) / rate_hz
+    return time, np.where(time >= T_STEP - 1e-12, I_STEP, 0.0), out[:, 0], out[:, 1]
+
+
+def make_case(effect, rng, noise=FORCE_NOISE):
+    """A random hidden-effect case: returns (time, current, measured force, measured angle, truth dict).
+
+    The truth dict holds the drawn parameters under the names of the Modelica parameters they correspond to
+    where there is one (``eta_g``, ``T_c0``, ``play``, ``F_sj``)."""
+    if effect not in TRUTH_EFFECTS:
+        raise ValueError(f"truth effect must be one of {', '.join(TRUTH_EFFECTS)}; got {effect!r}")
+    truth = {"effect": effect, "eta_g": float(rng.uniform(0.62, 0.74)), "T_c0": float(rng.uniform(6e-3, 1e-2))}
+    kw = {"eta": truth["eta_g"], "T_c0": truth["T_c0"]}
+    if effect == "gear_play":
+        deg = rng.uniform(0.3, 0.55) if rng.random() < 0.5 else rng.uniform(1.1, 1.6)
+        truth["play"] = kw["play"] = math.radians(deg)
+    elif effect == "contact_damping":
+        truth["p_hc"] = kw["p_hc"] = float(rng.uniform(1.2, 1.8))
+        c_ref = rng.uniform(100.0, 300.0)  # N.s/m at 0.5 mm penetration
+        truth["c_hc"] = kw["c_hc"] = float(c_ref / 5e-4 ** truth["p_hc"])
+        truth["c_at_0.5mm"] = float(c_ref)
+    elif effect == "coating_relaxation":
+        truth["k_rel"] = float(rng.uniform(0.5, 2.0))
+        truth["tau_rel"] = kw["tau_prony"] = float(rng.uniform(0.05, 0.3))
+        kw["k_prony"] = truth["k_rel"] * CONDITION["k_P"]
+    elif effect == "stiction":
+        truth["F_sj"] = kw["F_s"] = float(rng.uniform(3.0, 10.0))
+    t, i, F, theta = simulate(**kw)
+    force = F + rng.normal(0.0, noise, len(t))
+    angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
+    return t, i, force, angle, truth
+
+
+JOB = """
+[model]
+source = "{source}"
+name = "Gripper.GripperCurrentDriven"
+parameters = {parameters}
+[data]
+path = "data.csv"
+inputs = {{ i_ref = "i_ref" }}
+[experiment]
+kind = "impact"
+duration = {duration}
+[compare]
+signals = [{{ output = "F_g", column = "F_g", noise = {force_floor} }},
+           {{ output = "theta_m", column = "theta_m", noise = {angle_floor} }}]
+rtol = 1e-6
+max_nfev = {max_nfev}
+[parameters.eta_g]
+start = 0.68
+min = 0.3
+max = 1.0
+[parameters.T_c0]
+start = 7.88e-3
+min = 1e-4
+max = 0.05
+[candidates]
+effects = {effects}
+[parallel]
+workers = {workers}
+"""
+
+
+def write_job(folder, source, case, effects, workers=0, max_nfev=20):
+    """Write ``case`` (from :func:`make_case`) as data.csv and the diagnosis job for it into ``folder``; returns the
+    job path. Noise floors: 0.1 N under the force estimate, one encoder count under the angle's (the truncated
+    counts are not a zero-mean noise: their bias of half a count is part of the floor)."""
+    import pandas as pd
+
+    t, i, force, angle, _ = case
+    pd.DataFrame({"time": t, "i_ref": i, "F_g": force, "theta_m": angle}).to_csv(folder / "data.csv", index=False)
+    fixed = {**CONDITION, "play": PLAY_NOMINAL}
+    parameters = "{ " + ", ".join(f"{k} = {v!r}" for k, v in fixed.items()) + " }"
+    path = folder / "job.toml"
+    path.write_text(JOB.format(source=source.as_posix(), parameters=parameters, duration=t[-1],
+                               force_floor=0.1, angle_floor=2 * np.pi / COUNTS, max_nfev=max_nfev,
+                               effects=json.dumps(list(effects)), workers=workers))
+    return path
