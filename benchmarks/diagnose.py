@@ -26,6 +26,9 @@ from diagnose_truth import TRUTH_EFFECTS, make_case, write_job  # noqa: E402
 from cosim.diagnose import load_diagnose_job, run_diagnosis  # noqa: E402
 
 CANDIDATES = ("backdrive_efficiency", "load_dependent_friction", "loadcell_filter")
+# On steady holds a guide friction mu_F*F is, to O(mu_F^2), a lower gear efficiency (docs/diagnose.md): the
+# static staircase cannot tell it from the baseline, so its row is reported apart from the naming rate.
+NOT_IDENTIFIABLE = ("load_dependent_friction",)
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -58,10 +61,12 @@ def main(argv=None):
     print(f"confusion matrix (rows: hidden effect, columns: named), {args.cases} cases each, noise "
           f"{args.noise} N, {time.time() - start:.0f} s:")
     print(matrix.to_string())
-    right = sum(matrix.loc[e, e] for e in labels if e != "none")
-    total = args.cases * (len(labels) - 1)
-    print(f"named right: {right}/{total}; false alarms on 'none': {args.cases - matrix.loc['none', 'none']}"
-          f"/{args.cases}")
+    identifiable = [e for e in labels if e not in ("none", *NOT_IDENTIFIABLE)]
+    right = sum(matrix.loc[e, e] for e in identifiable)
+    print(f"named right ({', '.join(identifiable)}): {right}/{args.cases * len(identifiable)}; false alarms on "
+          f"'none': {args.cases - matrix.loc['none', 'none']}/{args.cases}")
+    for e in NOT_IDENTIFIABLE:
+        print(f"not identifiable on a static staircase, {e}: named right {matrix.loc[e, e]}/{args.cases}")
     if gaps:
         print(f"gap above the noise removed when named right: min {100 * min(gaps):.0f} %, median "
               f"{100 * np.median(gaps):.0f} %")
