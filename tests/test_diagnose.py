@@ -14,7 +14,7 @@ import pytest
 
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis
 from cosim.diagnose.analysis import cut_segments, noise_level, steady_mask, whiteness
-from cosim.diagnose.effects import variant_text
+from cosim.diagnose.effects import applicable, variant_text
 from cosim.errors import ConfigError
 from diagnose_truth import make_case
 from test_gripper_support import ROOT
@@ -66,7 +66,7 @@ def _case_frame(effect, seed, noise=0.3):
 
 # -- effect library ------------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("name", list(EFFECTS))
+@pytest.mark.parametrize("name", applicable(SOURCE.read_text(encoding="utf-8"), "Gripper.GripperCurrentDriven"))
 def test_every_effect_variant_lowers_with_its_parameters(name, tmp_path):
     """Each variant of GripperCurrentDriven builds (rumoca + lowering) and exposes the effect's parameters; the
     baseline part of the source is unchanged (the variant only adds a Diagnosis sub-package)."""
