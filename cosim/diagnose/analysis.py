@@ -110,7 +110,7 @@ def cut_segments(time, inputs, kind, measured=None, noise=None, min_hold_s=0.1):
     raise ValueError(f"segment kind must be 'staircase' or 'impact'; got {kind!r}")
 
 
-def frequency_bands(frequency, magnitude_db, per_decade=4.0, min_points=8):
+def frequency_bands(frequency, magnitude_db, per_decade=6.0, min_points=8):
     """The segments of a frequency response: bands of equal width on a log axis (``per_decade`` of them per
     decade, edges at 1 Hz x 10^(k/per_decade)), a band with fewer than ``min_points`` frequencies merged into the
     next one. Narrow interleaved bands, rather than one band per resonance, let both folds of the cross-validation

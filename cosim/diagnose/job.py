@@ -69,7 +69,7 @@ class DiagnoseJob:
     scheduler: str
     input: str = ""  # frequency kind: the excited model input
     sample_rate: float = 0.0  # frequency kind: Hz of the ZOH the model is compared through (0: continuous)
-    bands_per_decade: float = 4.0  # frequency kind: width of the frequency bands (segments)
+    bands_per_decade: float = 6.0  # frequency kind: width of the frequency bands (segments)
 
 
 def load_diagnose_job(path, overrides=()):
@@ -115,7 +115,7 @@ def load_diagnose_job(path, overrides=()):
     sample_rate = number(problems, e, "sample_rate", ("experiment",), default=0.0)
     if sample_rate is not None and sample_rate < 0:
         problems.add(("experiment", "sample_rate"), f"must be >= 0 Hz (0: continuous); got {sample_rate!r}")
-    per_decade = number(problems, e, "bands_per_decade", ("experiment",), default=4.0, positive=True)
+    per_decade = number(problems, e, "bands_per_decade", ("experiment",), default=6.0, positive=True)
     duration = number(problems, e, "duration", ("experiment",), positive=True) if "duration" in e else None
     steady_s = number(problems, e, "steady_s", ("experiment",), default=0.0) if "steady_s" in e else 0.0
     min_hold_s = number(problems, e, "min_hold_s", ("experiment",), positive=True) \
