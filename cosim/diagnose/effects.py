@@ -1,7 +1,8 @@
 """The library of candidate missing effects and the Modelica variants that add them to a baseline model.
 
 Each effect is a documented Modelica addition: its physics lives in a block of ``Gripper.Effects``
-(``modelica/Gripper/package.mo``); what this module adds is the *wiring*. For a baseline such as
+(``modelica/Gripper/package.mo``) or ``Haptic.Effects`` (``modelica/Haptic/package.mo``: hand mass, second
+vibration mode, loop delay, wired into ``Haptic.Device7``); what this module adds is the *wiring*. For a baseline such as
 ``Gripper.GripperCurrentDriven`` it writes a variant model ``Gripper.Diagnosis.<Model>_<effect>`` (and, when the
 effect sits inside the drivetrain, a copy ``Gripper.Diagnosis.DrivetrainMechanics_<effect>``) by a few textual
 edits of the baseline's own source: new parameter declarations, a component swapped or added, one equation
