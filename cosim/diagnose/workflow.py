@@ -143,7 +143,7 @@ def _channels(job, model):
     if job.kind == "frequency":
         output, _, floor = job.signals[0]
         ratio = f"{output}/{job.input}"
-        return [f"|{ratio}|", f"phase {ratio}"], ["dB", "deg"], [floor, floor * DEG_PER_DB]
+        return [f"magnitude {ratio}", f"phase {ratio}"], ["dB", "deg"], [floor, floor * DEG_PER_DB]
     units = [model.outputs[model.index("outputs", o)].unit for o, _, _ in job.signals]
     return [o for o, _, _ in job.signals], units, [n for _, _, n in job.signals]
 
