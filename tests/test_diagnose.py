@@ -14,7 +14,7 @@ import pytest
 
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis
 from cosim.diagnose.analysis import cut_segments, noise_level, steady_mask, whiteness
-from cosim.diagnose.effects import variant_text
+from cosim.diagnose.effects import applicable, variant_text
 from cosim.errors import ConfigError
 from diagnose_truth import SOURCE, make_case, write_job
 
@@ -32,7 +32,7 @@ def _case_frame(effect, seed, noise=0.3):
 
 # -- effect library ------------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("name", list(EFFECTS))
+@pytest.mark.parametrize("name", applicable(SOURCE.read_text(encoding="utf-8"), "Gripper.GripperCurrentDriven"))
 def test_every_effect_variant_lowers_with_its_parameters(name, tmp_path):
     """Each variant of GripperCurrentDriven builds (rumoca + lowering) and exposes the effect's parameters; the
     baseline part of the source is unchanged (the variant only adds a Diagnosis sub-package)."""
@@ -129,11 +129,13 @@ def test_bad_inputs_are_clear_errors(tmp_path):
     path = _write_job(tmp_path, frame[frame["time"] < 5.0])
     with pytest.raises(ConfigError, match="experiment.duration"):
         load_experiment(load_diagnose_job(path, ["experiment.duration=8.0"]), model)
-    # an effect that does not apply, an effect not built yet, an unknown key: all reported at once
+    # an effect of another system (the haptic hand mass on the gripper), an unknown effect, an unknown key: all
+    # reported at once
     path = _write_job(tmp_path, frame, effects=["hand_mass", "warp_drive"], extra="[compare.x]\n")
     with pytest.raises(ConfigError) as err:
         load_diagnose_job(path)
-    assert "not implemented yet" in str(err.value) and "unknown effect 'warp_drive'" in str(err.value)
+    assert "'hand_mass' does not apply to Gripper.GripperCurrentDriven" in str(err.value)
+    assert "unknown effect 'warp_drive'" in str(err.value) and "compare.x" in str(err.value)
     text = (tmp_path / "job.toml").read_text().replace("GripperCurrentDriven", "PMSM").replace(
         '["hand_mass", "warp_drive"]', '["loadcell_filter"]')
     (tmp_path / "job.toml").write_text(text)

@@ -11,7 +11,7 @@ from cosim.errors import ConfigError
 __all__ = ["load_measurements", "check_measurements"]
 
 
-def load_measurements(path, channels, field="data.path", sparse=()):
+def load_measurements(path, channels, field="data.path", sparse=(), abscissa="time", unit="s"):
     """Read ``path`` (``.csv`` or ``.parquet``) and check it holds ``time`` and every name in ``channels``.
 
     Parameters
@@ -23,6 +23,9 @@ def load_measurements(path, channels, field="data.path", sparse=()):
         Channels that may be empty (NaN) at some rows: outputs sampled slower than the rest.
     field : str
         The job key that named the file, for error messages.
+    abscissa, unit : str
+        The strictly increasing column the samples are ordered by and its unit (``frequency``, ``Hz`` for a
+        frequency response).
 
     Returns
     -------
@@ -42,17 +45,17 @@ def load_measurements(path, channels, field="data.path", sparse=()):
             raise ConfigError(f"{field}: {path} is neither .csv nor .parquet")
     except (ValueError, OSError) as err:
         raise ConfigError(f"{field}: cannot read {path}: {err}") from err
-    return check_measurements(frame, channels, f"{field} ({path.name})", sparse)
+    return check_measurements(frame, channels, f"{field} ({path.name})", sparse, abscissa, unit)
 
 
-def check_measurements(frame, channels, where="data", sparse=()):
-    """Check a measured table: ``time`` strictly increasing, named channels present and finite (channels in
-    ``sparse`` may be NaN where they were not sampled, but must hold some values and no inf)."""
-    missing = [c for c in ["time", *channels] if c not in frame.columns]
+def check_measurements(frame, channels, where="data", sparse=(), abscissa="time", unit="s"):
+    """Check a measured table: ``time`` (or ``abscissa``) strictly increasing, named channels present and finite
+    (channels in ``sparse`` may be NaN where they were not sampled, but must hold some values and no inf)."""
+    missing = [c for c in [abscissa, *channels] if c not in frame.columns]
     if missing:
         raise ConfigError(
             f"{where}: missing column(s) {', '.join(missing)}; the file has {', '.join(map(str, frame.columns))}")
-    frame = frame[["time", *dict.fromkeys(channels)]].astype(float)
+    frame = frame[[abscissa, *dict.fromkeys(channels)]].astype(float)
     for column in frame.columns:
         values = frame[column].to_numpy()
         if column in sparse:
@@ -62,9 +65,9 @@ def check_measurements(frame, channels, where="data", sparse=()):
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:
             raise ConfigError(f"{where}: column {column!r} has {bad.size} NaN/inf value(s), first at row {bad[0]}")
-    steps = np.diff(frame["time"].to_numpy())
+    steps = np.diff(frame[abscissa].to_numpy())
     if (steps <= 0).any():
         row = int(np.flatnonzero(steps <= 0)[0]) + 1
-        raise ConfigError(f"{where}: time is not strictly increasing at row {row} "
-                          f"(t = {frame['time'].iloc[row]:g} s after {frame['time'].iloc[row - 1]:g} s)")
+        raise ConfigError(f"{where}: {abscissa} is not strictly increasing at row {row} ({abscissa[0]} = "
+                          f"{frame[abscissa].iloc[row]:g} {unit} after {frame[abscissa].iloc[row - 1]:g} {unit})")
     return frame.reset_index(drop=True)

@@ -96,3 +96,25 @@ class LoweredModel:
             return names.index(name)
         except ValueError:
             raise KeyError(f"{self.name} has no {group[:-1]} named {name!r}; it has {', '.join(names)}") from None
+
+    def linearization(self, input, output):
+        """The SISO linearisation ``input`` -> ``output`` at the rest point (x0(p), u = 0), as a function of the
+        tunable parameters: returns ``f(p) -> (A, B, C, D)`` (numpy, shapes (n, n), (n, 1), (1, n), (1, 1)).
+
+        The Jacobians are CasADi's exact derivatives of the lowered equations, built once."""
+        import casadi as ca
+
+        i, j = self.index("inputs", input), self.index("outputs", output)
+        x = ca.SX.sym("x", len(self.states))
+        u = ca.SX.sym("u", len(self.inputs))
+        p = ca.SX.sym("p", len(self.parameters))
+        xdot, y = self.ode(x, u, p, 0.0), self.out(x, u, p, 0.0)
+        jac = ca.Function("abcd", [x, u, p], [ca.jacobian(xdot, x), ca.jacobian(xdot, u)[:, i],
+                                              ca.jacobian(y, x)[j, :], ca.jacobian(y, u)[j, i]])
+        rest = np.zeros(len(self.inputs))
+
+        def abcd(values):
+            values = np.asarray(values, dtype=float)
+            return tuple(np.array(m, dtype=float) for m in jac(self.initial_state(values), rest, values))
+
+        return abcd

@@ -6,8 +6,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-__all__ = ["Segment", "noise_level", "steady_mask", "cut_segments", "segment_table", "whiteness",
-           "cross_correlation", "branch_shapes"]
+__all__ = ["Segment", "noise_level", "steady_mask", "cut_segments", "frequency_bands", "segment_table",
+           "band_shape", "whiteness", "cross_correlation", "branch_shapes"]
 
 
 @dataclass(frozen=True)
@@ -110,18 +110,57 @@ def cut_segments(time, inputs, kind, measured=None, noise=None, min_hold_s=0.1):
     raise ValueError(f"segment kind must be 'staircase' or 'impact'; got {kind!r}")
 
 
+def frequency_bands(frequency, magnitude_db, per_decade=6.0, min_points=8):
+    """The segments of a frequency response: bands of equal width on a log axis (``per_decade`` of them per
+    decade, edges at 1 Hz x 10^(k/per_decade)), a band with fewer than ``min_points`` frequencies merged into the
+    next one. Narrow interleaved bands, rather than one band per resonance, let both folds of the cross-validation
+    see the flanks of every feature. A band's label names the measured peak or notch it holds (an interior
+    extremum of the magnitude at least 1 dB beyond both ends of the band).
+
+    Returns list of Segment (``t0``, ``t1``: the band's first and last frequency [Hz]; kind ``band``)."""
+    f = np.asarray(frequency, float)
+    edges = 10.0 ** (np.floor(np.log10(f[0]) * per_decade) / per_decade
+                     + np.arange(int(np.ceil(np.log10(f[-1] / f[0]) * per_decade)) + 2) / per_decade)
+    which = np.searchsorted(edges, f, side="right")
+    groups = [np.flatnonzero(which == k) for k in np.unique(which)]
+    merged = []
+    for g in groups:
+        if merged and len(merged[-1]) < min_points:
+            merged[-1] = np.concatenate([merged[-1], g])
+        else:
+            merged.append(g)
+    if len(merged) > 1 and len(merged[-1]) < min_points:
+        merged[-2:] = [np.concatenate(merged[-2:])]
+    segments = []
+    for k, g in enumerate(merged):
+        m = np.asarray(magnitude_db, float)[g]
+        feature = ""
+        if len(g) >= 3:
+            top, low = int(np.argmax(m)), int(np.argmin(m))
+            if 0 < top < len(g) - 1 and m[top] > max(m[0], m[-1]) + 1.0:
+                feature = f", peak at {f[g[top]]:.3g} Hz"
+            elif 0 < low < len(g) - 1 and m[low] < min(m[0], m[-1]) - 1.0:
+                feature = f", notch at {f[g[low]]:.3g} Hz"
+        segments.append(Segment(k, f"band {k}: {f[g[0]]:.3g}-{f[g[-1]]:.3g} Hz{feature}", "band",
+                                float(f[g[0]]), float(f[g[-1]]), float("nan")))
+    return segments
+
+
 def _in(time, seg):
     return (time >= seg.t0 - 1e-9) & (time <= seg.t1 + 1e-9)
 
 
-def segment_table(time, residual, predicted, measured, mask, segments, noise, threshold=3.0):
+def segment_table(time, residual, predicted, measured, mask, segments, noise, threshold=3.0, shape=None):
     """Per segment and signal: samples, bias, RMSE, max error, significance and shape.
 
     A segment's gap is *significant* when the RMS of its residual on the cost samples exceeds ``threshold``
-    noise levels (a model error larger than the scatter of the measurement). Shape: ``bias`` (mean dominates),
-    ``peak error`` (transient maximum well above the steady RMS), ``oscillation`` (the detrended residual
-    changes sign often and is large), ``phase lag`` (measured and predicted best aligned at a nonzero lag).
+    noise levels (a model error larger than the scatter of the measurement; ``noise``: one level per signal, or
+    one per sample, shape (n_signals, N), whose RMS over the segment counts). Shape (time-domain default):
+    ``bias`` (mean dominates), ``peak error`` (transient maximum well above the steady RMS), ``oscillation`` (the
+    detrended residual changes sign often and is large), ``phase lag`` (measured and predicted best aligned at a
+    nonzero lag); ``shape`` replaces that classification (same arguments), e.g. :func:`band_shape`.
     """
+    shape = shape or _shape
     rows = []
     for seg in segments:
         inside = _in(time, seg)
@@ -130,13 +169,14 @@ def segment_table(time, residual, predicted, measured, mask, segments, noise, th
             r_all, r = residual[j, inside], residual[j, cost]
             if r.size == 0:
                 continue
+            level = noise[j] if np.ndim(noise) == 1 else float(np.sqrt(np.mean(noise[j, cost] ** 2)))
             rmse = float(np.sqrt(np.mean(r ** 2)))
             bias = float(np.mean(r))
             row = {"segment": seg.label, "kind": seg.kind, "t0": seg.t0, "t1": seg.t1, "level": seg.level,
                    "signal": j, "samples": int(r.size), "bias": bias, "rmse": rmse,
-                   "max_error": float(np.max(np.abs(r_all))), "significant": bool(rmse > threshold * noise[j]),
-                   "sigmas": rmse / noise[j] if noise[j] > 0 else float("inf")}
-            row["shape"] = _shape(r_all, r, predicted[j, inside], measured[j, inside], noise[j]) \
+                   "max_error": float(np.max(np.abs(r_all))), "significant": bool(rmse > threshold * level),
+                   "sigmas": rmse / level if level > 0 else float("inf")}
+            row["shape"] = shape(r_all, r, predicted[j, inside], measured[j, inside], level) \
                 if row["significant"] else "within noise"
             rows.append(row)
     return rows
@@ -157,6 +197,21 @@ def _shape(r_all, r_steady, pred, meas, sigma):
         if crossings > 0.2 and np.std(detrended) > 3 * sigma:
             return "oscillation"
     return "bias" if abs(np.mean(r_steady)) > 0.5 * rms else "drift"
+
+
+def band_shape(r_all, r, pred, meas, sigma):
+    """Shape of a frequency band's residual (model - measured, dB or deg): ``offset`` (its mean dominates: a
+    gain or phase offset), ``tilt`` (a straight trend across the band dominates: a slope, e.g. the phase of a
+    delay), else ``local`` (a resonance or antiresonance the model misses or misplaces)."""
+    rms = np.sqrt(np.mean(r ** 2))
+    side = "model above" if np.mean(r) > 0 else "model below"
+    if abs(np.mean(r)) > 0.7 * rms:
+        return f"offset ({side})"
+    x = np.arange(len(r), dtype=float)
+    trend = np.polyval(np.polyfit(x, r, 1), x) if len(r) > 2 else r
+    if np.mean(trend ** 2) > 0.7 * rms ** 2:
+        return "tilt (model falls behind with frequency)" if trend[-1] < trend[0] else "tilt (model rises)"
+    return "local (resonance or antiresonance)"
 
 
 def _best_lag(a, b, max_lag=10):

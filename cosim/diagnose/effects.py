@@ -1,7 +1,8 @@
 """The library of candidate missing effects and the Modelica variants that add them to a baseline model.
 
 Each effect is a documented Modelica addition: its physics lives in a block of ``Gripper.Effects``
-(``modelica/Gripper/package.mo``); what this module adds is the *wiring*. For a baseline such as
+(``modelica/Gripper/package.mo``) or ``Haptic.Effects`` (``modelica/Haptic/package.mo``: hand mass, second
+vibration mode, loop delay, wired into ``Haptic.Device7``); what this module adds is the *wiring*. For a baseline such as
 ``Gripper.GripperCurrentDriven`` it writes a variant model ``Gripper.Diagnosis.<Model>_<effect>`` (and, when the
 effect sits inside the drivetrain, a copy ``Gripper.Diagnosis.DrivetrainMechanics_<effect>``) by a few textual
 edits of the baseline's own source: new parameter declarations, a component swapped or added, one equation
@@ -18,7 +19,8 @@ from pathlib import Path
 
 from cosim.errors import ConfigError
 
-__all__ = ["Effect", "EFFECTS", "PLANNED", "effect_names", "get_effect", "write_variant", "variant_text"]
+__all__ = ["Effect", "EFFECTS", "effect_names", "applicable", "get_effect", "write_variant",
+           "variant_text"]
 
 
 @dataclass(frozen=True)
@@ -33,6 +35,7 @@ class EffectParameter:
     upper: float
     unit: str
     description: str
+    starts: tuple = ()  # other start values, each fitted in turn (the cost is multi-modal in it): the best is kept
 
 
 @dataclass(frozen=True)
@@ -160,8 +163,50 @@ EFFECTS = {
     ),
 }
 
-# Named by issue 7 but not built yet: asking for them is an error that says so.
-PLANNED = ("hand_mass", "vibration_mode", "loop_delay")
+
+# The haptic device + user (Haptic.Device7 and the other Haptic.Device* models): blocks of Haptic.Effects wired in
+# through the drive torque tau_1 on m1 and the user's torque tau_user on m2 (modelica/Haptic/package.mo).
+_TAU_1 = "  equation\n    tau_1 = tau;"
+EFFECTS.update({
+    "hand_mass": Effect(
+        name="hand_mass",
+        title="the user's hand mass mh held by kh, bh behind the skin ks, bs (7 -> 11-parameter user, seed 000)",
+        parameters=(EffectParameter("mh", 0.006, 1e-4, 0.1, "kg.m2", "Hand inertia at the phi axis"),
+                    EffectParameter("kh", 3.0, 0.05, 100.0, "N.m/rad", "Stiffness of the hand to the user's reference",
+                                    starts=(1.0, 10.0)),
+                    EffectParameter("bh", 0.2, 1e-3, 3.0, "N.m.s/rad", "Damping of the hand to the user's reference"),
+                    EffectParameter("b2", 0.02, 0.0, 0.5, "N.m.s/rad", "Viscous friction of m2 to ground")),
+        top=((_TAU_1,
+              "    Haptic.Effects.HandMass hand(mh = mh, kh = kh, bh = bh, ks = ks, bs = bs) \"Hand mass behind the "
+              "skin\";\n" + _TAU_1),
+             ("    tau_b2 = 0;\n    tau_user = -ks*(phi2 - phi_ref) - bs*w2 + tau_h;",
+              "    tau_b2 = b2*w2;\n    hand.phi_s = phi2;\n    hand.w_s = w2;\n    hand.phi_ref = phi_ref;\n"
+              "    hand.tau_h = tau_h;\n    tau_user = hand.tau;")),
+        signature="below ~20 Hz: a second pole/zero pair (the hand's mode) the lumped m2 on ks, bs cannot shape",
+    ),
+    "vibration_mode": Effect(
+        name="vibration_mode",
+        title="a second device vibration mode: an inertia m3 hung on the motor-side inertia m1 by k3, b3",
+        parameters=(EffectParameter("m3", 5e-4, 1e-5, 5e-3, "kg.m2", "Modal inertia of the second mode"),
+                    EffectParameter("k3", 70.0, 1.0, 2000.0, "N.m/rad", "Modal stiffness of the second mode",
+                                    starts=(12.0, 30.0, 160.0)),
+                    EffectParameter("b3", 0.01, 1e-5, 0.5, "N.m.s/rad", "Modal damping of the second mode")),
+        top=((_TAU_1,
+              "    Haptic.Effects.SideMode mode(m3 = m3, k3 = k3, b3 = b3) \"Second vibration mode, hung on m1\";\n"
+              "  equation\n    mode.phi = phi1;\n    mode.w = w1;\n    tau_1 = tau + mode.tau;"),),
+        signature="a narrow antiresonance/resonance pair near sqrt(k3/m3), a phase wiggle there",
+    ),
+    "loop_delay": Effect(
+        name="loop_delay",
+        title="a pure delay T_d of the torque command (computation and amplifier), third-order Pade approximation",
+        parameters=(EffectParameter("T_d", 1e-3, 1e-5, 5e-3, "s", "Delay of the torque command",
+                                    starts=(0.3e-3, 3e-3)),),
+        top=((_TAU_1,
+              "    Haptic.Effects.PadeDelay delay(T = T_d) \"Loop delay of the torque command\";\n"
+              "  equation\n    delay.u = tau;\n    tau_1 = delay.y;"),),
+        signature="phase lag growing linearly with frequency (360 T_d deg/Hz), magnitude unchanged",
+    ),
+})
 
 
 def effect_names():
@@ -169,13 +214,23 @@ def effect_names():
     return list(EFFECTS)
 
 
+def applicable(source_text, model):
+    """Identifiers of the implemented effects that apply to ``model`` of the Modelica ``source_text`` (their
+    variant can be written), in library order."""
+    names = []
+    for name, effect in EFFECTS.items():
+        try:
+            variant_text(source_text, model, effect)
+        except ConfigError:
+            continue
+        names.append(name)
+    return names
+
+
 def get_effect(name):
-    """The :class:`Effect` called ``name``; a ConfigError lists the library when it is unknown or not built."""
+    """The :class:`Effect` called ``name``; a ConfigError lists the library when it is unknown."""
     if name in EFFECTS:
         return EFFECTS[name]
-    if name in PLANNED:
-        raise ConfigError(f"effect {name!r} is named by the issue but not implemented yet; implemented: "
-                          f"{', '.join(EFFECTS)}")
     raise ConfigError(f"unknown effect {name!r}; implemented: {', '.join(EFFECTS)}")
 
 
@@ -203,7 +258,7 @@ def variant_text(source_text, model, effect):
     tag = effect.name
     new_name = f"{short}_{tag}"
     top = base.replace(f"model {short} ", f"model {new_name} ", 1).replace(f"end {short};", f"end {new_name};")
-    known = base + _block(source_text, "package", "Parameters")
+    known = _known(source_text, base)
     blocks = []
     decls = "".join(
         f'    parameter Real {p.name}(unit = "{p.unit}") = {_default(p, known)} "{p.description} (effect {tag})";\n'
@@ -225,8 +280,12 @@ def variant_text(source_text, model, effect):
         top = _replace(top, _DRIVE_ANCHOR, f"{package}.Diagnosis.{drive_name} drive({passed}", effect, model)
     for old, new in effect.top:
         top = _replace(top, old, new, effect, model)
-    anchor = "    extends Gripper.Parameters.DrivetrainParameters;\n"
-    top = _replace(top, anchor, anchor + decls, effect, model) if decls else top
+    if decls:  # declared after the model's last `extends` line
+        bases = re.findall(r"^    extends [^\n]*;\n", top, re.M)
+        if not bases:
+            raise ConfigError(f"effect {effect.name!r} does not apply to {model}: it has no `extends` line to "
+                              f"declare the effect's parameters after")
+        top = top.replace(bases[-1], bases[-1] + decls, 1)
     for name, _, _ in effect.frees:
         if not _exists(known, name):
             raise ConfigError(f"effect {effect.name!r} does not apply to {model}: it has no parameter {name!r}")
@@ -239,6 +298,17 @@ def variant_text(source_text, model, effect):
         raise ConfigError(f"the Modelica source does not end with `{end}`")
     head, _, tail = source_text.rpartition(end)
     return f"{package}.Diagnosis.{new_name}", head + sub + end + tail
+
+
+def _known(source_text, base):
+    """Where the baseline's parameters are declared: the model itself, the local models it extends (e.g.
+    ``extends Device(...)``) and the package's shared ``package Parameters`` when it has one."""
+    blocks = [base]
+    for name in re.findall(r"^    extends (\w+)[ (;]", base, re.M):
+        blocks.append(_block(source_text, "(?:partial )?model", name))
+    if re.search(r"^  package Parameters\b", source_text, re.M):
+        blocks.append(_block(source_text, "package", "Parameters"))
+    return "".join(blocks)
 
 
 def _exists(text, name):

@@ -13,7 +13,15 @@ from cosim.calibrate.problem import Experiment
 from cosim.calibrate.shooting import SingleShooting
 from cosim.errors import ConfigError
 
-__all__ = ["Replay", "fit_samples"]
+__all__ = ["Replay", "fit_samples", "check_parameters"]
+
+
+def check_parameters(model, names):
+    """A ConfigError when ``model`` has no tunable parameter of one of ``names``."""
+    known = [p.name for p in model.parameters]
+    for name in names:
+        if name not in known:
+            raise ConfigError(f"{model.name} has no tunable parameter {name!r}")
 
 _FAILED_REPLAY = 1e3  # weighted residual (noise levels) of every sample when a trial replay fails
 
@@ -38,10 +46,7 @@ class Replay:
     """
 
     def __init__(self, model, experiment, outputs, free, scale, fixed=None, rtol=1e-6):
-        names = [p.name for p in model.parameters]
-        for name in [*free, *(fixed or {})]:
-            if name not in names:
-                raise ConfigError(f"{model.name} has no tunable parameter {name!r}")
+        check_parameters(model, [*free, *(fixed or {})])
         full = Experiment(time=experiment.time, inputs=experiment.inputs, measured=experiment.measured,
                           weights=experiment.weights, mask=np.ones(len(experiment.time), bool))
         self.free = list(free)
@@ -50,12 +55,16 @@ class Replay:
                                        rtol=rtol, atol=rtol * 1e-3)
         self.evaluations = 0
 
+    def evaluate(self, q):
+        """Outputs, shape (n_signals, N), for scaled parameters ``q`` (value / scale)."""
+        self.evaluations += 1
+        return self.shooting.evaluate(q)[3]
+
     def outputs(self, values):
         """Outputs, shape (n_signals, N), for parameter ``values`` (dict or array in ``free`` order)."""
         if isinstance(values, dict):
             values = [values[n] for n in self.free]
-        self.evaluations += 1
-        return self.shooting.evaluate(np.asarray(values, float) / self.scale)[3]
+        return self.evaluate(np.asarray(values, float) / self.scale)
 
 
 def fit_samples(replay, measured, weights, mask, start, bounds, max_nfev=40):
@@ -63,10 +72,10 @@ def fit_samples(replay, measured, weights, mask, start, bounds, max_nfev=40):
 
     Parameters
     ----------
-    replay : Replay
+    replay : Replay or cosim.diagnose.frequency.FrequencyReplay
     measured : ndarray, shape (n_signals, N)
-    weights : ndarray, shape (n_signals,)
-        1 / noise level of each signal.
+    weights : ndarray, shape (n_signals,) or (n_signals, N)
+        1 / noise level of each signal (or of each sample).
     mask : ndarray of bool, shape (N,)
     start : ndarray
         Starting values (physical units).
@@ -84,13 +93,14 @@ def fit_samples(replay, measured, weights, mask, start, bounds, max_nfev=40):
     scale = replay.scale
     lo, hi = np.asarray(bounds[0], float) / scale, np.asarray(bounds[1], float) / scale
     q0 = np.clip(np.asarray(start, float) / scale, lo, hi)
-    w = np.asarray(weights, float)[:, None]
+    w = np.asarray(weights, float)
+    w = w[:, None] if w.ndim == 1 else w
 
     def residual(q):
         try:
-            y = replay.shooting.evaluate(q)[3]
+            y = replay.evaluate(q)
         except RuntimeError:  # CVODES failed at these values (e.g. a stiff impact): a step the solver must reject
-            return np.full(int(mask.sum()) * len(w), _FAILED_REPLAY)
+            return np.full(int(mask.sum()) * w.shape[0], _FAILED_REPLAY)
         return ((y - measured) * w)[:, mask].ravel()
 
     if len(q0):
@@ -99,7 +109,7 @@ def fit_samples(replay, measured, weights, mask, start, bounds, max_nfev=40):
         q, success = solution.x, bool(solution.success)
     else:
         q, success = q0, True
-    predicted = replay.shooting.evaluate(q)[3]
+    predicted = replay.evaluate(q)
     r = ((predicted - measured) * w)[:, mask]
     return {"parameters": dict(zip(replay.free, (q * scale).tolist())), "predicted": predicted,
             "chi2": float(np.sum(r ** 2)), "success": success}

@@ -5,8 +5,9 @@ Job schema (paths relative to the job file)::
 
     [model]       source = "x.mo", name = "Pkg.Model", parameters = {name = value}   # fixed values
     [data]        path = "x.csv|x.parquet", inputs = {model_input = "column"}, start, stop, decimate
-    [experiment]  kind = "staircase"|"impact", duration (s: the data must cover it),
+    [experiment]  kind = "staircase"|"impact"|"frequency", duration (s: the data must cover it),
                   steady_s (the last steady_s of each hold enter the cost; staircase), min_hold_s
+                  frequency: input (the model input excited), sample_rate (Hz; 0: continuous), bands_per_decade
     [compare]     signals = [{output = "F_g", column = "F_g", noise = 0.5}]   # noise: floor under the estimate
                   rtol (CVODES), max_nfev (least-squares evaluations per fit)
     [parameters.NAME]  start, min, max                                       # the baseline's free parameters
@@ -24,7 +25,7 @@ import numpy as np
 from cosim.calibrate.data import load_measurements
 from cosim.tomldoc import bounded_parameters, number, read_toml, sections
 from cosim.calibrate.problem import Experiment
-from cosim.diagnose.effects import EFFECTS, PLANNED, variant_text
+from cosim.diagnose.effects import EFFECTS, applicable, variant_text
 from cosim.errors import ConfigError
 
 __all__ = ["DiagnoseJob", "load_diagnose_job", "load_experiment"]
@@ -32,7 +33,7 @@ __all__ = ["DiagnoseJob", "load_diagnose_job", "load_experiment"]
 _SCHEMA = {
     "model": ("source", "name", "parameters"),
     "data": ("path", "inputs", "start", "stop", "decimate"),
-    "experiment": ("kind", "duration", "steady_s", "min_hold_s"),
+    "experiment": ("kind", "duration", "steady_s", "min_hold_s", "input", "sample_rate", "bands_per_decade"),
     "compare": ("signals", "rtol", "max_nfev"),
     "candidates": ("effects",),
     "decision": ("min_gap_removed", "min_delta_bic", "gap_sigmas"),
@@ -66,6 +67,9 @@ class DiagnoseJob:
     gap_sigmas: float
     workers: int
     scheduler: str
+    input: str = ""  # frequency kind: the excited model input
+    sample_rate: float = 0.0  # frequency kind: Hz of the ZOH the model is compared through (0: continuous)
+    bands_per_decade: float = 6.0  # frequency kind: width of the frequency bands (segments)
 
 
 def load_diagnose_job(path, overrides=()):
@@ -86,18 +90,32 @@ def load_diagnose_job(path, overrides=()):
             source_text = source.read_text(encoding="utf-8")
     if not isinstance(t["data"].get("path"), str):
         problems.add(("data", "path"), "is required: a CSV or Parquet file with `time` and the measured channels")
+    e = t["experiment"]
+    kind = e.get("kind", "staircase")
     inputs = t["data"].get("inputs", {})
-    if not isinstance(inputs, dict) or not inputs or not all(isinstance(v, str) for v in inputs.values()):
+    if kind == "frequency":
+        if "inputs" in t["data"]:
+            problems.add(("data", "inputs"), "a frequency response has no input time series; name the excited "
+                                             "model input in experiment.input")
+        if not isinstance(e.get("input"), str):
+            problems.add(("experiment", "input"), "is required for a frequency response: the excited model input, "
+                                                  "e.g. \"tau\"")
+        if len(t["compare"].get("signals", [])) > 1:
+            problems.add(("compare", "signals"), "a frequency response compares one output (its magnitude and "
+                                                 "phase)")
+    elif not isinstance(inputs, dict) or not inputs or not all(isinstance(v, str) for v in inputs.values()):
         problems.add(("data", "inputs"), "must map model inputs to data columns, e.g. {i_ref = \"i_ref\"}")
         inputs = {}
     d = t["data"]
     start = number(problems, d, "start", ("data",)) if "start" in d else -math.inf
     stop = number(problems, d, "stop", ("data",)) if "stop" in d else math.inf
     decimate = number(problems, d, "decimate", ("data",), default=1, positive=True, integer=True)
-    e = t["experiment"]
-    kind = e.get("kind", "staircase")
-    if kind not in ("staircase", "impact"):
-        problems.add(("experiment", "kind"), f"must be 'staircase' or 'impact'; got {kind!r}")
+    if kind not in ("staircase", "impact", "frequency"):
+        problems.add(("experiment", "kind"), f"must be 'staircase', 'impact' or 'frequency'; got {kind!r}")
+    sample_rate = number(problems, e, "sample_rate", ("experiment",), default=0.0)
+    if sample_rate is not None and sample_rate < 0:
+        problems.add(("experiment", "sample_rate"), f"must be >= 0 Hz (0: continuous); got {sample_rate!r}")
+    per_decade = number(problems, e, "bands_per_decade", ("experiment",), default=6.0, positive=True)
     duration = number(problems, e, "duration", ("experiment",), positive=True) if "duration" in e else None
     steady_s = number(problems, e, "steady_s", ("experiment",), default=0.0) if "steady_s" in e else 0.0
     min_hold_s = number(problems, e, "min_hold_s", ("experiment",), positive=True) \
@@ -120,16 +138,13 @@ def load_diagnose_job(path, overrides=()):
     effects = t["candidates"].get("effects")
     model = t["model"].get("name", "")
     if effects is None:
-        effects = [n for n in EFFECTS if _applies(source_text, model, n)] if source_text else []
+        effects = applicable(source_text, model) if source_text else []
     elif not isinstance(effects, list) or not all(isinstance(x, str) for x in effects):
         problems.add(("candidates", "effects"), "must be a list of effect identifiers")
         effects = []
     else:
         for n in effects:
-            if n in PLANNED:
-                problems.add(("candidates", "effects"), f"{n!r} is named by the issue but not implemented yet; "
-                                                        f"implemented: {', '.join(EFFECTS)}")
-            elif n not in EFFECTS:
+            if n not in EFFECTS:
                 problems.add(("candidates", "effects"), f"unknown effect {n!r}; implemented: {', '.join(EFFECTS)}")
             elif source_text and model:
                 try:
@@ -147,20 +162,18 @@ def load_diagnose_job(path, overrides=()):
         data_path=base / d["path"], inputs=dict(inputs), window=(start, stop), decimate=decimate, kind=kind,
         duration=duration, steady_s=steady_s, min_hold_s=min_hold_s, signals=tuple(signals), rtol=rtol,
         max_nfev=max_nfev, free=free, effects=tuple(effects), min_gap_removed=min_gap, min_delta_bic=min_bic,
-        gap_sigmas=gap_sigmas, workers=workers, scheduler=str(t["parallel"].get("scheduler", "")))
-
-
-def _applies(text, model, name):
-    try:
-        variant_text(text, model, EFFECTS[name])
-        return True
-    except ConfigError:
-        return False
+        gap_sigmas=gap_sigmas, workers=workers, scheduler=str(t["parallel"].get("scheduler", "")),
+        input=str(e.get("input", "")), sample_rate=sample_rate, bands_per_decade=per_decade)
 
 
 def load_experiment(job, model):
     """The job's data aligned with ``model`` (a LoweredModel): an :class:`Experiment` (mask: every sample) and
-    the checks a diagnosis needs (channels, a uniform time base, data covering the experiment)."""
+    the checks a diagnosis needs (channels, a uniform time base, data covering the experiment); for a frequency
+    response, a :class:`~cosim.diagnose.frequency.FrequencyExperiment`."""
+    if job.kind == "frequency":
+        from cosim.diagnose.frequency import load_frequency_experiment
+
+        return load_frequency_experiment(job, model)
     inputs = [u.name for u in model.inputs]
     outputs = [o.name for o in model.outputs]
     missing = [u for u in inputs if u not in job.inputs]

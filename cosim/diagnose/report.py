@@ -28,9 +28,12 @@ def _json(value):
 
 def plot_diagnosis(diagnosis, folder):
     """Write ``fit.png`` (measured vs before vs after, residuals) and, for a staircase, ``curve.png`` (output
-    against input at the cost samples); returns the file names."""
+    against input at the cost samples), or for a frequency response ``bode.png`` and ``bands.png``; returns the
+    file names."""
     d, s = diagnosis, diagnosis.summary
     folder = Path(folder)
+    if s.get("kind") == "frequency":
+        return _plot_frequency(diagnosis, folder)
     names = []
     n = d.measured.shape[0]
     fig, axes = plt.subplots(2 * n, 1, figsize=(10, 3.2 * 2 * n), sharex=True)
@@ -41,7 +44,7 @@ def plot_diagnosis(diagnosis, folder):
         if d.effect != "none":
             ax.plot(d.time, d.after[j], color="C3", lw=1.2,
                     label=f"with {d.effect} (RMSE {s['rmse_after_per_signal'][j]:.3g})")
-        label = f"{s['signals'][j]} [{s['units'].get(s['signals'][j], '')}]"
+        label = f"{s['signals'][j]} [{s['units'][j]}]"
         ax.set_ylabel(label)
         ax.legend(loc="best", fontsize=8)
         ax.grid(alpha=0.3)
@@ -67,8 +70,8 @@ def plot_diagnosis(diagnosis, folder):
         ax.plot(d.inputs[m, 0], d.before[0, m], ".", ms=3, color="C0", label="baseline")
         if d.effect != "none":
             ax.plot(d.inputs[m, 0], d.after[0, m], ".", ms=3, color="C3", label=f"with {d.effect}")
-        ax.set_xlabel(f"{s['inputs'][0]} (held level) [{s['units'].get(s['inputs'][0], '')}]")
-        ax.set_ylabel(f"{s['signals'][0]} [{s['units'].get(s['signals'][0], '')}]")
+        ax.set_xlabel(f"{s['inputs'][0]} (held level) [{s['input_units'][0]}]")
+        ax.set_ylabel(f"{s['signals'][0]} [{s['units'][0]}]")
         ax.grid(alpha=0.3)
         ax.legend()
         ax.set_title("steady values: rising and falling branches")
@@ -79,9 +82,58 @@ def plot_diagnosis(diagnosis, folder):
     return names
 
 
+def _plot_frequency(diagnosis, folder):
+    """``bode.png``: magnitude and phase, measured vs before vs after, and the residuals with the +-3 sigma band
+    over frequency (band edges dotted); ``bands.png``: RMS residual per band before and after, in noise levels."""
+    d, s = diagnosis, diagnosis.summary
+    f = d.time
+    fig, axes = plt.subplots(4, 1, figsize=(9, 11), sharex=True)
+    for j in range(2):
+        ax, ar = axes[j], axes[2 + j]
+        label = f"{s['signals'][j]} [{s['units'][j]}]"
+        ax.semilogx(f, d.measured[j], ".", ms=3, color="0.5", label="measured")
+        ax.semilogx(f, d.before[j], color="C0", lw=1.2, label="baseline")
+        ar.semilogx(f, d.before[j] - d.measured[j], ".", ms=3, color="C0", label="baseline")
+        if d.effect != "none":
+            ax.semilogx(f, d.after[j], color="C3", lw=1.2, label=f"with {d.effect}")
+            ar.semilogx(f, d.after[j] - d.measured[j], ".", ms=3, color="C3", label=d.effect)
+        ar.fill_between(f, -3 * d.noise[j], 3 * d.noise[j], color="0.85", label="±3 noise")
+        ax.set_ylabel(label)
+        ar.set_ylabel(f"residual {s['signals'][j]} [{s['units'][j]}]")
+        for a in (ax, ar):
+            for seg in s["segments"][::2]:
+                a.axvline(seg["t0"], color="0.7", lw=0.6, ls=":")
+            a.grid(alpha=0.3, which="both")
+            a.legend(loc="best", fontsize=8)
+    axes[-1].set_xlabel("frequency [Hz]")
+    fig.suptitle(s["verdict"], fontsize=10)
+    fig.tight_layout()
+    fig.savefig(folder / "bode.png", dpi=110)
+    plt.close(fig)
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    for j, ax in enumerate(axes):
+        rows = [r for r in s["segments"] if r["signal"] == s["signals"][j]]
+        x = np.arange(len(rows))
+        level = [r["rmse_before"] / r["sigmas"] if r["sigmas"] else np.nan for r in rows]
+        ax.bar(x - 0.2, [r["sigmas"] for r in rows], 0.4, color="C0", label="baseline")
+        ax.bar(x + 0.2, [r["rmse_after"] / n for r, n in zip(rows, level)], 0.4, color="C3",
+               label=d.effect if d.effect != "none" else "after (= baseline)")
+        ax.axhline(s["decision"]["gap_sigmas"], color="k", lw=0.8, ls="--", label="significance")
+        ax.set_ylabel("RMS residual [noise levels]")
+        ax.set_title(f"{s['signals'][j]} [{s['units'][j]}] per band", fontsize=9)
+        ax.set_xticks(x, [f"{r['t0']:.3g}-{r['t1']:.3g}" for r in rows], rotation=30, fontsize=8)
+        ax.grid(alpha=0.3, axis="y")
+        ax.legend(fontsize=8)
+    axes[-1].set_xlabel("frequency band [Hz]")
+    fig.tight_layout()
+    fig.savefig(folder / "bands.png", dpi=110)
+    plt.close(fig)
+    return ["bode.png", "bands.png"]
+
+
 def _report(diagnosis, figures):
     s = diagnosis.summary
-    unit = f" {s['units'].get(s['signals'][0], '')}".rstrip()
+    unit = f" {s['units'][0]}" if s.get("units") and s["units"][0] else ""
     pu = s["parameter_units"]
 
     def values(params, names=None):
@@ -93,19 +145,20 @@ def _report(diagnosis, figures):
         lines += [f"Nearly as good on the held-out segments: {', '.join(s['also_explained_by'])} (the data do not "
                   f"tell these apart).", ""]
     lines += [f"- data: `{s['data']}`; signals: {', '.join(s['signals'])}",
-              f"- noise (1 sd) estimated from the data: {', '.join(f'{v:.3g}' for v in s['noise']['estimated'])}"
-              f"{unit}; used (floored by the job): {', '.join(f'{v:.3g}' for v in s['noise']['used'])}{unit}",
+              f"- noise (1 sd) estimated from the data: {', '.join(f'{v:.3g}' for v in s['noise']['estimated'])}; "
+              f"used (floored by the job): {', '.join(f'{v:.3g}' for v in s['noise']['used'])} "
+              f"({', '.join(f'{n} [{u}]' for n, u in zip(s['signals'], s['units']))})",
               f"- {s['signals'][0]} on the cost samples, model replayed by CVODES on the lowered equations: RMSE "
               f"before {s['rmse_before']:.4g}{unit}, after {s['rmse_after']:.4g}{unit}; max error before "
               f"{s['max_error_before']:.4g}{unit}, after {s['max_error_after']:.4g}{unit}; gap above the noise "
-              f"removed: {100 * s['gap_removed']:.0f} %",
+              f"removed (all channels): {100 * s['gap_removed']:.0f} %",
               "- baseline parameters: " + values(s["baseline"]["parameters"]), ""]
     if s["after"]:
         lines += ["- after: " + values(s["after"]["parameters"]), ""]
     if s.get("rerun"):
         r = s["rerun"]
         lines += [f"- re-run of the built FMUs through the master ({', '.join(f'`{c}`' for c in r['configs'].values())}"
-                  f"; BDF, measured inputs played): RMSE before {r['rmse_before']:.4g}{unit}, after "
+                  f"; BDF, measured inputs played), {r['signal']}: RMSE before {r['rmse_before']:.4g}{unit}, after "
                   f"{r['rmse_after']:.4g}{unit}; max error before {r['max_error_before']:.4g}{unit}, after "
                   f"{r['max_error_after']:.4g}{unit}; largest difference to the CVODES replay "
                   f"{max(r['max_difference_to_replay_before'], r['max_difference_to_replay_after']):.3g}{unit}", ""]
@@ -118,20 +171,23 @@ def _report(diagnosis, figures):
         params = values(c["parameters"], c["added_parameters"])
         lines.append(f"| {c['effect']} | {c['score']:.3f} | {c['delta_bic']:.1f} | {c['delta_aic']:.1f} | "
                      f"{c['p_value']:.2g} | {c['rmse_after']:.4g} | {params} |")
-    u = unit.strip()
-    lines += ["", "## Where the gap is", "", f"| segment | samples | bias before [{u}] | RMSE before [{u}] | × noise | "
-              f"shape | RMSE after [{u}] |", "|---|---|---|---|---|---|---|"]
+    lines += ["", "## Where the gap is", "", "| segment | signal | samples | bias before | RMSE before | × noise | "
+              "shape | RMSE after |", "|---|---|---|---|---|---|---|---|"]
     for r in s["segments"]:
-        lines.append(f"| {r['segment']} | {r['samples']} | {r['bias_before']:+.3g} | {r['rmse_before']:.3g} | "
-                     f"{r['sigmas']:.1f}{' **!**' if r['significant'] else ''} | {r['shape']} | {r['rmse_after']:.3g} |")
+        lines.append(f"| {r['segment']} | {r['signal']} | {r['samples']} | {r['bias_before']:+.3g} | "
+                     f"{r['rmse_before']:.3g} | {r['sigmas']:.1f}{' **!**' if r['significant'] else ''} | "
+                     f"{r['shape']} | {r['rmse_after']:.3g} |")
     for f in s["shapes"]:
         lines += ["", f"- {f['shape']}: {f['detail']}"]
     w, c = s["whiteness"], s["input_cross_correlation"]
     lines += ["", "## Residual analysis (baseline)", "",
               f"- whiteness: {w['outside']} of {len(w['acf'])} autocorrelations outside ±{w['band']:.3g}; Ljung-Box "
-              f"Q = {w['q']:.4g}, p = {w['p_value']:.2g} ({'white' if w['white'] else 'not white: structure left'})",
-              f"- cross-correlation with the input: {c['outside']} of {len(c['ccf'])} lags outside ±{c['band']:.3g} "
-              f"({'independent' if c['independent'] else 'the residual still depends on the input'})", ""]
+              f"Q = {w['q']:.4g}, p = {w['p_value']:.2g} ({'white' if w['white'] else 'not white: structure left'})"]
+    if c is not None:  # a frequency response has no input time series
+        verdict = "independent" if c["independent"] else "the residual still depends on the input"
+        lines += [f"- cross-correlation with the input: {c['outside']} of {len(c['ccf'])} lags outside "
+                  f"±{c['band']:.3g} ({verdict})"]
+    lines += [""]
     lines += ["## Figures", ""] + [f"![{f}]({f})" for f in figures]
     if diagnosis.variant_diff:
         lines += ["", "## The change to the Modelica source", "",

@@ -1,10 +1,12 @@
 """The discrepancy workflow: replay and compare, locate, name, add and show.
 
 1. *Replay and compare*: the baseline's free parameters are calibrated on the cost samples (the settled end of
-   each hold of a staircase; every sample of an impact); the noise level of each channel is estimated from the
-   data themselves (differences inside the steady windows), floored by the job's stated noise.
-2. *Locate*: the experiment is cut into its natural segments; each segment's residual is compared with the
-   noise and given a shape; whiteness and cross-correlation with the input are reported.
+   each hold of a staircase; every sample of an impact; every frequency of a frequency response, compared as
+   magnitude [dB] and phase [deg]); the noise level of each channel is estimated from the data themselves
+   (differences inside the steady windows, or of neighbouring frequencies), floored by the job's stated noise.
+2. *Locate*: the experiment is cut into its natural segments (holds, impact phases, frequency bands); each
+   segment's residual is compared with the noise and given a shape; whiteness and cross-correlation with the
+   input are reported.
 3. *Name*: every candidate effect is written as a Modelica variant of the baseline, calibrated on the even
    segments (with the baseline's parameters free as well), and scored on the odd segments it was not fitted on:
    ``score`` = fraction of the baseline's held-out excess gap (mean square residual above the noise) that the
@@ -25,11 +27,12 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from cosim.diagnose.analysis import (branch_shapes, cross_correlation, cut_segments, noise_level, segment_table,
-                                     steady_mask, whiteness)
+from cosim.diagnose.analysis import (band_shape, branch_shapes, cross_correlation, cut_segments, frequency_bands,
+                                     noise_level, segment_table, steady_mask, whiteness)
 from cosim.calibrate.multistart import map_on_dask
 from cosim.diagnose.effects import EFFECTS, write_variant
 from cosim.diagnose.fitting import Replay, fit_samples
+from cosim.diagnose.frequency import DEG_PER_DB, FrequencyReplay, frequency_noise
 
 __all__ = ["Diagnosis", "run_diagnosis"]
 
@@ -44,11 +47,16 @@ class Diagnosis:
         The named effect, or ``"none"``.
     summary : dict
     time : ndarray, shape (N,)
+        Time [s], or frequency [Hz] for a frequency response.
     inputs : ndarray, shape (N, n_inputs)
+        (N, 0) for a frequency response.
     measured, before, after : ndarray, shape (n_signals, N)
+        For a frequency response the two channels magnitude [dB] and phase [deg].
         Measured outputs and the baseline's and the winner's replays (``after`` is ``before`` for "none").
     mask : ndarray of bool, shape (N,)
         Cost samples.
+    noise : ndarray, shape (n_signals,) or (n_signals, N)
+        The noise level (1 sd) each residual was weighed with.
     variant_source : str
         Modelica text of the package with the winner's variant ("" for none).
     variant_diff : str
@@ -65,6 +73,7 @@ class Diagnosis:
     variant_source: str = ""
     variant_diff: str = ""
     candidate_predictions: dict = field(default_factory=dict)
+    noise: np.ndarray = None  # noise level used: (n_signals,), or (n_signals, N) per frequency
 
 
 def _scales(values):
@@ -90,13 +99,17 @@ def _fit_candidate(task):
         free[p.name] = (float(np.clip(start, p.lower, p.upper)), p.lower, p.upper)
     for name, lo, hi in effect.frees:
         free[name] = (float(np.clip(job.fixed.get(name, defaults[name]), lo, hi)), lo, hi)
-    return _fit(model, e, job, free, task["weights"], task["mask"], task["effect"])
+    trials = [free] + [{**free, p.name: (float(np.clip(v, p.lower, p.upper)), p.lower, p.upper)}
+                       for p in effect.parameters for v in p.starts]
+    fits = [_fit(model, e, job, trial, task["weights"], task["mask"], task["effect"]) for trial in trials]
+    return min(fits, key=lambda fit: fit["chi2"])
 
 
 def _fit(model, e, job, free, weights, mask, label):
     starts = [v[0] for v in free.values()]
-    replay = Replay(model, e, [o for o, _, _ in job.signals], list(free), _scales(starts), fixed=job.fixed,
-                    rtol=job.rtol)
+    kind = FrequencyReplay if job.kind == "frequency" else Replay
+    replay = kind(model, e, [o for o, _, _ in job.signals], list(free), _scales(starts), fixed=job.fixed,
+                  rtol=job.rtol)
     result = fit_samples(replay, e.measured.T, weights, mask, starts,
                          ([v[1] for v in free.values()], [v[2] for v in free.values()]), max_nfev=job.max_nfev)
     result["label"] = label
@@ -122,10 +135,28 @@ def _restart_baseline(job, model, e, fit, starts, weights, mask):
     return best
 
 
+def _weighted(residual, weights):
+    """``residual`` (n_signals, N) times the weights: one per signal, shape (n_signals,), or one per sample,
+    shape (n_signals, N)."""
+    weights = np.asarray(weights, float)
+    return residual * (weights[:, None] if weights.ndim == 1 else weights)
+
+
 def _ms(pred, measured, weights, mask):
     """Mean square of the weighted residual on ``mask`` (1 = at the noise level)."""
-    r = (pred - measured) * np.asarray(weights)[:, None]
+    r = _weighted(pred - measured, weights)
     return float(np.mean(r[:, mask] ** 2)) if mask.any() else float("nan")
+
+
+def _channels(job, model):
+    """Names, units and noise floors of the compared channels: the job's signals, or for a frequency response
+    the magnitude [dB] and phase [deg] of its one output (the phase floor: the same complex-log error)."""
+    if job.kind == "frequency":
+        output, _, floor = job.signals[0]
+        ratio = f"{output}/{job.input}"
+        return [f"magnitude {ratio}", f"phase {ratio}"], ["dB", "deg"], [floor, floor * DEG_PER_DB]
+    units = [model.outputs[model.index("outputs", o)].unit for o, _, _ in job.signals]
+    return [o for o, _, _ in job.signals], units, [n for _, _, n in job.signals]
 
 
 def _rmse(pred, measured, mask):
@@ -146,14 +177,14 @@ def _rerun_both(job, e, model, base, variant_path, variant, final, folder, t, y,
             final["label"]: build_fmu(variant_path, variant, out_dir=folder / "fmu")}
     final["fmu"] = str(fmus[final["label"]])
     entry = {"how": "the built FMUs run by the master (BDF) with the measured inputs played at the data rate",
-             "configs": {}}
+             "signal": outputs[0], "configs": {}}
     for label, fit in (("baseline", base), (final["label"], final)):
         predicted = rerun(fmus[label], {**job.fixed, **fit["parameters"]}, e, inputs, outputs, folder / "rerun",
                           label, job.rtol)
         rmse, max_error = _rmse(predicted, y, mask)
         key = "before" if label == "baseline" else "after"
         entry[f"rmse_{key}"], entry[f"max_error_{key}"] = rmse[0], max_error[0]
-        entry[f"max_difference_to_replay_{key}"] = float(np.max(np.abs(predicted - fit["predicted"])[:, mask]))
+        entry[f"max_difference_to_replay_{key}"] = float(np.max(np.abs(predicted - fit["predicted"])[0, mask]))
         entry["configs"][label] = str(folder / "rerun" / f"{label}.toml")
     return entry
 
@@ -169,6 +200,8 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     model = lower(job.source, job.model)
     e = load_experiment(job, model)
     t, y = e.time, e.measured.T
+    inputs = np.zeros((len(t), 0)) if job.kind == "frequency" else e.inputs
+    channels, units, floor = _channels(job, model)
     if job.kind == "staircase" and job.steady_s > 0:
         mask = steady_mask(t, e.inputs, job.steady_s, job.min_hold_s)
     else:
@@ -176,12 +209,15 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     if not mask.any():
         from cosim.errors import ConfigError
         raise ConfigError(f"{job.path}: no hold of the input lasts experiment.steady_s = {job.steady_s:g} s")
-    floor = np.array([n for _, _, n in job.signals])
-    estimated = noise_level(t, y, steady_mask(t, e.inputs, job.steady_s or 0.2, job.min_hold_s)
-                            if job.kind == "staircase" else mask)
-    if job.kind == "impact":
-        estimated = noise_level(t, y, np.ones(len(t), bool))
-    sigma = np.maximum(estimated, floor)
+    floor = np.array(floor)
+    if job.kind == "frequency":  # per frequency, shaped by the coherence
+        sigma, estimated = frequency_noise(e, floor)
+    else:
+        estimated = noise_level(t, y, steady_mask(t, e.inputs, job.steady_s or 0.2, job.min_hold_s)
+                                if job.kind == "staircase" else mask)
+        if job.kind == "impact":
+            estimated = noise_level(t, y, np.ones(len(t), bool))
+        sigma = np.maximum(estimated, floor)
     weights = 1.0 / sigma
 
     # 1. replay and compare
@@ -191,7 +227,10 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     rmse_before, max_before = _rmse(before, y, mask)
 
     # 2. locate (the segments; their table once the baseline is final, after the restarts below)
-    segments = cut_segments(t, e.inputs, job.kind, y[0], sigma[0], job.min_hold_s)
+    if job.kind == "frequency":
+        segments, shape = frequency_bands(t, y[0], job.bands_per_decade), band_shape
+    else:
+        segments, shape = cut_segments(t, e.inputs, job.kind, y[0], sigma[0], job.min_hold_s), None
 
     # 3. name: two-fold cross-validation over segments (fit on the even ones, score on the odd ones, and back)
     seg_index = np.full(len(t), -1)
@@ -232,17 +271,17 @@ def run_diagnosis(job, progress=True, build=True, out=None):
             before = base["predicted"]
             residual = before - y
             rmse_before, max_before = _rmse(before, y, mask)
-    rows = segment_table(t, residual, before, y, mask, segments, sigma, job.gap_sigmas)
+    rows = segment_table(t, residual, before, y, mask, segments, sigma, job.gap_sigmas, shape)
     findings = branch_shapes(segments, rows, sigma)
     white = whiteness(residual[0, mask])
-    cross = cross_correlation(residual[0, mask], e.inputs[mask, 0])
+    cross = None if job.kind == "frequency" else cross_correlation(residual[0, mask], e.inputs[mask, 0])
     gap_found = any(r["significant"] for r in rows)
-    n_fit = int(mask.sum()) * len(job.signals)
+    n_fit = int(mask.sum()) * y.shape[0]
 
     def pooled(fits):
         """Held-out weighted residuals of both folds (each cost sample predicted by the fit that did not see it),
         and the summed training chi-square."""
-        r = np.concatenate([((fit["predicted"] - y) * weights[:, None])[:, test].ravel()
+        r = np.concatenate([_weighted(fit["predicted"] - y, weights)[:, test].ravel()
                             for fit, (_, test) in zip(fits, folds)])
         return r, sum(fit["chi2"] for fit in fits)
 
@@ -282,9 +321,13 @@ def run_diagnosis(job, progress=True, build=True, out=None):
 
         path, variant = write_variant(job.source, job.model, EFFECTS[effect], folder / "winner")
         vmodel = lower_variant(path, variant)
-        start = {n: (0.5 * (winner["parameters"][n] + winner["parameters_other_fold"][n]), *winner["free"][n][1:])
-                 for n in winner["parameters"]}
-        final = _fit(vmodel, load_experiment(job, vmodel), job, start, weights, mask, effect)
+        folds_fit = (winner["parameters"], winner["parameters_other_fold"])
+        starts = [{n: 0.5 * (folds_fit[0][n] + folds_fit[1][n]) for n in folds_fit[0]}]
+        if any(abs(folds_fit[0][n] - folds_fit[1][n]) > 0.1 * abs(starts[0][n]) for n in folds_fit[0]):
+            starts += folds_fit  # the folds found different minima: their mean may lie in neither basin
+        ve = load_experiment(job, vmodel)
+        final = min((_fit(vmodel, ve, job, {n: (v, *winner["free"][n][1:]) for n, v in start.items()}, weights,
+                          mask, effect) for start in starts), key=lambda fit: fit["chi2"])
         after = final["predicted"]
         variant_source = path.read_text(encoding="utf-8")
         import difflib
@@ -293,15 +336,21 @@ def run_diagnosis(job, progress=True, build=True, out=None):
             Path(job.source).read_text(encoding="utf-8").splitlines(keepends=True),
             variant_source.splitlines(keepends=True), fromfile=str(job.source), tofile=f"{job.source} ({effect})"))
         if build:
-            rerun_out = _rerun_both(job, e, model, base, path, variant, final, Path(out) if out is not None
-                                    else folder, t, y, mask)
+            target = Path(out) if out is not None else folder
+            if job.kind == "frequency":  # a frequency response is not a time series the master could replay
+                from cosim.compile import build_fmu
+
+                final["fmu"] = str(build_fmu(path, variant, out_dir=target / "fmu"))
+            else:
+                rerun_out = _rerun_both(job, e, model, base, path, variant, final, target, t, y, mask)
     rmse_after, max_after = _rmse(after, y, mask)
-    rows_after = segment_table(t, after - y, after, y, mask, segments, sigma, job.gap_sigmas)
+    ms_before, ms_after = _ms(before, y, weights, mask), _ms(after, y, weights, mask)
+    rows_after = segment_table(t, after - y, after, y, mask, segments, sigma, job.gap_sigmas, shape)
     seg_out = []
     for rb, ra in zip(rows, rows_after):
         seg_out.append({**{k: rb[k] for k in ("segment", "kind", "t0", "t1", "level", "samples", "significant",
                                               "shape", "sigmas")},
-                        "signal": job.signals[rb["signal"]][0], "bias_before": rb["bias"], "rmse_before": rb["rmse"],
+                        "signal": channels[rb["signal"]], "bias_before": rb["bias"], "rmse_before": rb["rmse"],
                         "max_error_before": rb["max_error"], "bias_after": ra["bias"], "rmse_after": ra["rmse"],
                         "max_error_after": ra["max_error"], "significant_after": ra["significant"]})
     summary = {
@@ -310,17 +359,19 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         "verdict": (f"missing effect: {effect} ({EFFECTS[effect].title})" if winner else
                     "no missing effect found" + ("" if gap_found else ": the baseline fits within the noise")),
         "also_explained_by": rivals,
-        "signals": [o for o, _, _ in job.signals],
-        "inputs": [u.name for u in model.inputs],
-        "units": {v.name: v.unit for v in [*model.inputs, *model.outputs]},
+        "kind": job.kind,
+        "signals": channels,
+        "units": units,
+        "inputs": [u.name for u in model.inputs] if job.kind != "frequency" else [],
+        "input_units": [u.unit for u in model.inputs] if job.kind != "frequency" else [],
         "parameter_units": {**{p.name: p.unit for p in model.parameters},
                             **{p.name: p.unit for n in job.effects for p in EFFECTS[n].parameters}},
-        "noise": {"estimated": estimated.tolist(), "floor": floor.tolist(), "used": sigma.tolist()},
+        "noise": {"estimated": estimated.tolist(), "floor": floor.tolist(),
+                  "used": (sigma if sigma.ndim == 1 else np.median(sigma, axis=1)).tolist()},
         "rmse_before": rmse_before[0], "rmse_after": rmse_after[0],
         "max_error_before": max_before[0], "max_error_after": max_after[0],
         "rmse_before_per_signal": rmse_before, "rmse_after_per_signal": rmse_after,
-        "gap_removed": (float(1 - (rmse_after[0] ** 2 - sigma[0] ** 2) / (rmse_before[0] ** 2 - sigma[0] ** 2))
-                        if rmse_before[0] > sigma[0] else 0.0),
+        "gap_removed": float(1 - (ms_after - 1) / (ms_before - 1)) if ms_before > 1 else 0.0,
         "baseline": {"parameters": base["parameters"], "free": {n: list(v) for n, v in job.free.items()}},
         "after": ({"parameters": final["parameters"], "fmu": final.get("fmu")} if final else None),
         "rerun": rerun_out,
@@ -340,6 +391,6 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         del c["free"]
     if not (build and winner and out is None):  # keep the folder only when it holds the built FMU
         shutil.rmtree(folder, ignore_errors=True)
-    return Diagnosis(effect=effect, summary=summary, time=t, inputs=e.inputs, measured=y, before=before,
-                     after=after, mask=mask, variant_source=variant_source, variant_diff=variant_diff,
+    return Diagnosis(effect=effect, summary=summary, time=t, inputs=inputs, measured=y, before=before,
+                     after=after, mask=mask, noise=sigma, variant_source=variant_source, variant_diff=variant_diff,
                      candidate_predictions=preds)

@@ -7,8 +7,67 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
   //   the user's intended position, equilibrium-point style) and the hand can also push with an extra torque
   //   tau_h. With phi_ref = 0 and tau_h = 0 the models are exactly the paper's transfer functions (2), (9) and
   //   seed 001's (1).
+  // - tau_1 is the torque the drive applies to m1; each concrete model sets tau_1 = tau (the command acts at
+  //   once). The discrepancy workflow's variants (package Effects, docs/diagnose.md) change that one equation.
   // - Default parameter values: user 1 at grasp position 3 (11 parameters) / 4 (7 parameters) of Table I,
   //   the nominal X-axis arm of seed 001 Table II. A config loads another row by setting the parameters.
+
+  package Effects "Candidate missing effects of the discrepancy workflow for the device + user (cosim diagnose, docs/diagnose.md); cosim.diagnose.effects writes the variants of Device7 that wire them in"
+    model HandMass "The user's hand as an inertia mh held by kh, bh to the user's reference, gripping the stylus through the skin ks, bs (effect hand_mass: the 11-parameter user of seed 000 eq. 2, Fig. 5 top)"
+      // Device7 lumps the hand into m2 and grounds it through ks, bs; this block puts the hand mass between the
+      // skin and the user's reference, which adds the pole/zero pair of the hand (seed 000 Sec. II-D).
+      parameter Real mh(unit = "kg.m2") = 0.005 "Hand inertia at the phi axis";
+      parameter Real bh(unit = "N.m.s/rad") = 0.2 "Damping of the hand to the user's reference";
+      parameter Real kh(unit = "N.m/rad") = 3 "Stiffness of the hand to the user's reference";
+      parameter Real ks(unit = "N.m/rad") = 3.5 "Stylus/skin stiffness between the stylus and the hand";
+      parameter Real bs(unit = "N.m.s/rad") = 0.02 "Stylus/skin damping between the stylus and the hand";
+      input Real phi_s(unit = "rad") "Stylus angle (m2)";
+      input Real w_s(unit = "rad/s") "Stylus angular velocity";
+      input Real phi_ref(unit = "rad") "User's intended position";
+      input Real tau_h(unit = "N.m") "Extra torque the hand applies (intent)";
+      output Real tau(unit = "N.m") "Torque of the hand on the stylus";
+      Real phih(unit = "rad", start = 0.0, fixed = true) "Hand angle";
+      Real wh(unit = "rad/s", start = 0.0, fixed = true) "Hand angular velocity";
+    equation
+      tau = ks*(phih - phi_s) + bs*(wh - w_s);
+      der(phih) = wh;
+      mh*der(wh) = -tau - kh*(phih - phi_ref) - bh*wh + tau_h;
+    end HandMass;
+
+    model SideMode "A second vibration mode of the device: an inertia m3 hung on a device inertia by the compliance k3, b3 (effect vibration_mode)"
+      // Seen from the encoder, any further lightly damped structural mode (a link, the gimbal, the base) adds an
+      // antiresonance/resonance pair; lumped here as a side resonator with its own frequency sqrt(k3/m3).
+      parameter Real m3(unit = "kg.m2") = 0.0005 "Modal inertia at the phi axis";
+      parameter Real k3(unit = "N.m/rad") = 70 "Modal stiffness";
+      parameter Real b3(unit = "N.m.s/rad") = 0.01 "Modal damping";
+      input Real phi(unit = "rad") "Angle of the inertia the mode hangs on";
+      input Real w(unit = "rad/s") "Angular velocity of that inertia";
+      output Real tau(unit = "N.m") "Torque of the mode on that inertia";
+      Real phi3(unit = "rad", start = 0.0, fixed = true) "Modal angle";
+      Real w3(unit = "rad/s", start = 0.0, fixed = true) "Modal angular velocity";
+    equation
+      tau = k3*(phi3 - phi) + b3*(w3 - w);
+      der(phi3) = w3;
+      m3*der(w3) = -tau;
+    end SideMode;
+
+    model PadeDelay "Pure delay exp(-s*T) of a torque by its third-order Pade approximation (effect loop_delay: computation and amplifier delay of the torque command)"
+      // exp(-sT) ~ N(s)/D(s), D = 1 + sT/2 + (sT)^2/10 + (sT)^3/120, N(s) = D(-s): all-pass (|N/D| = 1 exactly),
+      // phase within 0.1 deg of -wT up to wT = 2.1 rad, 1 deg at 3.1 rad (docs/diagnose.md). Written as
+      // N/D = 2 (1 + (sT)^2/10)/D - 1 with D(s) z = u. Needs T > 0.
+      parameter Real T(unit = "s") = 1e-3 "Delay";
+      input Real u(unit = "N.m") "Torque commanded";
+      output Real y(unit = "N.m") "Torque applied, delayed";
+      Real z(unit = "N.m", start = 0.0, fixed = true) "Filter state: D(s) z = u";
+      Real dz(unit = "N.m/s", start = 0.0, fixed = true) "der(z)";
+      Real ddz(unit = "N.m/s2", start = 0.0, fixed = true) "der(dz)";
+    equation
+      der(z) = dz;
+      der(dz) = ddz;
+      T^3/120*der(ddz) = u - z - T/2*dz - T^2/10*ddz;
+      y = 2*(z + T^2/10*ddz) - u;
+    end PadeDelay;
+  end Effects;
 
   partial model Device "PHANToM phi axis: motor-side mass m1 and stylus-side mass m2 coupled by kc, bc; b1, b2 to ground"
     parameter Real m1(unit = "kg.m2") = 0.0009 "Motor-side inertia (Table I m1)";
@@ -28,11 +87,12 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
     Real w2(unit = "rad/s", start = 0.0, fixed = true) "Angular velocity of m2";
     Real tau_c(unit = "N.m") "Torque transmitted from m1 to m2 through kc, bc";
     Real tau_b2(unit = "N.m") "Friction torque of m2 to ground";
+    Real tau_1(unit = "N.m") "Torque the drive applies to m1 (tau itself: set by each concrete model)";
   equation
     tau_c = kc*(phi1 - phi2) + bc*(w1 - w2);
     der(phi1) = w1;
     der(phi2) = w2;
-    m1*der(w1) = tau - b1*w1 - tau_c;
+    m1*der(w1) = tau_1 - b1*w1 - tau_c;
     m2*der(w2) = tau_c - tau_b2 + tau_user;
     phi = phi1;
     w = w1;
@@ -49,6 +109,7 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
     Real phih(unit = "rad", start = 0.0, fixed = true) "Hand angle";
     Real wh(unit = "rad/s", start = 0.0, fixed = true) "Hand angular velocity";
   equation
+    tau_1 = tau;
     tau_b2 = b2*w2;
     tau_user = ks*(phih - phi2) + bs*(wh - w2);
     der(phih) = wh;
@@ -60,6 +121,7 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
     parameter Real bs(unit = "N.m.s/rad") = 0.09 "Stylus/skin damping of m2 to the user's reference";
     parameter Real ks(unit = "N.m/rad") = 1.6 "Stylus/skin stiffness of m2 to the user's reference";
   equation
+    tau_1 = tau;
     tau_b2 = 0;
     tau_user = -ks*(phi2 - phi_ref) - bs*w2 + tau_h;
   end Device7;
@@ -79,6 +141,7 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
     Real vM(unit = "m/s", start = 0.0, fixed = true) "Arm mass velocity";
     Real F_grasp(unit = "N") "Force of the arm on the stylus at point A";
   equation
+    tau_1 = tau;
     tau_b2 = b2*w2;
     xA = r*phi2;
     vA = r*w2;
