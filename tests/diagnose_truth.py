@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["K_T", "GAIN", "staircase", "quasi_static_force", "make_case", "TRUTH_EFFECTS", "write_job"]
+__all__ = ["K_T", "GAIN", "staircase", "quasi_static_force", "make_case", "TRUTH_EFFECTS", "write_job",
+           "free_and_candidates"]
 
 K_T = 0.0393939394           # N.m/A, torque constant at the motor shaft
 RATIO, R_P = 28.0, 0.008957  # gear ratio, pinion radius [m]
@@ -116,19 +117,15 @@ steady_s = 0.3
 signals = [{{ output = "F_g", noise = 0.1 }}]
 rtol = 1e-5
 max_nfev = 20
-[parameters.eta_g]
-start = 0.7
-min = 0.3
-max = 1.0
-[parameters.T_c0]
-start = 8e-3
-min = 1e-4
-max = 0.05
-[candidates]
-effects = {effects}
-[parallel]
-workers = {workers}
 """
+
+
+def free_and_candidates(eta_g, T_c0, effects, workers):
+    """The end of a gripper diagnosis job: ``eta_g`` and ``T_c0`` [N.m] free from these starts, the candidate
+    ``effects`` and the number of Dask ``workers``."""
+    return (f"[parameters.eta_g]\nstart = {eta_g!r}\nmin = 0.3\nmax = 1.0\n"
+            f"[parameters.T_c0]\nstart = {T_c0!r}\nmin = 1e-4\nmax = 0.05\n"
+            f"[candidates]\neffects = {json.dumps(list(effects))}\n[parallel]\nworkers = {workers}\n")
 
 
 def write_job(folder, frame, effects, workers=2, extra=""):
@@ -137,6 +134,5 @@ def write_job(folder, frame, effects, workers=2, extra=""):
     folder = Path(folder)
     frame.to_csv(folder / "data.csv", index=False)
     path = folder / "job.toml"
-    path.write_text(JOB.format(source=SOURCE.as_posix(), effects=json.dumps(list(effects)), workers=workers)
-                    + extra)
+    path.write_text(JOB.format(source=SOURCE.as_posix()) + free_and_candidates(0.7, 8e-3, effects, workers) + extra)
     return path

@@ -34,10 +34,11 @@ Integration: semi-implicit Euler with a fixed step ``DT`` (stable for the stiffe
 on the jaw, and for the contact damping; a quarter of it changes the sampled force by <= 0.1 N).
 """
 
-import json
 import math
 
 import numpy as np
+
+from diagnose_truth import free_and_candidates
 
 __all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "make_case", "write_job"]
 
@@ -187,18 +188,6 @@ signals = [{{ output = "F_g", column = "F_g", noise = {force_floor} }},
            {{ output = "theta_m", column = "theta_m", noise = {angle_floor} }}]
 rtol = 1e-6
 max_nfev = {max_nfev}
-[parameters.eta_g]
-start = 0.68
-min = 0.3
-max = 1.0
-[parameters.T_c0]
-start = 7.88e-3
-min = 1e-4
-max = 0.05
-[candidates]
-effects = {effects}
-[parallel]
-workers = {workers}
 """
 
 
@@ -214,6 +203,6 @@ def write_job(folder, source, case, effects, workers=0, max_nfev=20):
     parameters = "{ " + ", ".join(f"{k} = {v!r}" for k, v in fixed.items()) + " }"
     path = folder / "job.toml"
     path.write_text(JOB.format(source=source.as_posix(), parameters=parameters, duration=t[-1],
-                               force_floor=0.1, angle_floor=2 * np.pi / COUNTS, max_nfev=max_nfev,
-                               effects=json.dumps(list(effects)), workers=workers))
+                               force_floor=0.1, angle_floor=2 * np.pi / COUNTS, max_nfev=max_nfev)
+                    + free_and_candidates(0.68, 7.88e-3, effects, workers))
     return path
