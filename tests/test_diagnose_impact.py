@@ -88,7 +88,6 @@ def test_jaw_stiction_does_not_show_in_the_impact():
 # One random case per effect, against the effect and the candidate that came closest to it in the benchmark
 # (benchmarks/diagnose_impact.py runs the whole library on many cases); two candidates keep the file under 2 min.
 @pytest.mark.parametrize("effect, seed, candidates", [
-    ("gear_play", 2, ("gear_play", "coating_relaxation")),
     ("contact_damping", 1, ("contact_damping", "coating_relaxation")),
     ("coating_relaxation", 1, ("coating_relaxation", "gear_play")),
     ("none", 1, ("gear_play", "coating_relaxation")),

@@ -8,6 +8,7 @@ tolerance is 1e-9 of each signal's range (issue 8); in practice they agree bitwi
 
 import _thread
 import json
+import signal
 import threading
 import warnings
 
@@ -169,12 +170,15 @@ def test_ctrl_c_keeps_what_was_recorded(gripper_dir):
     run(load_config(EXAMPLES / "gripper_impact.toml", sets + ["run.stop=0.01"]), progress=False)  # compiled now
     engine = engine_for(load_config(EXAMPLES / "gripper_impact.toml", sets + ["run.stop=3000"]))
     assert isinstance(engine, CompiledEngine)
+    # Ctrl-C as the default handler delivers it (an earlier test's Dask cluster may have left its own handler)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(1.0, _thread.interrupt_main)
     timer.start()
     try:
         result = engine.run(progress=False)
     finally:
         timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     assert result.interrupted
     n = len(result.data)
     assert 0 < n < 3000 * 100
