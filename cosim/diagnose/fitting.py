@@ -13,7 +13,7 @@ from cosim.calibrate.problem import Experiment
 from cosim.calibrate.shooting import SingleShooting
 from cosim.errors import ConfigError
 
-__all__ = ["Replay", "fit_samples", "check_parameters"]
+__all__ = ["Replay", "fit_samples", "check_parameters", "weighted"]
 
 
 def check_parameters(model, names):
@@ -22,6 +22,14 @@ def check_parameters(model, names):
     for name in names:
         if name not in known:
             raise ConfigError(f"{model.name} has no tunable parameter {name!r}")
+
+
+def weighted(residual, weights):
+    """``residual`` (n_signals, N) times the weights: one per signal, shape (n_signals,), or one per sample,
+    shape (n_signals, N)."""
+    weights = np.asarray(weights, float)
+    return residual * (weights[:, None] if weights.ndim == 1 else weights)
+
 
 _FAILED_REPLAY = 1e3  # weighted residual (noise levels) of every sample when a trial replay fails
 
@@ -93,15 +101,13 @@ def fit_samples(replay, measured, weights, mask, start, bounds, max_nfev=40):
     scale = replay.scale
     lo, hi = np.asarray(bounds[0], float) / scale, np.asarray(bounds[1], float) / scale
     q0 = np.clip(np.asarray(start, float) / scale, lo, hi)
-    w = np.asarray(weights, float)
-    w = w[:, None] if w.ndim == 1 else w
 
     def residual(q):
         try:
             y = replay.evaluate(q)
         except RuntimeError:  # CVODES failed at these values (e.g. a stiff impact): a step the solver must reject
-            return np.full(int(mask.sum()) * w.shape[0], _FAILED_REPLAY)
-        return ((y - measured) * w)[:, mask].ravel()
+            return np.full(int(mask.sum()) * measured.shape[0], _FAILED_REPLAY)
+        return weighted(y - measured, weights)[:, mask].ravel()
 
     if len(q0):
         solution = least_squares(residual, q0, bounds=(lo, hi), method="trf", jac="2-point", diff_step=3e-3,
@@ -110,6 +116,6 @@ def fit_samples(replay, measured, weights, mask, start, bounds, max_nfev=40):
     else:
         q, success = q0, True
     predicted = replay.evaluate(q)
-    r = ((predicted - measured) * w)[:, mask]
+    r = weighted(predicted - measured, weights)[:, mask]
     return {"parameters": dict(zip(replay.free, (q * scale).tolist())), "predicted": predicted,
             "chi2": float(np.sum(r ** 2)), "success": success}

@@ -31,7 +31,7 @@ from cosim.diagnose.analysis import (band_shape, branch_shapes, cross_correlatio
                                      noise_level, segment_table, steady_mask, whiteness)
 from cosim.calibrate.multistart import map_on_dask
 from cosim.diagnose.effects import EFFECTS, write_variant
-from cosim.diagnose.fitting import Replay, fit_samples
+from cosim.diagnose.fitting import Replay, fit_samples, weighted
 from cosim.diagnose.frequency import DEG_PER_DB, FrequencyReplay, frequency_noise
 
 __all__ = ["Diagnosis", "run_diagnosis"]
@@ -135,16 +135,9 @@ def _restart_baseline(job, model, e, fit, starts, weights, mask):
     return best
 
 
-def _weighted(residual, weights):
-    """``residual`` (n_signals, N) times the weights: one per signal, shape (n_signals,), or one per sample,
-    shape (n_signals, N)."""
-    weights = np.asarray(weights, float)
-    return residual * (weights[:, None] if weights.ndim == 1 else weights)
-
-
 def _ms(pred, measured, weights, mask):
     """Mean square of the weighted residual on ``mask`` (1 = at the noise level)."""
-    r = _weighted(pred - measured, weights)
+    r = weighted(pred - measured, weights)
     return float(np.mean(r[:, mask] ** 2)) if mask.any() else float("nan")
 
 
@@ -214,9 +207,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         sigma, estimated = frequency_noise(e, floor)
     else:
         estimated = noise_level(t, y, steady_mask(t, e.inputs, job.steady_s or 0.2, job.min_hold_s)
-                                if job.kind == "staircase" else mask)
-        if job.kind == "impact":
-            estimated = noise_level(t, y, np.ones(len(t), bool))
+                                if job.kind == "staircase" else mask)  # an impact: every sample
         sigma = np.maximum(estimated, floor)
     weights = 1.0 / sigma
 
@@ -281,7 +272,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     def pooled(fits):
         """Held-out weighted residuals of both folds (each cost sample predicted by the fit that did not see it),
         and the summed training chi-square."""
-        r = np.concatenate([_weighted(fit["predicted"] - y, weights)[:, test].ravel()
+        r = np.concatenate([weighted(fit["predicted"] - y, weights)[:, test].ravel()
                             for fit, (_, test) in zip(fits, folds)])
         return r, sum(fit["chi2"] for fit in fits)
 
