@@ -37,26 +37,30 @@ def rerun_config_text(fmu, parameters, inputs_csv, input_names, outputs, rate, s
     return "\n".join(lines)
 
 
-def rerun(fmu, parameters, experiment, input_names, outputs, folder, label, rtol):
-    """Run ``fmu`` through the master along ``experiment`` (a :class:`cosim.calibrate.Experiment`: its time base
-    and inputs) and return the recorded ``outputs`` at the experiment's instants, shape (len(outputs), N).
+def rerun(runs, experiment, input_names, outputs, folder, rtol):
+    """Run each FMU of ``runs`` (label -> (FMU path, parameters)) through the master along ``experiment`` (a
+    :class:`cosim.calibrate.Experiment`: its time base and inputs); returns label -> the recorded ``outputs`` at
+    the experiment's instants, shape (len(outputs), N).
 
-    Writes ``folder/inputs.csv`` (once) and ``folder/<label>.toml``."""
+    Writes ``folder/inputs.csv`` and ``folder/<label>.toml`` for each run."""
     from cosim.config import load_config
     from cosim.master import run
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     inputs_csv = folder / "inputs.csv"
-    if not inputs_csv.exists():
-        frame = pd.DataFrame(experiment.inputs, columns=list(input_names))
-        frame.insert(0, "time", experiment.time)
-        frame.to_csv(inputs_csv, index=False)
-    dt = float(np.median(np.diff(experiment.time)))
-    path = folder / f"{label}.toml"
-    path.write_text(rerun_config_text(os.path.relpath(fmu, folder), parameters, inputs_csv.name, input_names,
-                                      outputs, 1.0 / dt, float(experiment.time[-1]), rtol), encoding="utf-8")
-    result = run(load_config(path), progress=False)
-    column = {key: name for name, key in result.signals.items()}
-    t = result.column("time")
-    return np.array([np.interp(experiment.time, t, result.column(column[("plant", o)])) for o in outputs])
+    frame = pd.DataFrame(experiment.inputs, columns=list(input_names))
+    frame.insert(0, "time", experiment.time)
+    frame.to_csv(inputs_csv, index=False)
+    rate = 1.0 / float(np.median(np.diff(experiment.time)))
+    predicted = {}
+    for label, (fmu, parameters) in runs.items():
+        path = folder / f"{label}.toml"
+        path.write_text(rerun_config_text(os.path.relpath(fmu, folder), parameters, inputs_csv.name, input_names,
+                                          outputs, rate, float(experiment.time[-1]), rtol), encoding="utf-8")
+        result = run(load_config(path), progress=False)
+        column = {key: name for name, key in result.signals.items()}
+        t = result.column("time")
+        predicted[label] = np.array([np.interp(experiment.time, t, result.column(column[("plant", o)]))
+                                     for o in outputs])
+    return predicted

@@ -157,7 +157,7 @@ def _rmse(pred, measured, mask):
     return [float(np.sqrt(np.mean(x ** 2))) for x in r], [float(np.max(np.abs(x))) for x in r]
 
 
-def _rerun_both(job, e, model, base, variant_path, variant, final, folder, t, y, mask):
+def _rerun_both(job, e, model, base, variant_path, variant, final, folder, y, mask):
     """Build the baseline's and the winner's FMUs into ``folder/fmu`` and re-run both through the master with the
     measured inputs (:mod:`cosim.diagnose.rerun`, configs in ``folder/rerun``); returns the summary's ``rerun``
     entry."""
@@ -171,9 +171,11 @@ def _rerun_both(job, e, model, base, variant_path, variant, final, folder, t, y,
     final["fmu"] = str(fmus[final["label"]])
     entry = {"how": "the built FMUs run by the master (BDF) with the measured inputs played at the data rate",
              "signal": outputs[0], "configs": {}}
-    for label, fit in (("baseline", base), (final["label"], final)):
-        predicted = rerun(fmus[label], {**job.fixed, **fit["parameters"]}, e, inputs, outputs, folder / "rerun",
-                          label, job.rtol)
+    fits = {"baseline": base, final["label"]: final}
+    runs = {label: (fmus[label], {**job.fixed, **fit["parameters"]}) for label, fit in fits.items()}
+    replayed = rerun(runs, e, inputs, outputs, folder / "rerun", job.rtol)
+    for label, fit in fits.items():
+        predicted = replayed[label]
         rmse, max_error = _rmse(predicted, y, mask)
         key = "before" if label == "baseline" else "after"
         entry[f"rmse_{key}"], entry[f"max_error_{key}"] = rmse[0], max_error[0]
@@ -333,7 +335,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
 
                 final["fmu"] = str(build_fmu(path, variant, out_dir=target / "fmu"))
             else:
-                rerun_out = _rerun_both(job, e, model, base, path, variant, final, target, t, y, mask)
+                rerun_out = _rerun_both(job, e, model, base, path, variant, final, target, y, mask)
     rmse_after, max_after = _rmse(after, y, mask)
     ms_before, ms_after = _ms(before, y, weights, mask), _ms(after, y, weights, mask)
     rows_after = segment_table(t, after - y, after, y, mask, segments, sigma, job.gap_sigmas, shape)
