@@ -23,11 +23,11 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from diagnose_truth_impact import TRUTH_EFFECTS, make_case, write_job  # noqa: E402
+from diagnose_truth_impact import COUNTS, TRUTH_EFFECTS, make_case, write_job  # noqa: E402
 
 from cosim.diagnose import load_diagnose_job, run_diagnosis  # noqa: E402
 
-CANDIDATES = ("gear_play", "contact_damping", "coating_relaxation", "stiction", "loadcell_filter")
+CANDIDATES = ("gear_play", "contact_damping", "coating_relaxation", "stiction", "loadcell_filter", "cogging")
 
 
 def main(argv=None):
@@ -59,8 +59,11 @@ def main(argv=None):
                 gaps.append(s["gap_removed"])
             truth = {key: round(float(v), 5) for key, v in case[4].items() if key != "effect"}
             fitted = {key: round(float(v), 5) for key, v in (s["after"] or {}).get("parameters", {}).items()}
+            count = 2 * np.pi / COUNTS
             print(f"case {k} truth {effect:18s} named {s['effect']:18s} F_g RMSE {s['rmse_before']:.3f} -> "
-                  f"{s['rmse_after']:.3f} N (noise {s['noise']['used'][0]:.3f} N), gap removed "
+                  f"{s['rmse_after']:.3f} N (noise {s['noise']['used'][0]:.3f} N), theta_m RMSE "
+                  f"{s['rmse_before_per_signal'][1] / count:.1f} -> {s['rmse_after_per_signal'][1] / count:.1f} "
+                  f"counts, gap removed "
                   f"{100 * s['gap_removed']:5.1f} % ({time.time() - t0:.0f} s); truth {truth}; fitted {fitted}",
                   flush=True)
     print()

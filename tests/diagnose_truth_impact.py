@@ -27,7 +27,8 @@ dissipative law ``c_hc*pen^p_hc*v`` with an exponent ``p_hc`` in [1.2, 1.8], not
 Hunt-Crossley term), ``coating_relaxation`` (one Prony term: an internal coating force ``q`` updated by the
 recursive exponential integrator of finite-element viscoelasticity, not the candidate's dashpot state),
 ``stiction`` (Karnopp breakaway ``F_s`` 3-10 N above the sliding guide friction, against the candidate's LuGre
-with a Stribeck curve), or ``none``. Every case draws ``eta`` and ``T_c0`` near their nominal values (the
+with a Stribeck curve), ``cogging`` (a detent energy tabulated over one period with a second harmonic, its torque
+a spline derivative: :class:`TabulatedCogging`; the candidate is one sinusoid), or ``none``. Every case draws ``eta`` and ``T_c0`` near their nominal values (the
 baseline's free parameters).
 
 Integration: semi-implicit Euler with a fixed step ``DT`` (stable for the stiffest element, the dead-band spring
@@ -42,7 +43,7 @@ from diagnose_truth import free_and_candidates
 
 __all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "make_case", "write_job"]
 
-TRUTH_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction")
+TRUTH_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction", "cogging")
 
 # the paper's values (Table 1, Sec. 3; docs/models/gripper.md) where the Modelica plant takes them
 K_T, J_M, B_R = 0.0393939394, 1.01e-5, 1.01e-5    # N.m/A, kg.m2 (rotor + gear input), N.m.s/rad
@@ -61,15 +62,17 @@ RATE_HZ, FORCE_NOISE, COUNTS = 100.0, 0.5, 2048   # Hz, N (1 sd), counts per rev
 DT = 1e-5                                         # s, integrator step
 W_STICK, V_STICK = 1e-3, 1e-5                     # rad/s, m/s: Karnopp stick windows
 PHI_DAHL = 1e-3                                   # rad, presliding angle of the motor-shaft friction
+N_COG = 24                                        # cogging periods per revolution (motor geometry, as the Modelica's)
 
 
 def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p_hc=1.5, k_prony=0.0,
-             tau_prony=0.1, rate_hz=RATE_HZ, duration=DURATION):
+             tau_prony=0.1, cogging=None, rate_hz=RATE_HZ, duration=DURATION):
     """Noise-free force [N] and motor angle [rad] at ``rate_hz`` for the current step; returns (time, i, F, theta).
 
     Parameters: mesh efficiency ``eta`` [1], drag ``T_c0`` [N.m], total play ``play`` [rad], guide breakaway
     ``F_s`` [N] per jaw, extra contact damping ``c_hc*pen^p_hc`` [N.s/m, pen in m], Prony stiffness ``k_prony``
-    [N/m] and time constant ``tau_prony`` [s] of the coating."""
+    [N/m] and time constant ``tau_prony`` [s] of the coating, ``cogging(theta)`` a motor cogging torque [N.m]
+    against positive rotation."""
     c = CONDITION
     k_s = 1.0 / (1.0 / K_F + 1.0 / c["k_obj"])
     k_P, k_H, d_lim = c["k_P"], c["k_H_ratio"] * c["k_P"], c["d_lim"]
@@ -96,7 +99,7 @@ def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p
             tau_bl = side * (spring + min(max(D_PLAY * side * rel_rate, -spring), spring))
         tau_L = (tau_bl + B_g * w / RATIO) / RATIO
         # motor shaft: Karnopp friction with the efficiency band
-        drive = K_T * current - B_R * w - tau_L
+        drive = K_T * current - B_R * w - tau_L - (cogging(theta) if cogging else 0.0)
         if abs(w) < W_STICK:
             direction = 1.0 if drive > 0 else -1.0
             band = T_c0 + ((1 / eta - 1) if direction * tau_L > 0 else (1 - eta)) * abs(tau_L)
@@ -143,6 +146,25 @@ def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p
     return time, np.where(time >= T_STEP - 1e-12, I_STEP, 0.0), out[:, 0], out[:, 1]
 
 
+class TabulatedCogging:
+    """Cogging as a motor designer gets it from a field solver: the detent energy tabulated over one cogging
+    period (64 points), its torque the derivative of a periodic cubic spline through the table (against positive
+    rotation). The energy has a fundamental of torque amplitude ``T_1`` [N.m] and a second harmonic ``T_2``;
+    the candidate has the fundamental only."""
+
+    def __init__(self, T_1, phase_1, T_2, phase_2, n=N_COG, points=64):
+        from scipy.interpolate import CubicSpline
+
+        self.period = 2 * np.pi / n
+        x = np.linspace(0.0, self.period, points + 1)
+        energy = T_1 / n * (1 - np.cos(n * x + phase_1)) + T_2 / (2 * n) * (1 - np.cos(2 * n * x + phase_2))
+        energy[-1] = energy[0]
+        self.torque = CubicSpline(x, energy, bc_type="periodic").derivative()
+
+    def __call__(self, theta):
+        return float(self.torque(theta % self.period))
+
+
 def make_case(effect, rng, noise=FORCE_NOISE):
     """A random hidden-effect case: returns (time, current, measured force, measured angle, truth dict).
 
@@ -166,6 +188,11 @@ def make_case(effect, rng, noise=FORCE_NOISE):
         kw["k_prony"] = truth["k_rel"] * CONDITION["k_P"]
     elif effect == "stiction":
         truth["F_sj"] = kw["F_s"] = float(rng.uniform(3.0, 10.0))
+    elif effect == "cogging":
+        truth["T_cog"], truth["phase_cog"] = float(rng.uniform(1.5e-3, 4e-3)), float(rng.uniform(-np.pi, np.pi))
+        truth["T_cog2"] = float(truth["T_cog"] * rng.uniform(0.1, 0.3))
+        truth["phase_cog2"] = float(rng.uniform(-np.pi, np.pi))
+        kw["cogging"] = TabulatedCogging(truth["T_cog"], truth["phase_cog"], truth["T_cog2"], truth["phase_cog2"])
     t, i, F, theta = simulate(**kw)
     force = F + rng.normal(0.0, noise, len(t))
     angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)

@@ -2,7 +2,8 @@
 
 Hidden-effect data come from ``diagnose_truth_impact.py``: a reduced gripper written from the paper's equations in
 numpy (Karnopp and Dahl frictions, a dead-band spring, a Prony coating), not from the Modelica, with random
-parameters, a 100 Hz load cell with 0.5 N noise and a 2048 cpt encoder. The workflow compares F_g and theta_m of
+parameters, a 100 Hz load cell with 0.5 N noise and a 2048 cpt encoder; its cogging is a tabulated detent energy
+with a second harmonic. The workflow compares F_g and theta_m of
 Gripper.GripperCurrentDriven, must name the effect the truth contains ("none" when it contains none), and the named
 effect must cut the force gap above the noise by at least 80 %.
 """
@@ -90,6 +91,7 @@ def test_jaw_stiction_does_not_show_in_the_impact():
 @pytest.mark.parametrize("effect, seed, candidates", [
     ("contact_damping", 1, ("contact_damping", "coating_relaxation")),
     ("coating_relaxation", 1, ("coating_relaxation", "gear_play")),
+    ("cogging", 3, ("cogging", "gear_play")),
     ("none", 1, ("gear_play", "coating_relaxation")),
 ])
 def test_workflow_names_the_hidden_impact_effect(effect, seed, candidates, tmp_path):
@@ -98,7 +100,8 @@ def test_workflow_names_the_hidden_impact_effect(effect, seed, candidates, tmp_p
     job = load_diagnose_job(write_job(tmp_path, SOURCE, case, candidates, workers=0))
     s = run_diagnosis(job, progress=False, build=False).summary
     assert s["effect"] == effect, s["verdict"]
-    np.testing.assert_allclose(s["noise"]["used"], [FORCE_NOISE, COUNT], rtol=0.2)
+    # the force noise from ~100 differences: the robust scale alone spreads by ~12 % (1 sd), the impact adds more
+    np.testing.assert_allclose(s["noise"]["used"], [FORCE_NOISE, COUNT], rtol=0.3)
     if effect == "none":
         assert s["rmse_after"] == s["rmse_before"]
         return
@@ -111,4 +114,6 @@ def test_workflow_names_the_hidden_impact_effect(effect, seed, candidates, tmp_p
     elif effect == "coating_relaxation":
         assert abs(fitted["k_rel"] - truth["k_rel"]) < 0.2 * truth["k_rel"]
         assert abs(fitted["tau_rel"] - truth["tau_rel"]) < 0.25 * truth["tau_rel"]
+    elif effect == "cogging":  # one rest angle: amplitude and phase are not separately pinned, the amplitude loosely
+        assert abs(fitted["T_cog"] - truth["T_cog"]) < 0.4 * truth["T_cog"]
     # contact_damping: the truth's law c_hc*pen^p_hc*v has no parameter in common with lambda_hc*F_s*v
