@@ -136,7 +136,7 @@ EFFECTS = {
         name="contact_damping",
         title="Hunt-Crossley contact damping: a damping force lambda_hc*F_s*v proportional to the elastic force",
         parameters=(EffectParameter("lambda_hc", 0.05, 0.0, 5.0, "s/m",
-                                    "Hunt-Crossley damping per unit elastic contact force"),),
+                                    "Hunt-Crossley damping per unit elastic contact force", starts=(1.0,)),),
         drive=(("Gripper.Components.FingerContact contact(gap0 = gap0,",
                 "Gripper.Effects.HuntCrossleyContact contact(lambda_hc = lambda_hc, gap0 = gap0,"),),
         drive_parameters=("lambda_hc",),

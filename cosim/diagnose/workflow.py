@@ -259,6 +259,17 @@ def run_diagnosis(job, progress=True, build=True, out=None):
             restarted.append(_restart_baseline(job, model, e, fit, better, weights, train))
         moved = [new for new, old in zip(restarted, results["baseline"]) if new is not old]
         results["baseline"] = restarted
+        # The other way round: a candidate fitting a fold worse than the (restarted) baseline stalled (a
+        # step in the effect's parameter can stall the trust region while the baseline's parameters still had
+        # far to go). It is refitted from the baseline's values on that fold.
+        stalled = [task for task in tasks if task["effect"] != "baseline" and results[task["effect"]][task["fold"]][
+            "chi2"] > results["baseline"][task["fold"]]["chi2"]]
+        for task in stalled:
+            start = {n: (results["baseline"][task["fold"]]["parameters"][n], lo, hi)
+                     for n, (_, lo, hi) in job.free.items()}
+            retry = _fit_candidate({**task, "baseline": start})
+            if retry["chi2"] < results[task["effect"]][task["fold"]]["chi2"]:
+                results[task["effect"]][task["fold"]] = retry
         if moved:
             base = _restart_baseline(job, model, e, base, moved, weights, mask)
             before = base["predicted"]
