@@ -27,7 +27,8 @@ from diagnose_truth_impact import COUNTS, TRUTH_EFFECTS, make_case, write_job  #
 
 from cosim.diagnose import load_diagnose_job, run_diagnosis  # noqa: E402
 
-CANDIDATES = ("gear_play", "contact_damping", "coating_relaxation", "stiction", "loadcell_filter", "cogging")
+CANDIDATES = ("gear_play", "contact_damping", "coating_relaxation", "stiction", "loadcell_filter", "cogging",
+              "load_dependent_friction")
 
 
 def main(argv=None):

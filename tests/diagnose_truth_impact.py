@@ -18,7 +18,8 @@ Formulation (each element written differently from the Modelica):
   than the spring torque, so the torque is continuous at engagement and never pulls), bearing damping
   ``B_g = T_max*(1 - eta)*N^2/omega_max`` (eq. 9);
 * jaws: rack and pinion, grease ``4*eta_grease*S/d*v`` (eq. 11) and guide friction as a Karnopp friction (window
-  ``V_STICK``, static level = sliding level unless the effect ``stiction`` raises it);
+  ``V_STICK``, static level = sliding level unless the effect ``stiction`` raises it; both levels grow by
+  ``mu_F`` times the contact force with the effect ``load_dependent_friction``);
 * contact: finger, coating and object springs in series, the coating two-region; Kelvin-Voigt damping switched
   (not blended) between ``C_p`` and ``C_h`` at the region boundary, clamped so the contact cannot pull.
 
@@ -28,7 +29,9 @@ Hunt-Crossley term), ``coating_relaxation`` (one Prony term: an internal coating
 recursive exponential integrator of finite-element viscoelasticity, not the candidate's dashpot state),
 ``stiction`` (Karnopp breakaway ``F_s`` 3-10 N above the sliding guide friction, against the candidate's LuGre
 with a Stribeck curve), ``cogging`` (a detent energy tabulated over one period with a second harmonic, its torque
-a spline derivative: :class:`TabulatedCogging`; the candidate is one sinusoid), or ``none``. Every case draws ``eta`` and ``T_c0`` near their nominal values (the
+a spline derivative: :class:`TabulatedCogging`; the candidate is one sinusoid), ``load_dependent_friction`` (the
+guide's Karnopp levels, static and sliding, raised by ``mu_F`` times the contact force; the candidate: a bristle
+friction of level ``mu_F*F_g``), or ``none``. Every case draws ``eta`` and ``T_c0`` near their nominal values (the
 baseline's free parameters).
 
 Integration: semi-implicit Euler with a fixed step ``DT`` (stable for the stiffest element, the dead-band spring
@@ -43,7 +46,8 @@ from diagnose_truth import free_and_candidates
 
 __all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "make_case", "write_job"]
 
-TRUTH_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction", "cogging")
+TRUTH_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction", "cogging",
+                 "load_dependent_friction")
 
 # the paper's values (Table 1, Sec. 3; docs/models/gripper.md) where the Modelica plant takes them
 K_T, J_M, B_R = 0.0393939394, 1.01e-5, 1.01e-5    # N.m/A, kg.m2 (rotor + gear input), N.m.s/rad
@@ -66,13 +70,13 @@ N_COG = 24                                        # cogging periods per revoluti
 
 
 def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p_hc=1.5, k_prony=0.0,
-             tau_prony=0.1, cogging=None, rate_hz=RATE_HZ, duration=DURATION):
+             tau_prony=0.1, cogging=None, mu_F=0.0, rate_hz=RATE_HZ, duration=DURATION):
     """Noise-free force [N] and motor angle [rad] at ``rate_hz`` for the current step; returns (time, i, F, theta).
 
     Parameters: mesh efficiency ``eta`` [1], drag ``T_c0`` [N.m], total play ``play`` [rad], guide breakaway
-    ``F_s`` [N] per jaw, extra contact damping ``c_hc*pen^p_hc`` [N.s/m, pen in m], Prony stiffness ``k_prony``
-    [N/m] and time constant ``tau_prony`` [s] of the coating, ``cogging(theta)`` a motor cogging torque [N.m]
-    against positive rotation."""
+    ``F_s`` [N] per jaw, guide friction ``mu_F`` [1] per unit contact force, extra contact damping
+    ``c_hc*pen^p_hc`` [N.s/m, pen in m], Prony stiffness ``k_prony`` [N/m] and time constant ``tau_prony`` [s] of
+    the coating, ``cogging(theta)`` a motor cogging torque [N.m] against positive rotation."""
     c = CONDITION
     k_s = 1.0 / (1.0 / K_F + 1.0 / c["k_obj"])
     k_P, k_H, d_lim = c["k_P"], c["k_H_ratio"] * c["k_P"], c["d_lim"]
@@ -128,11 +132,12 @@ def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p
         F_contact = max(0.0, F_el + (C + c_hc * max(pen, 0.0) ** p_hc) * v) if pen > 0 else 0.0
         # jaw: rack force, grease, Karnopp guide friction
         F_jaw = tau_bl / (2 * R_P) - C_GREASE * v - F_contact
+        sliding = F_GUIDE + mu_F * F_contact
         if abs(v) < V_STICK:
             direction = 1.0 if F_jaw > 0 else -1.0
-            v_new = 0.0 if abs(F_jaw) <= F_s else v + DT * (F_jaw - direction * F_GUIDE) / m
+            v_new = 0.0 if abs(F_jaw) <= F_s + mu_F * F_contact else v + DT * (F_jaw - direction * sliding) / m
         else:
-            v_new = v + DT * (F_jaw - (F_GUIDE if v > 0 else -F_GUIDE)) / m
+            v_new = v + DT * (F_jaw - (sliding if v > 0 else -sliding)) / m
             if v_new * v < 0:
                 v_new = 0.0
         # Dahl state of the motor-shaft friction: turns towards the direction of motion over PHI_DAHL
@@ -188,6 +193,8 @@ def make_case(effect, rng, noise=FORCE_NOISE):
         kw["k_prony"] = truth["k_rel"] * CONDITION["k_P"]
     elif effect == "stiction":
         truth["F_sj"] = kw["F_s"] = float(rng.uniform(3.0, 10.0))
+    elif effect == "load_dependent_friction":
+        truth["mu_F"] = kw["mu_F"] = float(rng.uniform(0.01, 0.05))
     elif effect == "cogging":
         truth["T_cog"], truth["phase_cog"] = float(rng.uniform(1.5e-3, 4e-3)), float(rng.uniform(-np.pi, np.pi))
         truth["T_cog2"] = float(truth["T_cog"] * rng.uniform(0.1, 0.3))
