@@ -12,8 +12,9 @@
    ``score`` = fraction of the baseline's held-out excess gap (mean square residual above the noise) that the
    candidate removes; BIC and a likelihood-ratio test on the fitted segments give the evidence against noise.
    Candidates run in parallel (Dask). The winner is the best-scoring candidate that removes at least
-   ``min_gap_removed`` of the held-out gap and improves BIC by ``min_delta_bic``; "none" when no segment of the
-   baseline's residual is significant or no candidate qualifies.
+   ``min_gap_removed`` of the held-out gap and improves BIC by ``min_delta_bic``; "none" when no candidate
+   qualifies, or when the baseline shows no gap: no segment of its residual is significant, or its whole residual
+   is within chance of the noise (mean square in noise units below 1 + ``gap_sigmas``*sqrt(2/n)).
 4. *Add and show*: the winner's variant is refitted on every cost sample, written into the Modelica source (a
    copy of the package under ``OUT/modelica`` with a diff), built into an FMU and, with the baseline's FMU, re-run
    through the master with the measured inputs; gaps before and after per segment and overall.
@@ -279,8 +280,12 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     findings = branch_shapes(segments, rows, sigma)
     white = whiteness(residual[0, mask])
     cross = None if job.kind == "frequency" else cross_correlation(residual[0, mask], e.inputs[mask, 0])
-    gap_found = any(r["significant"] for r in rows)
     n_fit = int(mask.sum()) * y.shape[0]
+    # a gap is a segment above gap_sigmas noise levels *and* a baseline whose whole residual is more than noise:
+    # its mean square (in noise units) must exceed 1 by more than gap_sigmas times the sqrt(2/n) a mean of n
+    # squared unit noises scatters by (a lone segment at 3 sigma is also what noise gives over many segments)
+    excess = _ms(before, y, weights, mask) - 1.0
+    gap_found = any(r["significant"] for r in rows) and excess > job.gap_sigmas * np.sqrt(2.0 / n_fit)
 
     def pooled(fits):
         """Held-out weighted residuals of both folds (each cost sample predicted by the fit that did not see it),
