@@ -285,7 +285,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     # its mean square (in noise units) must exceed 1 by more than gap_sigmas times the sqrt(2/n) a mean of n
     # squared unit noises scatters by (a lone segment at 3 sigma is also what noise gives over many segments)
     excess = _ms(before, y, weights, mask) - 1.0
-    gap_found = any(r["significant"] for r in rows) and excess > job.gap_sigmas * np.sqrt(2.0 / n_fit)
+    gap_found = any(r["significant"] for r in rows) and bool(excess > job.gap_sigmas * np.sqrt(2.0 / n_fit))
 
     def pooled(fits):
         """Held-out weighted residuals of both folds (each cost sample predicted by the fit that did not see it),
