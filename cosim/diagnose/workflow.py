@@ -284,8 +284,8 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     # a gap is a segment above gap_sigmas noise levels *and* a baseline whose whole residual is more than noise:
     # its mean square (in noise units) must exceed 1 by more than gap_sigmas times the sqrt(2/n) a mean of n
     # squared unit noises scatters by (a lone segment at 3 sigma is also what noise gives over many segments)
-    excess = _ms(before, y, weights, mask) - 1.0
-    gap_found = any(r["significant"] for r in rows) and bool(excess > job.gap_sigmas * np.sqrt(2.0 / n_fit))
+    ms_baseline, chance = _ms(before, y, weights, mask), 1.0 + job.gap_sigmas * np.sqrt(2.0 / n_fit)
+    gap_found = any(r["significant"] for r in rows) and bool(ms_baseline > chance)
 
     def pooled(fits):
         """Held-out weighted residuals of both folds (each cost sample predicted by the fit that did not see it),
@@ -366,7 +366,10 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         "job": str(job.path), "model": job.model, "data": str(job.data_path),
         "effect": effect,
         "verdict": (f"missing effect: {effect} ({EFFECTS[effect].title})" if winner else
-                    "no missing effect found" + ("" if gap_found else ": the baseline fits within the noise")),
+                    "no missing effect found" + ("" if gap_found else
+                                                 f": the baseline fits within the noise (mean square "
+                                                 f"{ms_baseline:.3g} noise levels squared, chance up to "
+                                                 f"{chance:.3g})")),
         "also_explained_by": rivals,
         "kind": job.kind,
         "signals": channels,
@@ -386,13 +389,14 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         "rerun": rerun_out,
         "segments": seg_out,
         "gap_found": gap_found,
+        "baseline_mean_square": ms_baseline,  # weighted residual on the cost samples, in noise levels squared
         "shapes": findings,
         "whiteness": white,
         "input_cross_correlation": cross,
         "folds": {"scheme": "two-fold over segments: fit on the even ones, score on the odd ones, and back",
                   "samples": [int(train.sum()) for train, _ in folds]},
         "decision": {"min_gap_removed": job.min_gap_removed, "min_delta_bic": job.min_delta_bic,
-                     "gap_sigmas": job.gap_sigmas},
+                     "gap_sigmas": job.gap_sigmas, "mean_square_chance": chance},
         "candidates": sorted(candidates, key=lambda c: -c["score"]),
     }
     preds = {name: fits[0]["predicted"] for name, fits in results.items()}
