@@ -369,7 +369,8 @@ def run_diagnosis(job, progress=True, build=True, out=None):
                     "no missing effect found" + ("" if gap_found else
                                                  f": the baseline fits within the noise (mean square "
                                                  f"{ms_baseline:.3g} noise levels squared, chance up to "
-                                                 f"{chance:.3g})")),
+                                                 f"{chance:.3g}; segments above {job.gap_sigmas:g} noise "
+                                                 f"levels: {sum(r['significant'] for r in rows)})")),
         "also_explained_by": rivals,
         "kind": job.kind,
         "signals": channels,
