@@ -263,12 +263,11 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         # The other way round: a candidate fitting a fold worse than the (restarted) baseline stalled (a
         # step in the effect's parameter can stall the trust region while the baseline's parameters still had
         # far to go). It is refitted from the baseline's values on that fold.
-        stalled = [task for task in tasks if task["effect"] != "baseline" and results[task["effect"]][task["fold"]][
-            "chi2"] > results["baseline"][task["fold"]]["chi2"]]
-        for task in stalled:
-            start = {n: (results["baseline"][task["fold"]]["parameters"][n], lo, hi)
-                     for n, (_, lo, hi) in job.free.items()}
-            retry = _fit_candidate({**task, "baseline": start})
+        stalled = [{**task, "baseline": {n: (results["baseline"][task["fold"]]["parameters"][n], lo, hi)
+                                         for n, (_, lo, hi) in job.free.items()}}
+                   for task in tasks if task["effect"] != "baseline"
+                   and results[task["effect"]][task["fold"]]["chi2"] > results["baseline"][task["fold"]]["chi2"]]
+        for task, retry in zip(stalled, _run_tasks(job, stalled, progress)):
             if retry["chi2"] < results[task["effect"]][task["fold"]]["chi2"]:
                 results[task["effect"]][task["fold"]] = retry
         if moved:
@@ -353,7 +352,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
             else:
                 rerun_out = _rerun_both(job, e, model, base, path, variant, final, target, y, mask)
     rmse_after, max_after = _rmse(after, y, mask)
-    ms_before, ms_after = _ms(before, y, weights, mask), _ms(after, y, weights, mask)
+    ms_after = _ms(after, y, weights, mask)
     rows_after = segment_table(t, after - y, after, y, mask, segments, sigma, job.gap_sigmas, shape)
     seg_out = []
     for rb, ra in zip(rows, rows_after):
@@ -384,7 +383,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         "rmse_before": rmse_before[0], "rmse_after": rmse_after[0],
         "max_error_before": max_before[0], "max_error_after": max_after[0],
         "rmse_before_per_signal": rmse_before, "rmse_after_per_signal": rmse_after,
-        "gap_removed": float(1 - (ms_after - 1) / (ms_before - 1)) if ms_before > 1 else 0.0,
+        "gap_removed": float(1 - (ms_after - 1) / (ms_baseline - 1)) if ms_baseline > 1 else 0.0,
         "baseline": {"parameters": base["parameters"], "free": {n: list(v) for n, v in job.free.items()}},
         "after": ({"parameters": final["parameters"], "fmu": final.get("fmu")} if final else None),
         "rerun": rerun_out,
