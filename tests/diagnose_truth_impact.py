@@ -67,17 +67,21 @@ DT = 1e-5                                         # s, integrator step
 W_STICK, V_STICK = 1e-3, 1e-5                     # rad/s, m/s: Karnopp stick windows
 PHI_DAHL = 1e-3                                   # rad, presliding angle of the motor-shaft friction
 N_COG = 24                                        # cogging periods per revolution (motor geometry, as the Modelica's)
+PLACEMENT = 1e-4                                  # m: scatter of the object's position over repeated trials
 
 
 def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p_hc=1.5, k_prony=0.0,
-             tau_prony=0.1, cogging=None, mu_F=0.0, rate_hz=RATE_HZ, duration=DURATION):
-    """Noise-free force [N] and motor angle [rad] at ``rate_hz`` for the current step; returns (time, i, F, theta).
+             tau_prony=0.1, cogging=None, mu_F=0.0, current=I_STEP, gap0=CONDITION["gap0"], rate_hz=RATE_HZ,
+             duration=DURATION):
+    """Noise-free force [N] and motor angle [rad] at ``rate_hz`` for a q-current step to ``current`` [A] at
+    ``T_STEP``; returns (time, i, F, theta).
 
     Parameters: mesh efficiency ``eta`` [1], drag ``T_c0`` [N.m], total play ``play`` [rad], guide breakaway
     ``F_s`` [N] per jaw, guide friction ``mu_F`` [1] per unit contact force, extra contact damping
     ``c_hc*pen^p_hc`` [N.s/m, pen in m], Prony stiffness ``k_prony`` [N/m] and time constant ``tau_prony`` [s] of
-    the coating, ``cogging(theta)`` a motor cogging torque [N.m] against positive rotation."""
-    c = CONDITION
+    the coating, ``cogging(theta)`` a motor cogging torque [N.m] against positive rotation, ``gap0`` [m] the
+    travel from the start to the object."""
+    c = {**CONDITION, "gap0": gap0}
     k_s = 1.0 / (1.0 / K_F + 1.0 / c["k_obj"])
     k_P, k_H, d_lim = c["k_P"], c["k_H_ratio"] * c["k_P"], c["d_lim"]
     B_g = T_MAX * (1 - eta) * RATIO ** 2 / OMEGA_MAX
@@ -91,7 +95,7 @@ def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p
     for k in range(n * steps_per_sample):
         if k % steps_per_sample == 0:
             out[k // steps_per_sample] = F_contact, theta
-        current = I_STEP if k * DT >= T_STEP - 1e-12 else 0.0
+        i_q = current if k * DT >= T_STEP - 1e-12 else 0.0
         # dead-band spring at the gear output
         rel = theta / RATIO - x / R_P
         rel_rate = w / RATIO - v / R_P
@@ -103,7 +107,7 @@ def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p
             tau_bl = side * (spring + min(max(D_PLAY * side * rel_rate, -spring), spring))
         tau_L = (tau_bl + B_g * w / RATIO) / RATIO
         # motor shaft: Karnopp friction with the efficiency band
-        drive = K_T * current - B_R * w - tau_L - (cogging(theta) if cogging else 0.0)
+        drive = K_T * i_q - B_R * w - tau_L - (cogging(theta) if cogging else 0.0)
         if abs(w) < W_STICK:
             direction = 1.0 if drive > 0 else -1.0
             band = T_c0 + ((1 / eta - 1) if direction * tau_L > 0 else (1 - eta)) * abs(tau_L)
@@ -148,7 +152,7 @@ def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p
         theta += DT * w
         x += DT * v
     time = np.arange(n) / rate_hz
-    return time, np.where(time >= T_STEP - 1e-12, I_STEP, 0.0), out[:, 0], out[:, 1]
+    return time, np.where(time >= T_STEP - 1e-12, current, 0.0), out[:, 0], out[:, 1]
 
 
 class TabulatedCogging:
@@ -170,8 +174,11 @@ class TabulatedCogging:
         return float(self.torque(theta % self.period))
 
 
-def make_case(effect, rng, noise=FORCE_NOISE):
-    """A random hidden-effect case: returns (time, current, measured force, measured angle, truth dict).
+def make_case(effect, rng, noise=FORCE_NOISE, trials=1):
+    """A random hidden-effect case: one gripper with one draw of its parameters and ``trials`` repeated impacts
+    (the paper's protocol repeats each condition). Trial 0 has the object at ``CONDITION["gap0"]``; each further
+    trial places it anew within ``PLACEMENT`` of that, so the rotor comes to rest at another angle. Returns
+    (records, truth dict), each record (time, current, measured force, measured angle, {"gap0": travel [m]}).
 
     The truth dict holds the drawn parameters under the names of the Modelica parameters they correspond to
     where there is one (``eta_g``, ``T_c0``, ``play``, ``F_sj``)."""
@@ -200,10 +207,14 @@ def make_case(effect, rng, noise=FORCE_NOISE):
         truth["T_cog2"] = float(truth["T_cog"] * rng.uniform(0.1, 0.3))
         truth["phase_cog2"] = float(rng.uniform(-np.pi, np.pi))
         kw["cogging"] = TabulatedCogging(truth["T_cog"], truth["phase_cog"], truth["T_cog2"], truth["phase_cog2"])
-    t, i, F, theta = simulate(**kw)
-    force = F + rng.normal(0.0, noise, len(t))
-    angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
-    return t, i, force, angle, truth
+    records = []
+    for k in range(trials):
+        gap0 = CONDITION["gap0"] + (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
+        t, i, F, theta = simulate(gap0=gap0, **kw)
+        force = F + rng.normal(0.0, noise, len(t))
+        angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
+        records.append((t, i, force, angle, {"gap0": gap0}))
+    return records, truth
 
 
 JOB = """
@@ -212,7 +223,7 @@ source = "{source}"
 name = "Gripper.GripperCurrentDriven"
 parameters = {parameters}
 [data]
-path = "data.csv"
+{data}
 inputs = {{ i_ref = "i_ref" }}
 [experiment]
 kind = "impact"
@@ -226,17 +237,22 @@ max_nfev = {max_nfev}
 
 
 def write_job(folder, source, case, effects, workers=0, max_nfev=20):
-    """Write ``case`` (from :func:`make_case`) as data.csv and the diagnosis job for it into ``folder``; returns the
-    job path. Noise floors: 0.1 N under the force estimate, one encoder count under the angle's (the truncated
-    counts are not a zero-mean noise: their bias of half a count is part of the floor)."""
+    """Write ``case`` (from :func:`make_case`) as data.csv (data0.csv, data1.csv, ...: one per record, with its
+    object position in data.records) and the diagnosis job for it into ``folder``; returns the job path. Noise floors: 0.1 N under the force estimate, one
+    encoder count under the angle's (the truncated counts are not a zero-mean noise: their bias of half a count
+    is part of the floor)."""
     import pandas as pd
 
-    t, i, force, angle, _ = case
-    pd.DataFrame({"time": t, "i_ref": i, "F_g": force, "theta_m": angle}).to_csv(folder / "data.csv", index=False)
+    records, _ = case
+    names = ["data.csv"] if len(records) == 1 else [f"data{k}.csv" for k in range(len(records))]
+    for name, (t, i, force, angle, _) in zip(names, records):
+        pd.DataFrame({"time": t, "i_ref": i, "F_g": force, "theta_m": angle}).to_csv(folder / name, index=False)
+    data = f'path = "{names[0]}"' if len(records) == 1 else "records = [" + ", ".join(
+        f'{{ path = "{name}", parameters = {{ gap0 = {r[4]["gap0"]!r} }} }}' for name, r in zip(names, records)) + "]"
     fixed = {**CONDITION, "play": PLAY_NOMINAL}
     parameters = "{ " + ", ".join(f"{k} = {v!r}" for k, v in fixed.items()) + " }"
     path = folder / "job.toml"
-    path.write_text(JOB.format(source=source.as_posix(), parameters=parameters, duration=t[-1],
+    path.write_text(JOB.format(source=source.as_posix(), parameters=parameters, data=data, duration=records[0][0][-1],
                                force_floor=0.1, angle_floor=2 * np.pi / COUNTS, max_nfev=max_nfev)
                     + free_and_candidates(0.68, 7.88e-3, effects, workers))
     return path

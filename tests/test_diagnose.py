@@ -143,6 +143,34 @@ def test_bad_inputs_are_clear_errors(tmp_path):
         load_diagnose_job(tmp_path / "job.toml")
 
 
+def test_records_job_errors_name_the_key(tmp_path):
+    """data.records (repeated trials): every problem reported at once with its key; a job gives data.path or
+    data.records; each record's table is checked; a trial may fix a parameter but not free one."""
+    frame, _ = _case_frame("none", 0)
+    path = _write_job(tmp_path, frame)
+    text = path.read_text()
+    both = text.replace('path = "data.csv"\n', 'path = "data.csv"\nrecords = [{ path = "data.csv" }]\n')
+    path.write_text(both)
+    with pytest.raises(ConfigError, match="give data.path .* or data.records"):
+        load_diagnose_job(path)
+    records = text.replace('path = "data.csv"\n', 'records = [{ path = "data.csv", parameters = { gap0 = 0.002 } }, '
+                                                   '{ file = "x.csv" }, { path = "data.csv", colour = 1, '
+                                                   'parameters = { eta_g = 0.7 } }]\n')
+    path.write_text(records)
+    with pytest.raises(ConfigError) as err:
+        load_diagnose_job(path)
+    message = str(err.value)
+    assert "3 problems" in message
+    assert "data.records[1]: must be a table with a path" in message
+    assert "data.records[2].colour: unknown key" in message
+    assert "data.records[2].parameters.eta_g: is a free parameter" in message
+    path.write_text(records.replace(', { file = "x.csv" }, { path = "data.csv", colour = 1, '
+                                    'parameters = { eta_g = 0.7 } }', ', { path = "data.csv" }'))
+    job = load_diagnose_job(path)
+    assert [trial for _, trial in job.records] == [{"gap0": 0.002}, {}]
+    assert job.data_path == tmp_path / "data.csv"
+
+
 # -- hidden-effect cases ------------------------------------------------------------------------------------------
 
 # Seeds: 2 gives eta_b = eta_d - 0.13; 8 gives a 2.7 N load-cell offset (offsets near 1 N are comparable to the

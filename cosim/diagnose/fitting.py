@@ -13,7 +13,7 @@ from cosim.calibrate.problem import Experiment
 from cosim.calibrate.shooting import SingleShooting
 from cosim.errors import ConfigError
 
-__all__ = ["Replay", "fit_samples", "check_parameters", "weighted"]
+__all__ = ["Replay", "Trials", "fit_samples", "check_parameters", "weighted"]
 
 
 def check_parameters(model, names):
@@ -75,12 +75,31 @@ class Replay:
         return self.evaluate(np.asarray(values, float) / self.scale)
 
 
+class Trials:
+    """Replays of several records (repeated trials) with shared free parameters, their outputs end to end: what
+    :func:`fit_samples` fits when a diagnosis covers more than one record.
+
+    Parameters
+    ----------
+    replays : list of Replay
+        One per record, each with its own experiment and fixed values, the same ``free`` and ``scale``.
+    """
+
+    def __init__(self, replays):
+        self.replays = list(replays)
+        self.free, self.scale = self.replays[0].free, self.replays[0].scale
+
+    def evaluate(self, q):
+        """Outputs of every record end to end, shape (n_signals, sum of the records' N)."""
+        return np.hstack([r.evaluate(q) for r in self.replays])
+
+
 def fit_samples(replay, measured, weights, mask, start, bounds, max_nfev=40):
     """Least-squares fit of the replay's free parameters on the samples in ``mask``.
 
     Parameters
     ----------
-    replay : Replay or cosim.diagnose.frequency.FrequencyReplay
+    replay : Replay, Trials or cosim.diagnose.frequency.FrequencyReplay
     measured : ndarray, shape (n_signals, N)
     weights : ndarray, shape (n_signals,) or (n_signals, N)
         1 / noise level of each signal (or of each sample).

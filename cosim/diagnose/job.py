@@ -5,6 +5,8 @@ Job schema (paths relative to the job file)::
 
     [model]       source = "x.mo", name = "Pkg.Model", parameters = {name = value}   # fixed values
     [data]        path = "x.csv|x.parquet", inputs = {model_input = "column"}, start, stop, decimate
+                  or, for repeated trials diagnosed together (time domain only), instead of path:
+                  records = [{path = "trial1.csv", parameters = {name = value}}, ...]   # per-trial fixed values
     [experiment]  kind = "staircase"|"impact"|"frequency", duration (s: the data must cover it),
                   steady_s (the last steady_s of each hold enter the cost; staircase), min_hold_s
                   frequency: input (the model input excited), sample_rate (Hz; 0: continuous), bands_per_decade
@@ -28,11 +30,11 @@ from cosim.calibrate.problem import Experiment
 from cosim.diagnose.effects import EFFECTS, applicable, variant_text
 from cosim.errors import ConfigError
 
-__all__ = ["DiagnoseJob", "load_diagnose_job", "load_experiment"]
+__all__ = ["DiagnoseJob", "load_diagnose_job", "load_experiment", "load_records"]
 
 _SCHEMA = {
     "model": ("source", "name", "parameters"),
-    "data": ("path", "inputs", "start", "stop", "decimate"),
+    "data": ("path", "records", "inputs", "start", "stop", "decimate"),
     "experiment": ("kind", "duration", "steady_s", "min_hold_s", "input", "sample_rate", "bands_per_decade"),
     "compare": ("signals", "rtol", "max_nfev"),
     "candidates": ("effects",),
@@ -49,7 +51,7 @@ class DiagnoseJob:
     source: Path
     model: str
     fixed: dict
-    data_path: Path
+    records: tuple  # of (data file, {parameter: value} fixed for that trial only); one record for data.path
     inputs: dict
     window: tuple
     decimate: int
@@ -71,6 +73,11 @@ class DiagnoseJob:
     sample_rate: float = 0.0  # frequency kind: Hz of the ZOH the model is compared through (0: continuous)
     bands_per_decade: float = 6.0  # frequency kind: width of the frequency bands (segments)
 
+    @property
+    def data_path(self):
+        """The first (for data.path: the only) record's data file."""
+        return self.records[0][0]
+
 
 def load_diagnose_job(path, overrides=()):
     """Read and validate a diagnosis job; every problem is reported at once with file:line and key."""
@@ -88,8 +95,8 @@ def load_diagnose_job(path, overrides=()):
             problems.add(("model", "source"), f"no such Modelica file: {source}")
         else:
             source_text = source.read_text(encoding="utf-8")
-    if not isinstance(t["data"].get("path"), str):
-        problems.add(("data", "path"), "is required: a CSV or Parquet file with `time` and the measured channels")
+    free = bounded_parameters(data, problems, required=False)
+    records = _records(t["data"], base, free, problems)
     e = t["experiment"]
     kind = e.get("kind", "staircase")
     inputs = t["data"].get("inputs", {})
@@ -103,6 +110,8 @@ def load_diagnose_job(path, overrides=()):
         if len(t["compare"].get("signals", [])) > 1:
             problems.add(("compare", "signals"), "a frequency response compares one output (its magnitude and "
                                                  "phase)")
+        if len(records) > 1:
+            problems.add(("data", "records"), "a frequency response is one measured FRF: give data.path")
     elif not isinstance(inputs, dict) or not inputs or not all(isinstance(v, str) for v in inputs.values()):
         problems.add(("data", "inputs"), "must map model inputs to data columns, e.g. {i_ref = \"i_ref\"}")
         inputs = {}
@@ -134,7 +143,6 @@ def load_diagnose_job(path, overrides=()):
         problems.add(("compare", "signals"), "name at least one measured output: [{output = \"F_g\", noise = 0.5}]")
     rtol = number(problems, t["compare"], "rtol", ("compare",), default=1e-6, positive=True)
     max_nfev = number(problems, t["compare"], "max_nfev", ("compare",), default=40, positive=True, integer=True)
-    free = bounded_parameters(data, problems, required=False)
     effects = t["candidates"].get("effects")
     model = t["model"].get("name", "")
     if effects is None:
@@ -159,17 +167,58 @@ def load_diagnose_job(path, overrides=()):
     problems.raise_if_any()
     return DiagnoseJob(
         path=path, source=source, model=model, fixed=dict(t["model"].get("parameters", {})),
-        data_path=base / d["path"], inputs=dict(inputs), window=(start, stop), decimate=decimate, kind=kind,
+        records=tuple(records), inputs=dict(inputs), window=(start, stop), decimate=decimate, kind=kind,
         duration=duration, steady_s=steady_s, min_hold_s=min_hold_s, signals=tuple(signals), rtol=rtol,
         max_nfev=max_nfev, free=free, effects=tuple(effects), min_gap_removed=min_gap, min_delta_bic=min_bic,
         gap_sigmas=gap_sigmas, workers=workers, scheduler=str(t["parallel"].get("scheduler", "")),
         input=str(e.get("input", "")), sample_rate=sample_rate, bands_per_decade=per_decade)
 
 
-def load_experiment(job, model):
-    """The job's data aligned with ``model`` (a LoweredModel): an :class:`Experiment` (mask: every sample) and
-    the checks a diagnosis needs (channels, a uniform time base, data covering the experiment); for a frequency
-    response, a :class:`~cosim.diagnose.frequency.FrequencyExperiment`."""
+def _records(d, base, free, problems):
+    """The data files with their per-trial fixed parameters: data.path alone, or the tables of data.records (a
+    trial may fix a parameter, not one of the ``free`` ones)."""
+    if ("path" in d) == ("records" in d):
+        problems.add(("data",), "give data.path (one record: a CSV or Parquet file with `time` and the measured "
+                                "channels) or data.records (repeated trials), not both")
+        return []
+    if "path" in d:
+        if not isinstance(d["path"], str):
+            problems.add(("data", "path"), "must be a string: a CSV or Parquet file")
+            return []
+        return [(base / d["path"], {})]
+    if not isinstance(d["records"], list) or not d["records"]:
+        problems.add(("data", "records"), "must be a list of tables {path = \"trial1.csv\", parameters = {...}}")
+        return []
+    records = []
+    for k, r in enumerate(d["records"]):
+        where = ("data", "records", k)
+        if not isinstance(r, dict) or not isinstance(r.get("path"), str):
+            problems.add(where, "must be a table with a path: {path = \"trial1.csv\", parameters = {gap0 = 0.0075}}")
+            continue
+        for key in sorted(set(r) - {"path", "parameters"}):
+            problems.add(where + (key,), "unknown key; allowed: path, parameters")
+        trial = r.get("parameters", {})
+        if not isinstance(trial, dict) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                  for v in trial.values()):
+            problems.add(where + ("parameters",), "must map parameter names to numbers")
+            trial = {}
+        for name in sorted(set(trial) & set(free)):
+            problems.add(where + ("parameters", name), "is a free parameter ([parameters]); a trial can only fix a "
+                                                       "parameter")
+        records.append((base / r["path"], {n: float(v) for n, v in trial.items()}))
+    return records
+
+
+def load_records(job, model):
+    """Every record of the job aligned with ``model``: a list of (Experiment, the trial's fixed parameters)."""
+    return [(load_experiment(job, model, path), trial) for path, trial in job.records]
+
+
+def load_experiment(job, model, path=None):
+    """The data of ``path`` (default: the job's first record) aligned with ``model`` (a LoweredModel): an
+    :class:`Experiment` (mask: every sample) and the checks a diagnosis needs (channels, a uniform time base, data
+    covering the experiment); for a frequency response, a :class:`~cosim.diagnose.frequency.FrequencyExperiment`."""
+    path = job.data_path if path is None else path
     if job.kind == "frequency":
         from cosim.diagnose.frequency import load_frequency_experiment
 
@@ -184,20 +233,20 @@ def load_experiment(job, model):
         if output not in outputs:
             raise ConfigError(f"{job.path}: compare.signals: {job.model} has no output {output!r}; it has "
                               f"{', '.join(outputs)}")
-    frame = load_measurements(job.data_path, [*job.inputs.values(), *(c for _, c, _ in job.signals)])
+    frame = load_measurements(path, [*job.inputs.values(), *(c for _, c, _ in job.signals)])
     t0, t1 = job.window
     frame = frame[(frame["time"] >= t0) & (frame["time"] <= t1)].iloc[::job.decimate].reset_index(drop=True)
     if len(frame) < 10:
-        raise ConfigError(f"{job.path}: the data window [{t0}, {t1}] s holds {len(frame)} samples; need >= 10")
+        raise ConfigError(f"{path}: the data window [{t0}, {t1}] s holds {len(frame)} samples; need >= 10")
     time = frame["time"].to_numpy()
     dt = np.diff(time)
     if np.max(np.abs(dt - np.median(dt))) > 0.25 * np.median(dt):
         k = int(np.argmax(np.abs(dt - np.median(dt))))
-        raise ConfigError(f"{job.data_path}: the time base is not uniform (sample interval {np.median(dt):g} s, "
+        raise ConfigError(f"{path}: the time base is not uniform (sample interval {np.median(dt):g} s, "
                           f"but {dt[k]:g} s between t = {time[k]:g} and {time[k + 1]:g} s): channels sampled on "
                           f"different clocks must be resampled onto one time base first")
     if job.duration is not None and time[-1] - time[0] < job.duration - 1.5 * np.median(dt):
-        raise ConfigError(f"{job.data_path}: the data cover {time[-1] - time[0]:g} s but the experiment "
+        raise ConfigError(f"{path}: the data cover {time[-1] - time[0]:g} s but the experiment "
                           f"(experiment.duration) lasts {job.duration:g} s")
     return Experiment(time=time - time[0], inputs=frame[[job.inputs[u] for u in inputs]].to_numpy(),
                       measured=frame[[c for _, c, _ in job.signals]].to_numpy(),

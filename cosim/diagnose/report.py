@@ -40,9 +40,10 @@ def plot_diagnosis(diagnosis, folder):
     for j in range(n):
         ax, ar = axes[2 * j], axes[2 * j + 1]
         ax.plot(d.time, d.measured[j], ".", ms=2, color="0.5", label="measured")
-        ax.plot(d.time, d.before[j], color="C0", lw=1.2, label=f"baseline (RMSE {s['rmse_before_per_signal'][j]:.3g})")
+        ax.plot(*_apart(d.time, d.before[j]), color="C0", lw=1.2,
+                label=f"baseline (RMSE {s['rmse_before_per_signal'][j]:.3g})")
         if d.effect != "none":
-            ax.plot(d.time, d.after[j], color="C3", lw=1.2,
+            ax.plot(*_apart(d.time, d.after[j]), color="C3", lw=1.2,
                     label=f"with {d.effect} (RMSE {s['rmse_after_per_signal'][j]:.3g})")
         label = f"{s['signals'][j]} [{s['units'][j]}]"
         ax.set_ylabel(label)
@@ -57,7 +58,7 @@ def plot_diagnosis(diagnosis, folder):
         ar.set_ylabel(f"residual {label}")
         ar.legend(loc="best", fontsize=8)
         ar.grid(alpha=0.3)
-    axes[-1].set_xlabel("time [s]")
+    axes[-1].set_xlabel("time [s]" + (f" ({len(s['records'])} records end to end)" if len(s["records"]) > 1 else ""))
     fig.suptitle(s["verdict"], fontsize=10)
     fig.tight_layout()
     fig.savefig(folder / "fit.png", dpi=110)
@@ -131,6 +132,13 @@ def _plot_frequency(diagnosis, folder):
     return ["bode.png", "bands.png"]
 
 
+def _apart(time, values):
+    """``time`` and ``values`` with a NaN at each gap between records (a step over 1.5 sample intervals), so a
+    line does not join the end of one record to the start of the next."""
+    cut = np.flatnonzero(np.diff(time) > 1.5 * np.median(np.diff(time))) + 1
+    return np.insert(time, cut, np.nan), np.insert(values, cut, np.nan)
+
+
 def _report(diagnosis, figures):
     s = diagnosis.summary
     unit = f" {s['units'][0]}" if s.get("units") and s["units"][0] else ""
@@ -144,7 +152,10 @@ def _report(diagnosis, figures):
     if s["also_explained_by"]:
         lines += [f"Nearly as good on the held-out segments: {', '.join(s['also_explained_by'])} (the data do not "
                   f"tell these apart).", ""]
-    lines += [f"- data: `{s['data']}`; signals: {', '.join(s['signals'])}",
+    records = s["records"]
+    data = f"`{s['data']}`" if len(records) == 1 else f"{len(records)} records (repeated trials, one fit): " + \
+        ", ".join(f"`{r['path']}`" + (f" ({values(r['parameters'])})" if r["parameters"] else "") for r in records)
+    lines += [f"- data: {data}; signals: {', '.join(s['signals'])}",
               f"- noise (1 sd) estimated from the data: {', '.join(f'{v:.3g}' for v in s['noise']['estimated'])}; "
               f"used (floored by the job): {', '.join(f'{v:.3g}' for v in s['noise']['used'])} "
               f"({', '.join(f'{n} [{u}]' for n, u in zip(s['signals'], s['units']))})",

@@ -18,11 +18,16 @@
 4. *Add and show*: the winner's variant is refitted on every cost sample, written into the Modelica source (a
    copy of the package under ``OUT/modelica`` with a diff), built into an FMU and, with the baseline's FMU, re-run
    through the master with the measured inputs; gaps before and after per segment and overall.
+
+Repeated trials (``data.records``: several records, each with its own fixed values, e.g. the object's position)
+are diagnosed as one experiment: every fit shares its parameters over the records, their samples are end to end
+(noise, cost, folds, scores), each record is cut into its own segments. One impact sees a position-dependent
+torque such as cogging at one rest angle; impacts at several currents see it at several.
 """
 
 import shutil
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -31,8 +36,9 @@ from scipy import stats
 from cosim.diagnose.analysis import (band_shape, branch_shapes, cross_correlation, cut_segments, frequency_bands,
                                      noise_level, segment_table, steady_mask, whiteness)
 from cosim.calibrate.multistart import map_on_dask
+from cosim.calibrate.problem import Experiment
 from cosim.diagnose.effects import EFFECTS, write_variant
-from cosim.diagnose.fitting import Replay, fit_samples, weighted
+from cosim.diagnose.fitting import Replay, Trials, fit_samples, weighted
 from cosim.diagnose.frequency import DEG_PER_DB, FrequencyReplay, frequency_noise
 
 __all__ = ["Diagnosis", "run_diagnosis"]
@@ -86,12 +92,12 @@ def _fit_candidate(task):
     fold's training segments; replays every sample."""
     from cosim.compile import lower
     from cosim.diagnose.effects import Effect
-    from cosim.diagnose.job import load_experiment
+    from cosim.diagnose.job import load_records
 
     job = task["job"]
     effect = Effect("baseline", "", ()) if task["effect"] == "baseline" else EFFECTS[task["effect"]]
     model = lower(task["variant_path"], task["variant_model"])
-    e = load_experiment(job, model)
+    records = load_records(job, model)
     defaults = dict(zip([p.name for p in model.parameters], model.parameter_values))
     free = dict(task["baseline"])  # name -> (start, lo, hi), starts at the baseline's fit on every sample
     for p in effect.parameters:
@@ -102,20 +108,39 @@ def _fit_candidate(task):
         free[name] = (float(np.clip(job.fixed.get(name, defaults[name]), lo, hi)), lo, hi)
     trials = [free] + [{**free, p.name: (float(np.clip(v, p.lower, p.upper)), p.lower, p.upper)}
                        for p in effect.parameters for v in p.starts]
-    fits = [_fit(model, e, job, trial, task["weights"], task["mask"], task["effect"]) for trial in trials]
+    fits = [_fit(model, records, job, trial, task["weights"], task["mask"], task["effect"]) for trial in trials]
     return min(fits, key=lambda fit: fit["chi2"])
 
 
-def _fit(model, e, job, free, weights, mask, label):
+def _fit(model, records, job, free, weights, mask, label):
+    """Fit the ``free`` parameters (name -> (start, lo, hi)) on ``mask`` over every record (from
+    :func:`~cosim.diagnose.job.load_records`), each replayed with its trial's fixed values."""
     starts = [v[0] for v in free.values()]
     kind = FrequencyReplay if job.kind == "frequency" else Replay
-    replay = kind(model, e, [o for o, _, _ in job.signals], list(free), _scales(starts), fixed=job.fixed,
-                  rtol=job.rtol)
-    result = fit_samples(replay, e.measured.T, weights, mask, starts,
+    replay = Trials([kind(model, e, [o for o, _, _ in job.signals], list(free), _scales(starts),
+                          fixed={**job.fixed, **trial}, rtol=job.rtol) for e, trial in records])
+    measured = np.hstack([e.measured.T for e, _ in records])
+    result = fit_samples(replay, measured, weights, mask, starts,
                          ([v[1] for v in free.values()], [v[2] for v in free.values()]), max_nfev=job.max_nfev)
     result["label"] = label
     result["free"] = {n: list(v) for n, v in free.items()}
     return result
+
+
+def _end_to_end(records):
+    """The records (from :func:`~cosim.diagnose.job.load_records`) as one Experiment, each record's time shifted to
+    start ten samples after the previous one ends (the gap keeps noise differences and segments inside a record);
+    returns it and the shift of each record [s]. One record is returned as it is."""
+    if len(records) == 1:
+        return records[0][0], [0.0]
+    shifts, end = [], 0.0
+    for r, _ in records:
+        shifts.append(end - r.time[0] if shifts else 0.0)
+        end = shifts[-1] + r.time[-1] + 10 * float(np.median(np.diff(r.time)))
+    parts = [r for r, _ in records]
+    return Experiment(time=np.concatenate([r.time + shift for r, shift in zip(parts, shifts)]),
+                      inputs=np.vstack([r.inputs for r in parts]), measured=np.vstack([r.measured for r in parts]),
+                      weights=parts[0].weights, mask=np.concatenate([r.mask for r in parts])), shifts
 
 
 def _run_tasks(job, tasks, progress):
@@ -125,13 +150,13 @@ def _run_tasks(job, tasks, progress):
                        progress=progress)
 
 
-def _restart_baseline(job, model, e, fit, starts, weights, mask):
+def _restart_baseline(job, model, records, fit, starts, weights, mask):
     """The best of ``fit`` (a baseline fit on ``mask``) and refits of the baseline from each of ``starts`` (fits
     whose values of the baseline's free parameters start the refit)."""
     best = fit
     for other in starts:
         start = {n: (other["parameters"][n], lo, hi) for n, (_, lo, hi) in job.free.items()}
-        refit = _fit(model, e, job, start, weights, mask, "baseline")
+        refit = _fit(model, records, job, start, weights, mask, "baseline")
         best = refit if refit["chi2"] < best["chi2"] else best
     return best
 
@@ -158,10 +183,10 @@ def _rmse(pred, measured, mask):
     return [float(np.sqrt(np.mean(x ** 2))) for x in r], [float(np.max(np.abs(x))) for x in r]
 
 
-def _rerun_both(job, e, model, base, variant_path, variant, final, folder, y, mask):
+def _rerun_both(job, records, model, base, variant_path, variant, final, folder, y, mask):
     """Build the baseline's and the winner's FMUs into ``folder/fmu`` and re-run both through the master with the
-    measured inputs (:mod:`cosim.diagnose.rerun`, configs in ``folder/rerun``); returns the summary's ``rerun``
-    entry."""
+    measured inputs of every record (:mod:`cosim.diagnose.rerun`, configs in ``folder/rerun``, in
+    ``folder/rerun/record<k>`` for repeated trials); returns the summary's ``rerun`` entry."""
     from cosim.compile import build_fmu
     from cosim.diagnose.rerun import rerun
 
@@ -173,15 +198,19 @@ def _rerun_both(job, e, model, base, variant_path, variant, final, folder, y, ma
     entry = {"how": "the built FMUs run by the master (BDF) with the measured inputs played at the data rate",
              "signal": outputs[0], "configs": {}}
     fits = {"baseline": base, final["label"]: final}
-    runs = {label: (fmus[label], {**job.fixed, **fit["parameters"]}) for label, fit in fits.items()}
-    replayed = rerun(runs, e, inputs, outputs, folder / "rerun", job.rtol)
+    folders = [folder / "rerun"] if len(records) == 1 else \
+        [folder / "rerun" / f"record{k}" for k in range(len(records))]
+    replayed = [rerun({label: (fmus[label], {**job.fixed, **trial, **fit["parameters"]})
+                       for label, fit in fits.items()}, e, inputs, outputs, where, job.rtol)
+                for (e, trial), where in zip(records, folders)]
     for label, fit in fits.items():
-        predicted = replayed[label]
+        predicted = np.hstack([r[label] for r in replayed])
         rmse, max_error = _rmse(predicted, y, mask)
         key = "before" if label == "baseline" else "after"
         entry[f"rmse_{key}"], entry[f"max_error_{key}"] = rmse[0], max_error[0]
         entry[f"max_difference_to_replay_{key}"] = float(np.max(np.abs(predicted - fit["predicted"])[0, mask]))
-        entry["configs"][label] = str(folder / "rerun" / f"{label}.toml")
+        entry["configs"][label] = str((folders[0] if len(folders) == 1 else folder / "rerun" / "record*")
+                                      / f"{label}.toml")
     return entry
 
 
@@ -191,15 +220,20 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     ``build`` builds the baseline's and the winner's FMUs and re-runs them through the master (into ``out/fmu`` and
     ``out/rerun`` when ``out`` is given, else a temporary folder)."""
     from cosim.compile import lower
-    from cosim.diagnose.job import load_experiment
+    from cosim.diagnose.job import load_records
 
     model = lower(job.source, job.model)
-    e = load_experiment(job, model)
+    records = load_records(job, model)
+    e, shifts = _end_to_end(records)
     t, y = e.time, e.measured.T
     inputs = np.zeros((len(t), 0)) if job.kind == "frequency" else e.inputs
+
+    def per_record(f):
+        return np.concatenate([f(r) for r, _ in records])
+
     channels, units, floor = _channels(job, model)
     if job.kind == "staircase" and job.steady_s > 0:
-        mask = steady_mask(t, e.inputs, job.steady_s, job.min_hold_s)
+        mask = per_record(lambda r: steady_mask(r.time, r.inputs, job.steady_s, job.min_hold_s))
     else:
         mask = np.ones(len(t), bool)
     if not mask.any():
@@ -209,13 +243,14 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     if job.kind == "frequency":  # per frequency, shaped by the coherence
         sigma, estimated = frequency_noise(e, floor)
     else:
-        estimated = noise_level(t, y, steady_mask(t, e.inputs, job.steady_s or 0.2, job.min_hold_s)
+        estimated = noise_level(t, y, per_record(lambda r: steady_mask(r.time, r.inputs, job.steady_s or 0.2,
+                                                                        job.min_hold_s))
                                 if job.kind == "staircase" else mask)  # an impact: every sample
         sigma = np.maximum(estimated, floor)
     weights = 1.0 / sigma
 
     # 1. replay and compare
-    base = _fit(model, e, job, dict(job.free), weights, mask, "baseline")
+    base = _fit(model, records, job, dict(job.free), weights, mask, "baseline")
     before = base["predicted"]
     residual = before - y
     rmse_before, max_before = _rmse(before, y, mask)
@@ -224,7 +259,12 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     if job.kind == "frequency":
         segments, shape = frequency_bands(t, y[0], job.bands_per_decade), band_shape
     else:
-        segments, shape = cut_segments(t, e.inputs, job.kind, y[0], sigma[0], job.min_hold_s), None
+        segments, shape = [], None
+        for k, ((r, _), shift) in enumerate(zip(records, shifts)):
+            for piece in cut_segments(r.time, r.inputs, job.kind, r.measured[:, 0], sigma[0], job.min_hold_s):
+                segments.append(replace(piece, index=len(segments), t0=piece.t0 + shift, t1=piece.t1 + shift,
+                                        label=piece.label if len(records) == 1 else
+                                        f"record {k} ({job.records[k][0].name}): {piece.label}"))
 
     # 3. name: two-fold cross-validation over segments (fit on the even ones, score on the odd ones, and back)
     seg_index = np.full(len(t), -1)
@@ -257,7 +297,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         restarted = []
         for f, (fit, (train, _)) in enumerate(zip(results["baseline"], folds)):
             better = [results[n][f] for n in job.effects if results[n][f]["chi2"] < fit["chi2"] - job.min_delta_bic]
-            restarted.append(_restart_baseline(job, model, e, fit, better, weights, train))
+            restarted.append(_restart_baseline(job, model, records, fit, better, weights, train))
         moved = [new for new, old in zip(restarted, results["baseline"]) if new is not old]
         results["baseline"] = restarted
         # The other way round: a candidate fitting a fold worse than the (restarted) baseline stalled (a
@@ -271,7 +311,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
             if retry["chi2"] < results[task["effect"]][task["fold"]]["chi2"]:
                 results[task["effect"]][task["fold"]] = retry
         if moved:
-            base = _restart_baseline(job, model, e, base, moved, weights, mask)
+            base = _restart_baseline(job, model, records, base, moved, weights, mask)
             before = base["predicted"]
             residual = before - y
             rmse_before, max_before = _rmse(before, y, mask)
@@ -333,9 +373,9 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         starts = [{n: 0.5 * (folds_fit[0][n] + folds_fit[1][n]) for n in folds_fit[0]}]
         if any(abs(folds_fit[0][n] - folds_fit[1][n]) > 0.1 * abs(starts[0][n]) for n in folds_fit[0]):
             starts += folds_fit  # the folds found different minima: their mean may lie in neither basin
-        ve = load_experiment(job, vmodel)
-        final = min((_fit(vmodel, ve, job, {n: (v, *winner["free"][n][1:]) for n, v in start.items()}, weights,
-                          mask, effect) for start in starts), key=lambda fit: fit["chi2"])
+        variant_records = load_records(job, vmodel)
+        final = min((_fit(vmodel, variant_records, job, {n: (v, *winner["free"][n][1:]) for n, v in start.items()},
+                          weights, mask, effect) for start in starts), key=lambda fit: fit["chi2"])
         after = final["predicted"]
         variant_source = path.read_text(encoding="utf-8")
         import difflib
@@ -350,7 +390,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
 
                 final["fmu"] = str(build_fmu(path, variant, out_dir=target / "fmu"))
             else:
-                rerun_out = _rerun_both(job, e, model, base, path, variant, final, target, y, mask)
+                rerun_out = _rerun_both(job, records, model, base, path, variant, final, target, y, mask)
     rmse_after, max_after = _rmse(after, y, mask)
     ms_after = _ms(after, y, weights, mask)
     rows_after = segment_table(t, after - y, after, y, mask, segments, sigma, job.gap_sigmas, shape)
@@ -363,6 +403,8 @@ def run_diagnosis(job, progress=True, build=True, out=None):
                         "max_error_after": ra["max_error"], "significant_after": ra["significant"]})
     summary = {
         "job": str(job.path), "model": job.model, "data": str(job.data_path),
+        "records": [{"path": str(path), "parameters": trial, "samples": len(r.time), "time_shift": shift}
+                    for (path, trial), (r, _), shift in zip(job.records, records, shifts)],
         "effect": effect,
         "verdict": (f"missing effect: {effect} ({EFFECTS[effect].title})" if winner else
                     "no missing effect found" + ("" if gap_found else
