@@ -6,7 +6,7 @@ candidates: a 7-parameter device + user (none), an 11-parameter one (hand_mass, 
 one with a second mode from a hand-written state space (vibration_mode), or with an exact torque delay
 (loop_delay). The workflow fits the baseline Haptic.Device7 and the three candidates and names one or "none".
 
-Run: python benchmarks/diagnose_haptic.py [--cases N] [--seed S]
+Run: python benchmarks/diagnose_haptic.py [--cases N] [--seed S] [--effects a,b]
 Prints one line per case, then the confusion matrix (rows: truth, columns: named), the false-alarm rate on "none"
 cases and the gap above the noise removed by the named effect when it is right.
 """
@@ -33,9 +33,13 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", type=int, default=3, help="cases per truth effect")
     parser.add_argument("--seed", type=int, default=100)
+    parser.add_argument("--effects", default=",".join(TRUTH_EFFECTS), help="truth effects to draw, comma-separated")
     args = parser.parse_args(argv)
-    labels = list(TRUTH_EFFECTS)
-    matrix = pd.DataFrame(0, index=labels, columns=labels)
+    labels = args.effects.split(",")
+    unknown = sorted(set(labels) - set(TRUTH_EFFECTS))
+    if unknown:
+        parser.error(f"--effects: no truth for {', '.join(unknown)}; known: {', '.join(TRUTH_EFFECTS)}")
+    matrix = pd.DataFrame(0, index=labels, columns=list(TRUTH_EFFECTS))
     gaps, times = [], []
     rng = np.random.default_rng(args.seed)
     start = time.time()
@@ -60,9 +64,11 @@ def main(argv=None):
     print(f"confusion matrix (rows: hidden effect, columns: named), {args.cases} cases each, seed {args.seed}, "
           f"{time.time() - start:.0f} s ({np.median(times):.0f} s median per case):")
     print(matrix.to_string())
-    right = sum(matrix.loc[e, e] for e in labels if e != "none")
-    print(f"named right: {right}/{args.cases * (len(labels) - 1)}; false alarms on 'none': "
-          f"{args.cases - matrix.loc['none', 'none']}/{args.cases}")
+    effects = [e for e in labels if e != "none"]
+    right = sum(matrix.loc[e, e] for e in effects)
+    print((f"named right: {right}/{args.cases * len(effects)}; " if effects else "")
+          + (f"false alarms on 'none': {args.cases - matrix.loc['none', 'none']}/{args.cases}"
+             if "none" in labels else ""))
     if gaps:
         print(f"gap above the noise removed when named right: min {100 * min(gaps):.0f} %, median "
               f"{100 * np.median(gaps):.0f} %")

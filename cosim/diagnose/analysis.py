@@ -6,7 +6,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-__all__ = ["Segment", "noise_level", "steady_mask", "cut_segments", "frequency_bands", "segment_table",
+__all__ = ["Segment", "in_segment", "noise_level", "steady_mask", "cut_segments", "frequency_bands",
+           "segment_table",
            "band_shape", "whiteness", "cross_correlation", "branch_shapes"]
 
 
@@ -146,7 +147,8 @@ def frequency_bands(frequency, magnitude_db, per_decade=6.0, min_points=8):
     return segments
 
 
-def _in(time, seg):
+def in_segment(time, seg):
+    """Which instants of ``time`` lie in ``seg`` (ends included)."""
     return (time >= seg.t0 - 1e-9) & (time <= seg.t1 + 1e-9)
 
 
@@ -163,7 +165,7 @@ def segment_table(time, residual, predicted, measured, mask, segments, noise, th
     shape = shape or _shape
     rows = []
     for seg in segments:
-        inside = _in(time, seg)
+        inside = in_segment(time, seg)
         cost = inside & mask
         for j in range(residual.shape[0]):
             r_all, r = residual[j, inside], residual[j, cost]

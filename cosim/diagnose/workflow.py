@@ -34,7 +34,7 @@ import numpy as np
 from scipy import stats
 
 from cosim.diagnose.analysis import (band_shape, branch_shapes, cross_correlation, cut_segments, frequency_bands,
-                                     noise_level, segment_table, steady_mask, whiteness)
+                                     in_segment, noise_level, segment_table, steady_mask, whiteness)
 from cosim.calibrate.multistart import map_on_dask
 from cosim.calibrate.problem import Experiment
 from cosim.diagnose.effects import EFFECTS, write_variant
@@ -269,7 +269,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     # 3. name: two-fold cross-validation over segments (fit on the even ones, score on the odd ones, and back)
     seg_index = np.full(len(t), -1)
     for s in segments:
-        seg_index[(t >= s.t0 - 1e-9) & (t <= s.t1 + 1e-9)] = s.index
+        seg_index[in_segment(t, s)] = s.index
     folds = [(mask & (seg_index % 2 == 0), mask & (seg_index % 2 == 1)),
              (mask & (seg_index % 2 == 1), mask & (seg_index % 2 == 0))]
     if not all(train.any() and test.any() for train, test in folds):
