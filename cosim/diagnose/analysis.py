@@ -7,8 +7,7 @@ import numpy as np
 from scipy import stats
 
 __all__ = ["Segment", "in_segment", "noise_level", "steady_mask", "cut_segments", "frequency_bands",
-           "segment_table",
-           "band_shape", "whiteness", "cross_correlation", "branch_shapes"]
+           "segment_table", "band_shape", "whiteness", "cross_correlation", "branch_shapes"]
 
 
 @dataclass(frozen=True)
