@@ -111,6 +111,33 @@ def test_repeated_trials_are_replayed_each_with_its_own_fixed_values(tmp_path):
     assert worst["segment"].startswith("record 1"), worst
 
 
+def test_multi_rate_data_are_compared_where_every_channel_was_sampled(tmp_path):
+    """A 1 kHz log (current, encoder) beside a 100 Hz load cell, NaN between its samples: the inputs are played
+    at 1 kHz, the fit and its statistics use the instants where both channels were sampled. The independent
+    reference is the same diagnosis of the 100 Hz rows alone: same noise estimate, same verdict, the same fit
+    (up to the CVODES steps, which the denser output instants change; rtol 1e-6)."""
+    rng = np.random.default_rng(9)
+    t, i, force, theta = simulate(play=math.radians(1.4), rate_hz=1000.0)
+    slow = np.arange(len(t)) % 10 == 0
+    force = np.where(slow, force + rng.normal(0.0, FORCE_NOISE, len(t)), np.nan)
+    angle = np.floor(theta / COUNT) * COUNT
+    summaries = []
+    for rows in (np.ones(len(t), bool), slow):
+        folder = tmp_path / ("1kHz" if rows.all() else "100Hz")
+        folder.mkdir()
+        case = ([(t[rows], i[rows], force[rows], angle[rows], {})], {})
+        job = load_diagnose_job(write_job(folder, SOURCE, case, ["gear_play"], workers=0))
+        summaries.append(run_diagnosis(job, progress=False, build=False).summary)
+    mixed, single = summaries
+    assert mixed["effect"] == single["effect"] == "gear_play", (mixed["verdict"], single["verdict"])
+    np.testing.assert_allclose(mixed["noise"]["estimated"], single["noise"]["estimated"], rtol=1e-12)
+    assert [r["segment"] for r in mixed["segments"]] == [r["segment"] for r in single["segments"]]
+    assert [r["samples"] for r in mixed["segments"]] == [r["samples"] for r in single["segments"]]
+    for key in ("rmse_before", "rmse_after"):
+        assert abs(mixed[key] - single[key]) < 0.02 * FORCE_NOISE, key
+    assert abs(mixed["after"]["parameters"]["play"] - single["after"]["parameters"]["play"]) < 0.01 * math.radians(1.4)
+
+
 # One random case per effect, against the effect and the candidate that came closest to it in the benchmark
 # (benchmarks/diagnose_impact.py runs the whole library on many cases); two candidates keep the file under 5 min.
 # Cogging is diagnosed over three repeated impacts (one impact sees the detent torque at one rest angle); that case

@@ -38,13 +38,17 @@ class Segment:
 def noise_level(time, measured, mask):
     """Noise standard deviation of each signal from the data: differences of consecutive samples inside the
     steady windows (``mask``), robust scale (MAD), divided by sqrt(2). Slow trends cancel in the differences.
+    Consecutive means one sampling interval apart (the median interval of the masked samples): differences do
+    not span the gap between two windows.
 
     Returns ndarray, shape (n_signals,)."""
     measured = np.atleast_2d(measured)
-    inside = mask[1:] & mask[:-1] & (np.diff(time) < 1.5 * np.median(np.diff(time)))
+    index = np.flatnonzero(mask)
+    dt = np.diff(time[index])
+    inside = dt < 1.5 * np.median(dt) if dt.size else dt.astype(bool)
     out = []
     for y in measured:
-        d = np.diff(y)[inside]
+        d = np.diff(y[index])[inside]
         if d.size < 5:
             out.append(0.0)
             continue
@@ -163,8 +167,9 @@ def segment_table(time, residual, predicted, measured, mask, segments, noise, th
     """
     shape = shape or _shape
     rows = []
+    sampled = np.all(np.isfinite(measured), axis=0)  # multi-rate data: the instants every channel has
     for seg in segments:
-        inside = in_segment(time, seg)
+        inside = in_segment(time, seg) & sampled
         cost = inside & mask
         for j in range(residual.shape[0]):
             r_all, r = residual[j, inside], residual[j, cost]

@@ -233,7 +233,8 @@ def load_experiment(job, model, path=None):
         if output not in outputs:
             raise ConfigError(f"{job.path}: compare.signals: {job.model} has no output {output!r}; it has "
                               f"{', '.join(outputs)}")
-    frame = load_measurements(path, [*job.inputs.values(), *(c for _, c, _ in job.signals)])
+    measured = [c for _, c, _ in job.signals]  # may be NaN where not sampled (a 100 Hz load cell, a 1 kHz log)
+    frame = load_measurements(path, [*job.inputs.values(), *measured], sparse=measured)
     t0, t1 = job.window
     frame = frame[(frame["time"] >= t0) & (frame["time"] <= t1)].iloc[::job.decimate].reset_index(drop=True)
     if len(frame) < 10:

@@ -231,11 +231,17 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     def per_record(f):
         return np.concatenate([f(r) for r, _ in records])
 
+    def sampled(r):
+        """The instants where every compared channel of record ``r`` has a sample (multi-rate data are compared
+        there; the inputs are played at every instant)."""
+        return np.all(np.isfinite(r.measured), axis=1)
+
     channels, units, floor = _channels(job, model)
+    present = per_record(sampled)
     if job.kind == "staircase" and job.steady_s > 0:
-        mask = per_record(lambda r: steady_mask(r.time, r.inputs, job.steady_s, job.min_hold_s))
+        mask = present & per_record(lambda r: steady_mask(r.time, r.inputs, job.steady_s, job.min_hold_s))
     else:
-        mask = np.ones(len(t), bool)
+        mask = present
     if not mask.any():
         from cosim.errors import ConfigError
         raise ConfigError(f"{job.path}: no hold of the input lasts experiment.steady_s = {job.steady_s:g} s")
@@ -243,8 +249,8 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     if job.kind == "frequency":  # per frequency, shaped by the coherence
         sigma, estimated = frequency_noise(e, floor)
     else:
-        estimated = noise_level(t, y, per_record(lambda r: steady_mask(r.time, r.inputs, job.steady_s or 0.2,
-                                                                        job.min_hold_s))
+        estimated = noise_level(t, y, present & per_record(lambda r: steady_mask(r.time, r.inputs,
+                                                                                  job.steady_s or 0.2, job.min_hold_s))
                                 if job.kind == "staircase" else mask)  # an impact: every sample
         sigma = np.maximum(estimated, floor)
     weights = 1.0 / sigma
@@ -261,7 +267,8 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     else:
         segments, shape = [], None
         for k, ((r, _), shift) in enumerate(zip(records, shifts)):
-            for piece in cut_segments(r.time, r.inputs, job.kind, r.measured[:, 0], sigma[0], job.min_hold_s):
+            p = sampled(r)
+            for piece in cut_segments(r.time[p], r.inputs[p], job.kind, r.measured[p, 0], sigma[0], job.min_hold_s):
                 segments.append(replace(piece, index=len(segments), t0=piece.t0 + shift, t1=piece.t1 + shift,
                                         label=piece.label if len(records) == 1 else
                                         f"record {k} ({job.records[k][0].name}): {piece.label}"))
