@@ -138,6 +138,19 @@ def test_multi_rate_data_are_compared_where_every_channel_was_sampled(tmp_path):
     assert abs(mixed["after"]["parameters"]["play"] - single["after"]["parameters"]["play"]) < 0.01 * math.radians(1.4)
 
 
+def test_shipped_repeated_trials_job_loads_three_multi_rate_records():
+    """examples/diagnose_impact_trials.toml: three trials, each with its object position, 1 kHz rows with the
+    100 Hz load cell between them (its run is in docs/diagnose.md)."""
+    from cosim.diagnose.job import load_records
+
+    job = load_diagnose_job(ROOT / "examples" / "diagnose_impact_trials.toml")
+    records = load_records(job, lower(SOURCE, MODEL))
+    assert [trial["gap0"] for _, trial in records] == [0.002, 0.002028, 0.002056]
+    for e, _ in records:
+        assert len(e.time) == 500 and np.isfinite(e.measured[:, 0]).sum() == 50
+        assert np.isfinite(e.measured[:, 1]).all() and np.isfinite(e.inputs).all()
+
+
 # One random case per effect, against the effect and the candidate that came closest to it in the benchmark
 # (benchmarks/diagnose_impact.py runs the whole library on many cases); two candidates keep the file under 5 min.
 # Cogging is diagnosed over three repeated impacts (one impact sees the detent torque at one rest angle); that case

@@ -410,7 +410,8 @@ def run_diagnosis(job, progress=True, build=True, out=None):
                         "max_error_after": ra["max_error"], "significant_after": ra["significant"]})
     summary = {
         "job": str(job.path), "model": job.model, "data": str(job.data_path),
-        "records": [{"path": str(path), "parameters": trial, "samples": len(r.time), "time_shift": shift}
+        "records": [{"path": str(path), "parameters": trial, "samples": len(r.time),
+                     "compared": int(sampled(r).sum()), "time_shift": shift}
                     for (path, trial), (r, _), shift in zip(job.records, records, shifts)],
         "effect": effect,
         "verdict": (f"missing effect: {effect} ({EFFECTS[effect].title})" if winner else
