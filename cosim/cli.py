@@ -125,16 +125,18 @@ def _add_diagnose(sub):
     p = sub.add_parser(
         "diagnose",
         help="find where simulation and measurement disagree, name the missing effect, add it",
-        description=("Calibrate the baseline model, locate significant residuals by segment, fit each candidate "
+        description=("Calibrate the baseline model on the measured data (one record, or repeated trials diagnosed "
+                     "together: data.records), locate significant residuals by segment, fit each candidate "
                      "effect (Modelica variants) in parallel, name the winner or 'none', write the variant into "
-                     "the Modelica source and rebuild. Writes OUT/diagnosis.json, OUT/report.md and PNGs."),
+                     "the Modelica source, rebuild and re-run through the master. Writes OUT/diagnosis.json, "
+                     "OUT/report.md and PNGs."),
     )
     p.add_argument("job", help="diagnosis job (.toml)")
     p.add_argument("--out", help="output folder (default out/<job stem>)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override any job key, e.g. --set data.path=measured.csv (repeatable)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--no-build", action="store_true", help="do not build the winner's FMU")
+    p.add_argument("--no-build", action="store_true", help="do not build the FMUs nor re-run them through the master")
     p.set_defaults(func=_cmd_diagnose)
 
 
