@@ -151,7 +151,7 @@ def test_records_job_errors_name_the_key(tmp_path):
     text = path.read_text()
     both = text.replace('path = "data.csv"\n', 'path = "data.csv"\nrecords = [{ path = "data.csv" }]\n')
     path.write_text(both)
-    with pytest.raises(ConfigError, match="give data.path .* or data.records"):
+    with pytest.raises(ConfigError, match="give exactly one of data.path .* and data.records"):
         load_diagnose_job(path)
     records = text.replace('path = "data.csv"\n', 'records = [{ path = "data.csv", parameters = { gap0 = 0.002 } }, '
                                                    '{ file = "x.csv" }, { path = "data.csv", colour = 1, '

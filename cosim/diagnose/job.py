@@ -178,8 +178,8 @@ def _records(d, base, free, problems):
     """The data files with their per-trial fixed parameters: data.path alone, or the tables of data.records (a
     trial may fix a parameter, not one of the ``free`` ones)."""
     if ("path" in d) == ("records" in d):
-        problems.add(("data",), "give data.path (one record: a CSV or Parquet file with `time` and the measured "
-                                "channels) or data.records (repeated trials), not both")
+        problems.add(("data",), "give exactly one of data.path (one record: a CSV or Parquet file with `time` and "
+                                "the measured channels) and data.records (repeated trials)")
         return []
     if "path" in d:
         if not isinstance(d["path"], str):

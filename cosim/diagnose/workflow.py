@@ -22,7 +22,7 @@
 Repeated trials (``data.records``: several records, each with its own fixed values, e.g. the object's position)
 are diagnosed as one experiment: every fit shares its parameters over the records, their samples are end to end
 (noise, cost, folds, scores), each record is cut into its own segments. One impact sees a position-dependent
-torque such as cogging at one rest angle; impacts at several currents see it at several.
+torque such as cogging at one rest angle; impacts with the object placed anew each time see it at several.
 """
 
 import shutil
