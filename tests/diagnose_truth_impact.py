@@ -238,9 +238,9 @@ max_nfev = {max_nfev}
 
 def write_job(folder, source, case, effects, workers=0, max_nfev=20):
     """Write ``case`` (from :func:`make_case`) as data.csv (data0.csv, data1.csv, ...: one per record, with its
-    object position in data.records) and the diagnosis job for it into ``folder``; returns the job path. Noise floors: 0.1 N under the force estimate, one
-    encoder count under the angle's (the truncated counts are not a zero-mean noise: their bias of half a count
-    is part of the floor)."""
+    object position in data.records) and the diagnosis job for it into ``folder``; returns the job path. Noise
+    floors: 0.1 N under the force estimate, one encoder count under the angle's (the truncated counts are not a
+    zero-mean noise: their bias of half a count is part of the floor)."""
     import pandas as pd
 
     records, _ = case
@@ -252,7 +252,8 @@ def write_job(folder, source, case, effects, workers=0, max_nfev=20):
     fixed = {**CONDITION, "play": PLAY_NOMINAL}
     parameters = "{ " + ", ".join(f"{k} = {v!r}" for k, v in fixed.items()) + " }"
     path = folder / "job.toml"
-    path.write_text(JOB.format(source=source.as_posix(), parameters=parameters, data=data, duration=records[0][0][-1],
-                               force_floor=0.1, angle_floor=2 * np.pi / COUNTS, max_nfev=max_nfev)
+    path.write_text(JOB.format(source=source.as_posix(), parameters=parameters, data=data,
+                               duration=records[0][0][-1], force_floor=0.1, angle_floor=2 * np.pi / COUNTS,
+                               max_nfev=max_nfev)
                     + free_and_candidates(0.68, 7.88e-3, effects, workers))
     return path
