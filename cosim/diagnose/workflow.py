@@ -231,13 +231,11 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     def per_record(f):
         return np.concatenate([f(r) for r, _ in records])
 
-    def sampled(r):
-        """The instants where every compared channel of record ``r`` has a sample (multi-rate data are compared
-        there; the inputs are played at every instant)."""
-        return np.all(np.isfinite(r.measured), axis=1)
-
+    # per record, the instants where every compared channel has a sample (multi-rate data are compared there; the
+    # inputs are played at every instant)
+    sampled = [np.all(np.isfinite(r.measured), axis=1) for r, _ in records]
     channels, units, floor = _channels(job, model)
-    present = per_record(sampled)
+    present = np.concatenate(sampled)
     if job.kind == "staircase" and job.steady_s > 0:
         mask = present & per_record(lambda r: steady_mask(r.time, r.inputs, job.steady_s, job.min_hold_s))
     else:
@@ -266,8 +264,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         segments, shape = frequency_bands(t, y[0], job.bands_per_decade), band_shape
     else:
         segments, shape = [], None
-        for k, ((r, _), shift) in enumerate(zip(records, shifts)):
-            p = sampled(r)
+        for k, ((r, _), shift, p) in enumerate(zip(records, shifts, sampled)):
             for piece in cut_segments(r.time[p], r.inputs[p], job.kind, r.measured[p, 0], sigma[0], job.min_hold_s):
                 segments.append(replace(piece, index=len(segments), t0=piece.t0 + shift, t1=piece.t1 + shift,
                                         label=piece.label if len(records) == 1 else
@@ -410,9 +407,9 @@ def run_diagnosis(job, progress=True, build=True, out=None):
                         "max_error_after": ra["max_error"], "significant_after": ra["significant"]})
     summary = {
         "job": str(job.path), "model": job.model, "data": str(job.data_path),
-        "records": [{"path": str(path), "parameters": trial, "samples": len(r.time),
-                     "compared": int(sampled(r).sum()), "time_shift": shift}
-                    for (path, trial), (r, _), shift in zip(job.records, records, shifts)],
+        "records": [{"path": str(path), "parameters": trial, "samples": len(r.time), "compared": int(p.sum()),
+                     "time_shift": shift}
+                    for (path, trial), (r, _), shift, p in zip(job.records, records, shifts, sampled)],
         "effect": effect,
         "verdict": (f"missing effect: {effect} ({EFFECTS[effect].title})" if winner else
                     "no missing effect found" + ("" if gap_found else
