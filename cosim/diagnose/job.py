@@ -250,5 +250,5 @@ def load_experiment(job, model, path=None):
         raise ConfigError(f"{path}: the data cover {time[-1] - time[0]:g} s but the experiment "
                           f"(experiment.duration) lasts {job.duration:g} s")
     return Experiment(time=time - time[0], inputs=frame[[job.inputs[u] for u in inputs]].to_numpy(),
-                      measured=frame[[c for _, c, _ in job.signals]].to_numpy(),
+                      measured=frame[measured].to_numpy(),
                       weights=np.array([1.0 / n for _, _, n in job.signals]), mask=np.ones(len(time), bool))
