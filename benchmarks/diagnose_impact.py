@@ -10,7 +10,12 @@ With ``--trials N`` each case is N repeated impacts (the paper's protocol repeat
 placed anew within 0.1 mm each time (its position given per record, as the encoder angle at first contact would
 give it), diagnosed together: the rotor comes to rest at another angle in each.
 
+With ``--experiment slide`` the current is not a step but the slide of tests/diagnose_truth_impact.py (two stops
+and restarts against the jaw guides, then the object 15 mm away), diagnosed as a staircase: an attempt to show
+the guides' stiction, which the impact cannot.
+
 Run: python benchmarks/diagnose_impact.py [--cases N] [--seed S] [--workers W] [--effects a,b] [--trials N]
+                                          [--experiment impact|slide]
 Prints one line per case, then the confusion matrix (rows: truth, columns: named), the share named right, the
 false-alarm rate on "none" cases and the gap above the noise removed by the named effect when it is right.
 """
@@ -44,6 +49,8 @@ def main(argv=None):
     parser.add_argument("--trials", type=int, default=1,
                         help="repeated impacts per case, the object placed anew within 0.1 mm: one record each, "
                              "diagnosed together")
+    parser.add_argument("--experiment", choices=("impact", "slide"), default="impact",
+                        help="the current step onto the object, or the slide (two restarts, then the object)")
     args = parser.parse_args(argv)
     labels = args.effects.split(",")
     unknown = sorted(set(labels) - set(TRUTH_EFFECTS))
@@ -57,10 +64,11 @@ def main(argv=None):
     start = time.time()
     for k in range(args.cases):
         for effect in labels:
-            case = make_case(effect, rng, trials=args.trials)
+            case = make_case(effect, rng, trials=args.trials, experiment=args.experiment)
             with tempfile.TemporaryDirectory() as folder:
                 t0 = time.time()
-                job = load_diagnose_job(write_job(Path(folder), source, case, CANDIDATES, workers=args.workers))
+                job = load_diagnose_job(write_job(Path(folder), source, case, CANDIDATES, workers=args.workers,
+                                                  experiment=args.experiment))
                 s = run_diagnosis(job, progress=False, build=False).summary
             matrix.loc[effect, s["effect"]] += 1
             if effect != "none" and s["effect"] == effect:
@@ -76,7 +84,7 @@ def main(argv=None):
                   flush=True)
     print()
     print(f"confusion matrix (rows: hidden effect, columns: named), {args.cases} cases each, seed {args.seed}, "
-          f"{args.trials} trial(s) a case, "
+          f"{args.trials} {args.experiment}(s) a case, "
           f"{time.time() - start:.0f} s:")
     print(matrix.loc[:, (matrix != 0).any() | matrix.columns.isin(labels)].to_string())
     effects = [e for e in labels if e != "none"]

@@ -68,13 +68,21 @@ W_STICK, V_STICK = 1e-3, 1e-5                     # rad/s, m/s: Karnopp stick wi
 PHI_DAHL = 1e-3                                   # rad, presliding angle of the motor-shaft friction
 N_COG = 24                                        # cogging periods per revolution (motor geometry, as the Modelica's)
 PLACEMENT = 1e-4                                  # m: scatter of the object's position over repeated trials
+# The slide (``experiment="slide"``), an attempt to show the guides' breakaway: 0.3 A moves the jaws a little,
+# 0.1 A stops them with the play closed on the driving flank, a ramp to 0.55 A restarts them against the guides,
+# 0.1 A stops them again, a ramp to 0.8 A restarts them and closes them on the object 15 mm away. Diagnosed as a
+# staircase (every sample compared) whose holds put the two restarts in different folds. (time [s], current [A])
+SLIDE_PROFILE = ((0.0, 0.3), (0.1, 0.3), (0.1, 0.1), (0.25, 0.1), (0.65, 0.55), (0.65, 0.1), (0.9, 0.1),
+                 (1.4, 0.8), (1.7, 0.8))
+SLIDE_GAP0 = 0.015                                # m, travel to the object in the slide
 
 
 def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p_hc=1.5, k_prony=0.0,
              tau_prony=0.1, cogging=None, mu_F=0.0, current=I_STEP, gap0=CONDITION["gap0"], rate_hz=RATE_HZ,
-             duration=DURATION):
+             duration=DURATION, profile=None):
     """Noise-free force [N] and motor angle [rad] at ``rate_hz`` for a q-current step to ``current`` [A] at
-    ``T_STEP``; returns (time, i, F, theta).
+    ``T_STEP``, or for ``profile``: (time [s], current [A]) corners joined by straight lines; the current is held
+    between samples, as the replay plays it. Returns (time, i, F, theta).
 
     Parameters: mesh efficiency ``eta`` [1], drag ``T_c0`` [N.m], total play ``play`` [rad], guide breakaway
     ``F_s`` [N] per jaw, guide friction ``mu_F`` [1] per unit contact force, extra contact damping
@@ -90,12 +98,14 @@ def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p
     gain = k_prony * (1 - decay) * tau_prony / DT  # Prony increment per unit coating deflection change
     steps_per_sample = int(round(1.0 / (rate_hz * DT)))
     n = int(round(duration * rate_hz))
+    time = np.arange(n) / rate_hz
+    currents = np.interp(time, *zip(*profile)) if profile else np.where(time >= T_STEP - 1e-12, current, 0.0)
     theta = w = x = v = q = delta = s = F_contact = 0.0
     out = np.empty((n, 2))
     for k in range(n * steps_per_sample):
         if k % steps_per_sample == 0:
             out[k // steps_per_sample] = F_contact, theta
-        i_q = current if k * DT >= T_STEP - 1e-12 else 0.0
+        i_q = currents[k // steps_per_sample]
         # dead-band spring at the gear output
         rel = theta / RATIO - x / R_P
         rel_rate = w / RATIO - v / R_P
@@ -151,8 +161,7 @@ def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p
         w, v = w_new, v_new
         theta += DT * w
         x += DT * v
-    time = np.arange(n) / rate_hz
-    return time, np.where(time >= T_STEP - 1e-12, current, 0.0), out[:, 0], out[:, 1]
+    return time, currents, out[:, 0], out[:, 1]
 
 
 class TabulatedCogging:
@@ -174,10 +183,11 @@ class TabulatedCogging:
         return float(self.torque(theta % self.period))
 
 
-def make_case(effect, rng, noise=FORCE_NOISE, trials=1):
+def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
     """A random hidden-effect case: one gripper with one draw of its parameters and ``trials`` repeated impacts
-    (the paper's protocol repeats each condition). Trial 0 has the object at ``CONDITION["gap0"]``; each further
-    trial places it anew within ``PLACEMENT`` of that, so the rotor comes to rest at another angle. Returns
+    (the paper's protocol repeats each condition), or slides (``experiment="slide"``: ``SLIDE_PROFILE``). Trial 0
+    has the object at ``CONDITION["gap0"]`` (the slide: ``SLIDE_GAP0``); each further trial places it anew within
+    ``PLACEMENT`` of that, so the rotor comes to rest at another angle. Returns
     (records, truth dict), each record (time, current, measured force, measured angle, {"gap0": travel [m]}).
 
     The truth dict holds the drawn parameters under the names of the Modelica parameters they correspond to
@@ -207,14 +217,23 @@ def make_case(effect, rng, noise=FORCE_NOISE, trials=1):
         truth["T_cog2"] = float(truth["T_cog"] * rng.uniform(0.1, 0.3))
         truth["phase_cog2"] = float(rng.uniform(-np.pi, np.pi))
         kw["cogging"] = TabulatedCogging(truth["T_cog"], truth["phase_cog"], truth["T_cog2"], truth["phase_cog2"])
+    slide = _experiment(experiment)
     records = []
     for k in range(trials):
-        gap0 = CONDITION["gap0"] + (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
-        t, i, F, theta = simulate(gap0=gap0, **kw)
+        placed = (SLIDE_GAP0 if slide else CONDITION["gap0"]) + (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
+        t, i, F, theta = (simulate(gap0=placed, profile=SLIDE_PROFILE, duration=SLIDE_PROFILE[-1][0], **kw) if slide
+                          else simulate(gap0=placed, **kw))
         force = F + rng.normal(0.0, noise, len(t))
         angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
-        records.append((t, i, force, angle, {"gap0": gap0}))
+        records.append((t, i, force, angle, {"gap0": placed}))
     return records, truth
+
+
+def _experiment(name):
+    """True for the slide, False for the impact."""
+    if name not in ("impact", "slide"):
+        raise ValueError(f"experiment must be 'impact' or 'slide'; got {name!r}")
+    return name == "slide"
 
 
 JOB = """
@@ -226,8 +245,8 @@ parameters = {parameters}
 {data}
 inputs = {{ i_ref = "i_ref" }}
 [experiment]
-kind = "impact"
-duration = {duration}
+kind = "{kind}"
+duration = {duration}{hold}
 [compare]
 signals = [{{ output = "F_g", column = "F_g", noise = {force_floor} }},
            {{ output = "theta_m", column = "theta_m", noise = {angle_floor} }}]
@@ -236,9 +255,10 @@ max_nfev = {max_nfev}
 """
 
 
-def write_job(folder, source, case, effects, workers=0, max_nfev=20):
+def write_job(folder, source, case, effects, workers=0, max_nfev=20, experiment="impact"):
     """Write ``case`` (from :func:`make_case`) as data.csv (data0.csv, data1.csv, ...: one per record, with its
-    object position in data.records) and the diagnosis job for it into ``folder``; returns the job path. Noise
+    object position in data.records) and the diagnosis job for it into ``folder``; returns the job path. The
+    slide is a staircase job (every sample compared, holds of at least 0.1 s), the impact an impact job. Noise
     floors: 0.1 N under the force estimate, one encoder count under the angle's (the truncated counts are not a
     zero-mean noise: their bias of half a count is part of the floor)."""
     import pandas as pd
@@ -249,10 +269,12 @@ def write_job(folder, source, case, effects, workers=0, max_nfev=20):
         pd.DataFrame({"time": t, "i_ref": i, "F_g": force, "theta_m": angle}).to_csv(folder / name, index=False)
     data = f'path = "{names[0]}"' if len(records) == 1 else "records = [" + ", ".join(
         f'{{ path = "{name}", parameters = {{ gap0 = {r[4]["gap0"]!r} }} }}' for name, r in zip(names, records)) + "]"
-    fixed = {**CONDITION, "play": PLAY_NOMINAL}
+    slide = _experiment(experiment)
+    fixed = {**CONDITION, "play": PLAY_NOMINAL, **({"gap0": SLIDE_GAP0} if slide else {})}
     parameters = "{ " + ", ".join(f"{k} = {v!r}" for k, v in fixed.items()) + " }"
     path = folder / "job.toml"
     path.write_text(JOB.format(source=source.as_posix(), parameters=parameters, data=data,
+                               kind="staircase" if slide else "impact", hold="\nmin_hold_s = 0.1" if slide else "",
                                duration=records[0][0][-1], force_floor=0.1, angle_floor=2 * np.pi / COUNTS,
                                max_nfev=max_nfev)
                     + free_and_candidates(0.68, 7.88e-3, effects, workers))
