@@ -114,6 +114,19 @@ def cut_segments(time, inputs, kind, measured=None, noise=None, min_hold_s=0.1):
     raise ValueError(f"segment kind must be 'staircase' or 'impact'; got {kind!r}")
 
 
+def quiet_phases(time, force, noise):
+    """The samples of an impact's approach and steady hold: the measured force is flat there, so its
+    sample-to-sample differences are noise, while those of the impact and the tightening between them are mostly
+    signal (:func:`cut_segments` finds the phases with the rough ``noise`` level).
+
+    Returns boolean ndarray, shape (N,)."""
+    quiet = np.zeros(len(time), bool)
+    for seg in cut_segments(time, None, "impact", force, noise):
+        if seg.kind in ("approach", "steady"):
+            quiet |= in_segment(time, seg)
+    return quiet
+
+
 def frequency_bands(frequency, magnitude_db, per_decade=6.0, min_points=8):
     """The segments of a frequency response: bands of equal width on a log axis (``per_decade`` of them per
     decade, edges at 1 Hz x 10^(k/per_decade)), a band with fewer than ``min_points`` frequencies merged into the

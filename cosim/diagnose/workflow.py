@@ -3,7 +3,8 @@
 1. *Replay and compare*: the baseline's free parameters are calibrated on the cost samples (the settled end of
    each hold of a staircase; every sample of an impact; every frequency of a frequency response, compared as
    magnitude [dB] and phase [deg]); the noise level of each channel is estimated from the data themselves
-   (differences inside the steady windows, or of neighbouring frequencies), floored by the job's stated noise.
+   (differences inside the steady windows, inside the approach and steady hold of an impact, or of neighbouring
+   frequencies), floored by the job's stated noise.
 2. *Locate*: the experiment is cut into its natural segments (holds, impact phases, frequency bands); each
    segment's residual is compared with the noise and given a shape; whiteness and cross-correlation with the
    input are reported.
@@ -34,7 +35,7 @@ import numpy as np
 from scipy import stats
 
 from cosim.diagnose.analysis import (band_shape, branch_shapes, cross_correlation, cut_segments, frequency_bands,
-                                     in_segment, noise_level, segment_table, steady_mask, whiteness)
+                                     in_segment, noise_level, quiet_phases, segment_table, steady_mask, whiteness)
 from cosim.calibrate.multistart import map_on_dask
 from cosim.calibrate.problem import Experiment
 from cosim.diagnose.effects import EFFECTS, write_variant
@@ -42,6 +43,8 @@ from cosim.diagnose.fitting import Replay, Trials, fit_samples, weighted
 from cosim.diagnose.frequency import DEG_PER_DB, FrequencyReplay, frequency_noise
 
 __all__ = ["Diagnosis", "run_diagnosis"]
+
+MIN_QUIET_SAMPLES = 20  # fewer samples in an impact's approach and steady holds: its noise from every sample
 
 
 @dataclass(frozen=True)
@@ -125,6 +128,14 @@ def _fit(model, records, job, free, weights, mask, label):
     result["label"] = label
     result["free"] = {n: list(v) for n, v in free.items()}
     return result
+
+
+def _spread(where, values):
+    """A boolean array over all instants: ``values`` at those ``where`` selects (a record's sampled instants),
+    False elsewhere."""
+    out = np.zeros(len(where), bool)
+    out[where] = values
+    return out
 
 
 def _end_to_end(records):
@@ -249,7 +260,13 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     else:
         estimated = noise_level(t, y, present & per_record(lambda r: steady_mask(r.time, r.inputs,
                                                                                   job.steady_s or 0.2, job.min_hold_s))
-                                if job.kind == "staircase" else mask)  # an impact: every sample
+                                if job.kind == "staircase" else mask)
+        if job.kind == "impact":  # from every sample first, then from the approach and steady hold of each record
+            rough = max(estimated[0], floor[0])
+            quiet = np.concatenate([_spread(p, quiet_phases(r.time[p], r.measured[p, 0], rough))
+                                    for (r, _), p in zip(records, sampled)])
+            if (mask & quiet).sum() >= MIN_QUIET_SAMPLES:
+                estimated = noise_level(t, y, mask & quiet)
         sigma = np.maximum(estimated, floor)
     weights = 1.0 / sigma
 
