@@ -2,6 +2,7 @@
 source lines, user functions inlined. Constructs the compiler does not support are rejected here, with the
 file and line where they appear."""
 
+import itertools
 import warnings
 from dataclasses import dataclass, field
 
@@ -134,7 +135,8 @@ class _Translator:
         self.time = ca.SX.sym("time")
         self.syms = []
         self.der_syms = {}
-        self.memo = {}
+        self.memo = {}  # (node, context serial) -> expression; None is the model's own context
+        self.call_serials = itertools.count()
 
     def where(self, node_id):
         prov = self.provenance[node_id] if node_id < len(self.provenance) else None
@@ -171,7 +173,7 @@ class _Translator:
 
     # -- expressions ---------------------------------------------------------
     def expr(self, node_id, ctx=None):
-        key = (node_id, id(ctx))
+        key = (node_id, None if ctx is None else ctx["serial"])
         if key not in self.memo:
             self.memo[key] = self._expr(node_id, ctx)
         return self.memo[key]
@@ -239,7 +241,7 @@ class _Translator:
 
     def _call(self, i, body, ctx):
         owner = body["owner"]
-        key = ("call", owner, id(ctx))
+        key = ("call", owner, None if ctx is None else ctx["serial"])
         if key not in self.memo:
             args = [self.expr(j, ctx) for j in self.operands[owner]]
             self.memo[key] = self._inline(body["function"], args, owner)
@@ -250,7 +252,9 @@ class _Translator:
         if function.get("external"):
             self.unsupported(f"the external function {function['name']}", function)
         n_out = len(function["outputs"])
-        fctx = {"args": args, "values": []}
+        # a serial, not id(): a finished call's context is freed and its id reused by the next call, whose
+        # body nodes would then hit the first call's memo entries
+        fctx = {"args": args, "values": [], "serial": next(self.call_serials)}
         final = [None] * n_out
         for statement in function["statements"]:
             (kind, body), = statement.items()

@@ -190,4 +190,28 @@ package CompilerTests "Models that exercise the compiler; each test has an indep
   equation
     der(x) = if x > 0.5 then -x else -0.5*x;
   end PlainIf;
+
+  function relaxRate "Rate of a state relaxing towards u over a time constant tc; two locals"
+    input Real u;
+    input Real x;
+    input Real tc;
+    output Real r;
+  protected
+    Real e;
+    Real g;
+  algorithm
+    e := u - x;
+    g := 1/tc;
+    r := g*e*abs(e);
+  end relaxRate;
+
+  model TwoCalls "One function called at two sites with different arguments (each inlined with its own)"
+    parameter Real u1 = 1.0;
+    parameter Real u2 = -0.5;
+    output Real x1(start = 0.2, fixed = true);
+    output Real x2(start = 0.3, fixed = true);
+  equation
+    der(x1) = relaxRate(u1, x1, 0.5);
+    der(x2) = relaxRate(u2, x2, 2.0);
+  end TwoCalls;
 end CompilerTests;
