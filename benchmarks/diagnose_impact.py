@@ -15,7 +15,8 @@ and restarts against the jaw guides, then the object 15 mm away), diagnosed as a
 the guides' stiction, which the impact cannot.
 
 Run: python benchmarks/diagnose_impact.py [--cases N] [--seed S] [--workers W] [--effects a,b] [--trials N]
-                                          [--experiment impact|slide]
+                                          [--experiment impact|slide] [--only a]
+``--only`` re-runs a subset of a run's cases on the same draws (e.g. after a change to one candidate).
 Prints one line per case, then the confusion matrix (rows: truth, columns: named), the share named right, the
 false-alarm rate on "none" cases and the gap above the noise removed by the named effect when it is right.
 """
@@ -51,11 +52,16 @@ def main(argv=None):
                              "diagnosed together")
     parser.add_argument("--experiment", choices=("impact", "slide"), default="impact",
                         help="the current step onto the object, or the slide (two restarts, then the object)")
+    parser.add_argument("--only", help="diagnose only the cases of these truth effects (comma-separated); the "
+                                       "others are drawn and skipped, so the draws are those of a run of all")
     args = parser.parse_args(argv)
     labels = args.effects.split(",")
     unknown = sorted(set(labels) - set(TRUTH_EFFECTS))
     if unknown:
         parser.error(f"--effects: no truth for {', '.join(unknown)}; known: {', '.join(TRUTH_EFFECTS)}")
+    only = args.only.split(",") if args.only else labels
+    if set(only) - set(labels):
+        parser.error(f"--only: {', '.join(sorted(set(only) - set(labels)))} not among --effects")
     named_labels = labels + [c for c in ("none", *CANDIDATES) if c not in labels]
     matrix = pd.DataFrame(0, index=labels, columns=named_labels)
     gaps = []
@@ -65,6 +71,8 @@ def main(argv=None):
     for k in range(args.cases):
         for effect in labels:
             case = make_case(effect, rng, trials=args.trials, experiment=args.experiment)
+            if effect not in only:
+                continue
             with tempfile.TemporaryDirectory() as folder:
                 t0 = time.time()
                 job = load_diagnose_job(write_job(Path(folder), source, case, CANDIDATES, workers=args.workers,
@@ -86,12 +94,12 @@ def main(argv=None):
     print(f"confusion matrix (rows: hidden effect, columns: named), {args.cases} cases each, seed {args.seed}, "
           f"{args.trials} {args.experiment}(s) a case, "
           f"{time.time() - start:.0f} s:")
-    print(matrix.loc[:, (matrix != 0).any() | matrix.columns.isin(labels)].to_string())
-    effects = [e for e in labels if e != "none"]
+    print(matrix.loc[only, (matrix != 0).any() | matrix.columns.isin(only)].to_string())
+    effects = [e for e in only if e != "none"]
     right = sum(matrix.loc[e, e] for e in effects)
     print(f"named right: {right}/{args.cases * len(effects)}"
           + (f"; false alarms on 'none': {args.cases - matrix.loc['none', 'none']}/{args.cases}"
-             if "none" in labels else ""))
+             if "none" in only else ""))
     if gaps:
         print(f"gap above the noise removed when named right (F_g): min {100 * min(gaps):.0f} %, median "
               f"{100 * np.median(gaps):.0f} %")
