@@ -75,6 +75,7 @@ PLACEMENT = 1e-4                                  # m: scatter of the object's p
 SLIDE_PROFILE = ((0.0, 0.3), (0.1, 0.3), (0.1, 0.1), (0.25, 0.1), (0.65, 0.55), (0.65, 0.1), (0.9, 0.1),
                  (1.4, 0.8), (1.7, 0.8))
 SLIDE_GAP0 = 0.015                                # m, travel to the object in the slide
+SLIDE_RATE_HZ = 1000.0                            # Hz: the slide's current and encoder (the load cell stays at 100 Hz)
 
 
 def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p_hc=1.5, k_prony=0.0,
@@ -188,7 +189,8 @@ def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
     (the paper's protocol repeats each condition), or slides (``experiment="slide"``: ``SLIDE_PROFILE``). Trial 0
     has the object at ``CONDITION["gap0"]`` (the slide: ``SLIDE_GAP0``); each further trial places it anew within
     ``PLACEMENT`` of that, so the rotor comes to rest at another angle. Returns
-    (records, truth dict), each record (time, current, measured force, measured angle, {"gap0": travel [m]}).
+    (records, truth dict), each record (time, current, measured force, measured angle, {"gap0": travel [m]}). The
+    slide's rows are at ``SLIDE_RATE_HZ``, its force NaN between the load cell's samples at ``RATE_HZ``.
 
     The truth dict holds the drawn parameters under the names of the Modelica parameters they correspond to
     where there is one (``eta_g``, ``T_c0``, ``play``, ``F_sj``)."""
@@ -221,9 +223,11 @@ def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
     records = []
     for k in range(trials):
         placed = (SLIDE_GAP0 if slide else CONDITION["gap0"]) + (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
-        t, i, F, theta = (simulate(gap0=placed, profile=SLIDE_PROFILE, duration=SLIDE_PROFILE[-1][0], **kw) if slide
-                          else simulate(gap0=placed, **kw))
-        force = F + rng.normal(0.0, noise, len(t))
+        t, i, F, theta = (simulate(gap0=placed, profile=SLIDE_PROFILE, duration=SLIDE_PROFILE[-1][0],
+                                   rate_hz=SLIDE_RATE_HZ, **kw) if slide else simulate(gap0=placed, **kw))
+        sampled = np.arange(len(t)) % (int(round(SLIDE_RATE_HZ / RATE_HZ)) if slide else 1) == 0  # the load cell's
+        force = np.full(len(t), np.nan)
+        force[sampled] = F[sampled] + rng.normal(0.0, noise, int(sampled.sum()))
         angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
         records.append((t, i, force, angle, {"gap0": placed}))
     return records, truth
