@@ -15,6 +15,7 @@ import pytest
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis
 from cosim.diagnose.analysis import cut_segments, noise_level, steady_mask, whiteness
 from cosim.diagnose.effects import applicable, variant_text
+from cosim.diagnose.workflow import rivals_of
 from cosim.errors import ConfigError
 from diagnose_truth import SOURCE, make_case, write_job
 
@@ -108,6 +109,22 @@ def test_staircase_segments_are_the_holds():
 
 
 # -- bad input -------------------------------------------------------------------------------------------------
+
+def test_a_rival_must_also_leave_a_residual_like_the_winners():
+    """'Also explained by' asks for a score within 0.1 of the winner's and a held-out mean square within 1.5 times
+    its own. Numbers of two shipped demos (held-out mean squares in noise units from their RMSE after and the
+    0.5 N floor): on the impact a jaw friction removes 97 % of a 180-sigma^2 gap but leaves 7 times gear play's
+    residual (not a rival); on the paper's static curve cogging leaves 1.2 times the load-cell filter's (a rival)."""
+    def candidate(effect, score, rmse):
+        return {"effect": effect, "score": score, "heldout_ms_sigma2": (rmse / 0.5) ** 2}
+
+    play, friction = candidate("gear_play", 1.001, 0.4647), candidate("stiction", 0.973, 1.232)
+    assert rivals_of(play, [play, friction]) == []
+    filt, cog = candidate("loadcell_filter", 0.709, 0.9194), candidate("cogging", 0.629, 1.0046)
+    far = candidate("backdrive_efficiency", 0.55, 0.95)
+    assert rivals_of(filt, [filt, cog, far]) == ["cogging"]
+    assert rivals_of(None, [filt, cog]) == []
+
 
 def test_bad_inputs_are_clear_errors(tmp_path):
     from cosim.compile import lower

@@ -225,6 +225,17 @@ def _rerun_both(job, records, model, base, variant_path, variant, final, folder,
     return entry
 
 
+def rivals_of(winner, qualified):
+    """The qualified candidates the held-out data cannot tell from the winner: a score within 0.1 of its score
+    *and* a held-out mean square (noise units) within 1.5 times its own. The score alone says too little when
+    the baseline's gap is large: 0.1 of a gap of 180 noise levels squared is a candidate leaving 7 times the
+    winner's residual (a jaw friction mimicking a larger gear play on an impact: RMSE 1.23 N against 0.46 N)."""
+    if winner is None:
+        return []
+    return [c["effect"] for c in qualified if c is not winner and c["score"] >= winner["score"] - 0.1
+            and c["heldout_ms_sigma2"] <= 1.5 * winner["heldout_ms_sigma2"]]
+
+
 def run_diagnosis(job, progress=True, build=True, out=None):
     """Run the workflow on a loaded :class:`~cosim.diagnose.job.DiagnoseJob`; returns a :class:`Diagnosis`.
 
@@ -381,7 +392,7 @@ def run_diagnosis(job, progress=True, build=True, out=None):
                  and c["delta_bic"] >= job.min_delta_bic]
     winner = max(qualified, key=lambda c: (c["score"], c["delta_bic"])) if qualified else None
     effect = winner["effect"] if winner else "none"
-    rivals = [c["effect"] for c in qualified if winner and c is not winner and c["score"] >= winner["score"] - 0.1]
+    rivals = rivals_of(winner, qualified)
 
     # 4. add and show
     after, variant_source, variant_diff, final, rerun_out = before, "", "", None, None
