@@ -92,8 +92,10 @@ def load_flat_model(path, model):
             message, file, line = found
             raise ModelicaError(message, file=file, line=line)
     try:
-        flat = rumoca.Session().load(str(path), model=model)
-        ir = flat.to_dict("dae")
+        # No local names rumoca's Session or Model: they are unsendable PyO3 objects, and a frame a Dask worker's
+        # profiler still holds when this returns would drop them on the profiler's thread (a RuntimeError printed
+        # by tornado, the objects leaked).
+        ir = rumoca.Session().load(str(path), model=model).to_dict("dae")
     except rumoca.RumocaError as err:
         text = str(err)
         if "resolve/parse failed" in text or "not found" in text.lower():
