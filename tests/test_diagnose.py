@@ -108,8 +108,6 @@ def test_staircase_segments_are_the_holds():
     assert [s.level for s in segs] == [0.0, 1.0, 2.0, 1.0, 0.0]
 
 
-# -- bad input -------------------------------------------------------------------------------------------------
-
 def test_a_rival_must_also_leave_a_residual_like_the_winners():
     """'Also explained by' asks for a score within 0.1 of the winner's and a held-out mean square within 1.5 times
     its own. Numbers of two shipped demos (held-out mean squares in noise units from their RMSE after and the
@@ -125,6 +123,8 @@ def test_a_rival_must_also_leave_a_residual_like_the_winners():
     assert rivals_of(filt, [filt, cog, far]) == ["cogging"]
     assert rivals_of(None, [filt, cog]) == []
 
+
+# -- bad input -------------------------------------------------------------------------------------------------
 
 def test_bad_inputs_are_clear_errors(tmp_path):
     from cosim.compile import lower

@@ -19,8 +19,8 @@ from cosim.compile import lower
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis, write_variant
 from cosim.diagnose.analysis import noise_level, quiet_phases
 from cosim.diagnose.fitting import Replay
-from diagnose_truth_impact import (CONDITION, COUNTS, DURATION, FORCE_NOISE, I_STEP, PLAY_NOMINAL, RATE_HZ,
-                                   SLIDE_GAP0, SLIDE_PROFILE, T_STEP, make_case, simulate, write_job)
+from diagnose_truth_impact import (CONDITION, COUNTS, DURATION, F_GUIDE, FORCE_NOISE, I_STEP, PLAY_NOMINAL,
+                                   RATE_HZ, SLIDE_GAP0, SLIDE_PROFILE, T_STEP, make_case, simulate, write_job)
 from test_gripper_support import ROOT
 
 SOURCE = ROOT / "modelica" / "Gripper" / "package.mo"
@@ -257,4 +257,4 @@ def test_workflow_names_guide_stiction_on_the_slide(tmp_path):
     assert s["rmse_before_per_signal"][1] > 30 * COUNT and s["rmse_after_per_signal"][1] < 5 * COUNT
     fitted = s["after"]["parameters"]
     assert abs(fitted["F_sj"] - truth["F_sj"]) < 0.15 * truth["F_sj"]
-    assert abs(fitted["F_cj"] - 0.0785) < 0.05
+    assert abs(fitted["F_cj"] - F_GUIDE) < 0.05
