@@ -100,7 +100,7 @@ EFFECTS = {
     "stiction": Effect(
         name="stiction",
         title="stiction with a Stribeck drop in the jaw guides (elasto-plastic bristle), replacing the creeping Coulomb guide",
-        parameters=(EffectParameter("F_sj", 1.0, 0.0, 20.0, "N", "Static (breakaway) guide friction per jaw",
+        parameters=(EffectParameter("F_sj", 1.0, 0.01, 20.0, "N", "Static (breakaway) guide friction per jaw",
                                     starts=(4.0, 10.0)),  # below the rack force at a restart the cost is flat
                     EffectParameter("F_cj", "F_cj", 0.0, 10.0, "N", "Sliding guide friction per jaw")),
         drive=(("Gripper.Components.RegularisedCoulomb guide(F_c = F_cj, v_s = v_s)",

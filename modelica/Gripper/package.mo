@@ -259,26 +259,36 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end LoadDependentFriction;
 
     model StribeckGuide "Jaw-guide friction with stiction and a Stribeck drop, carried by an elasto-plastic bristle (effect stiction); replaces the regularised Coulomb guide"
-      // The level F_c + (F_s - F_c)*exp(-(v_p/v_st)^2) falls with the *sliding* velocity v_p, the jaw velocity less
-      // the bristle's deflection rate: while the bristle loads elastically (a jaw at rest taking up load) v_p is
-      // ~0 and the guide holds up to F_s; only sliding drops it to F_c. (With the jaw velocity v in the curve, the
-      // bristle's own loading motion dropped the level and the jaw never stuck: measured on the slide truth.)
-      // The bristle stays elastic up to 0.9 F_s: from the usual 0.5, its plastic creep under a slowly rising
-      // load lowered the level through the Stribeck curve and broke the jaw free at 0.5-0.85 F_s.
+      // The friction is the bristle's force F_s*s (s: deflection over the presliding range x_b at the static
+      // level), so it is continuous in time: a jaw that stops keeps the force it slid with and takes up more
+      // load elastically, up to F_s. The bristle turns plastic at s_ba of the current sliding level g*F_s and
+      // slides at g*F_s. g follows the Stribeck curve F_c + (F_s - F_c)*exp(-(v_p/v_st)^2) of the *sliding*
+      // velocity v_p (the jaw's less the bristle's deflection rate) with a short lag tau_g (frictional memory,
+      // which also keeps g off an algebraic loop): a jaw at rest taking up load has v_p ~ 0 and keeps g = 1.
+      // Measured on the slide truth (a Karnopp guide): with the level multiplying a bristle state normalised to
+      // it, the friction jumped to F_s when a sliding jaw stopped and pushed it back; with the jaw velocity v in
+      // the curve, the bristle's own loading motion dropped the level and the jaw never stuck; with s_ba = 0.5
+      // the plastic creep under a slowly rising load broke the jaw free at 0.5-0.85 F_s. tau_b = 1e-6 s puts the
+      // bristle's rate limit x_b/tau_b = 0.1 m/s above the speed at which the play's flank hits the jaw, so a
+      // stuck jaw holds the hit up to F_s (with tau_b = 1e-4 s the hit counted as sliding); the state is stiff
+      // (an implicit solver in the master).
       parameter Real F_c(unit = "N") = 0.0785 "Coulomb (sliding) friction level";
-      parameter Real F_s(unit = "N") = 0.3 "Static (breakaway) friction level";
+      parameter Real F_s(unit = "N") = 0.3 "Static (breakaway) friction level, > 0";
       parameter Real v_st(unit = "m/s") = 1e-4 "Stribeck velocity";
-      parameter Real x_b(unit = "m") = 1e-7 "Presliding displacement of the bristle";
-      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real x_b(unit = "m") = 1e-7 "Presliding displacement of the bristle at the static level";
+      parameter Real tau_b(unit = "s") = 1e-6 "Bristle relaxation time at high speed";
+      parameter Real tau_g(unit = "s") = 1e-4 "Lag of the sliding level behind the sliding velocity";
       parameter Real s_ba(unit = "1") = 0.9 "Elastic fraction of the bristle range";
       input Real v(unit = "m/s") "Jaw velocity, positive closing";
       output Real F(unit = "N") "Friction force against the motion";
-      Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
+      Real s(unit = "1", start = 0.0, fixed = true) "Bristle deflection over x_b, in [-1, 1]";
+      Real g(unit = "1", start = 1.0, fixed = true) "Sliding level over F_s";
       Real v_p(unit = "m/s") "Sliding (plastic) part of the jaw velocity";
     equation
-      der(s) = Gripper.Components.bristleRate(v, s, x_b, tau_b, s_ba);
+      der(s) = Gripper.Components.bristleRate(v, s/max(g, 1e-3), x_b, tau_b, s_ba);
       v_p = v - x_b*der(s);
-      F = (F_c + (F_s - F_c)*exp(-(v_p/v_st)^2))*s;
+      der(g) = ((F_c + (F_s - F_c)*exp(-(v_p/v_st)^2))/F_s - g)/tau_g;
+      F = F_s*s;
     end StribeckGuide;
 
     model CoggingTorque "Motor cogging (detent) torque, periodic in the rotor angle (effect cogging)"
