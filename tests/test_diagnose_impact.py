@@ -251,9 +251,10 @@ def test_workflow_names_the_hidden_impact_effect(effect, seed, trials, candidate
 def test_workflow_names_guide_stiction_on_the_slide(tmp_path):
     """The slide (1 kHz current and encoder, the 100 Hz load cell), a Karnopp breakaway of 6.6 N in the truth's
     guides: the stiction candidate (a Stribeck bristle, not the truth's rule) is named, removes >= 80 % of the
-    force gap above the noise and brings the angle back from ~140 counts RMS, with the breakaway level within 15 %
-    and the sliding level within 0.05 N (measured: 7.03 N against 6.64 N, 0.088 against 0.0785 N). The benchmark
-    (``--experiment slide``) runs the whole library and the no-effect cases."""
+    force gap above the noise and brings the angle back from ~140 counts RMS, with the breakaway level within 5 %
+    and the sliding level within 0.05 N (measured: 6.73 N against 6.64 N, 0.091 against 0.0785 N; the sixth
+    round's candidate fitted 7.03 N). The benchmark (``--experiment slide``) runs the whole library and the
+    no-effect cases."""
     case = make_case("stiction", np.random.default_rng(52), experiment="slide")
     truth = case[1]
     job = load_diagnose_job(write_job(tmp_path, SOURCE, case, ("stiction",), workers=0, experiment="slide"))
@@ -262,5 +263,5 @@ def test_workflow_names_guide_stiction_on_the_slide(tmp_path):
     assert s["gap_removed"] >= 0.8
     assert s["rmse_before_per_signal"][1] > 30 * COUNT and s["rmse_after_per_signal"][1] < 5 * COUNT
     fitted = s["after"]["parameters"]
-    assert abs(fitted["F_sj"] - truth["F_sj"]) < 0.15 * truth["F_sj"]
+    assert abs(fitted["F_sj"] - truth["F_sj"]) < 0.05 * truth["F_sj"]
     assert abs(fitted["F_cj"] - F_GUIDE) < 0.05
