@@ -271,7 +271,8 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // the plastic creep under a slowly rising load broke the jaw free at 0.5-0.85 F_s. tau_b = 1e-6 s puts the
       // bristle's rate limit x_b/tau_b = 0.1 m/s above the speed at which the play's flank hits the jaw, so a
       // stuck jaw holds the hit up to F_s (with tau_b = 1e-4 s the hit counted as sliding); the state is stiff
-      // (an implicit solver in the master).
+      // (an implicit solver in the master). g is floored at 1e-3 in the bristle's rate so that F_c = 0 cannot
+      // divide by zero.
       parameter Real F_c(unit = "N") = 0.0785 "Coulomb (sliding) friction level";
       parameter Real F_s(unit = "N") = 0.3 "Static (breakaway) friction level, > 0";
       parameter Real v_st(unit = "m/s") = 1e-4 "Stribeck velocity";
