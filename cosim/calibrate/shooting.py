@@ -75,14 +75,15 @@ class SingleShooting:
         Y = Y[self.out_index, :]
         weighted = (Y - ca.DM(e.measured_or_zero())) * ca.DM(e.residual_weights())
         r = ca.vec(weighted[:, np.flatnonzero(e.mask).tolist()])
-        self._outputs = ca.Function("outputs", [q], [Y])
-        self._residual = ca.Function("residual", [q], [r])
+        # residuals and outputs from one integration (two Functions would integrate the experiment twice)
+        self._evaluate = ca.Function("evaluate", [q], [r, Y])
         self._jacobian = ca.Function("jacobian", [q], [ca.jacobian(r, q)])
 
     def evaluate(self, q):
         """(cost, weighted residuals, None, outputs at the samples) for scaled parameters ``q``."""
-        r = np.array(self._residual(q), dtype=float).ravel()
-        return 0.5 * float(r @ r), r, None, np.array(self._outputs(q), dtype=float)
+        r, Y = self._evaluate(q)
+        r = np.array(r, dtype=float).ravel()
+        return 0.5 * float(r @ r), r, None, np.array(Y, dtype=float)
 
     def jacobian(self, q):
         """Exact d(residual)/dq from the integrator's forward sensitivities."""
