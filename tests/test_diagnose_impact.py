@@ -208,6 +208,7 @@ def test_shipped_repeated_trials_job_loads_three_multi_rate_records():
 # Cogging is diagnosed over three repeated impacts (one impact sees the detent torque at one rest angle); that case
 # also builds both FMUs and re-runs every record through the master.
 @pytest.mark.parametrize("effect, seed, trials, candidates", [
+    ("gear_play", 2, 1, ("gear_play", "coating_relaxation")),
     ("contact_damping", 1, 1, ("contact_damping", "coating_relaxation")),
     ("coating_relaxation", 1, 1, ("coating_relaxation", "gear_play")),
     ("cogging", 3, 3, ("cogging", "gear_play")),
