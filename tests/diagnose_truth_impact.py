@@ -44,7 +44,8 @@ import numpy as np
 
 from diagnose_truth import free_and_candidates
 
-__all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "make_case", "write_job"]
+__all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "make_case", "effect_signal",
+           "write_job"]
 
 TRUTH_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction", "cogging",
                  "load_dependent_friction")
@@ -197,40 +198,83 @@ def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
     if effect not in TRUTH_EFFECTS:
         raise ValueError(f"truth effect must be one of {', '.join(TRUTH_EFFECTS)}; got {effect!r}")
     truth = {"effect": effect, "eta_g": float(rng.uniform(0.62, 0.74)), "T_c0": float(rng.uniform(6e-3, 1e-2))}
-    kw = {"eta": truth["eta_g"], "T_c0": truth["T_c0"]}
     if effect == "gear_play":
-        deg = rng.uniform(0.3, 0.55) if rng.random() < 0.5 else rng.uniform(1.1, 1.6)
-        truth["play"] = kw["play"] = math.radians(deg)
+        truth["play"] = math.radians(rng.uniform(0.3, 0.55) if rng.random() < 0.5 else rng.uniform(1.1, 1.6))
     elif effect == "contact_damping":
-        truth["p_hc"] = kw["p_hc"] = float(rng.uniform(1.2, 1.8))
+        truth["p_hc"] = float(rng.uniform(1.2, 1.8))
         c_ref = rng.uniform(100.0, 300.0)  # N.s/m at 0.5 mm penetration
-        truth["c_hc"] = kw["c_hc"] = float(c_ref / 5e-4 ** truth["p_hc"])
+        truth["c_hc"] = float(c_ref / 5e-4 ** truth["p_hc"])
         truth["c_at_0.5mm"] = float(c_ref)
     elif effect == "coating_relaxation":
         truth["k_rel"] = float(rng.uniform(0.5, 2.0))
-        truth["tau_rel"] = kw["tau_prony"] = float(rng.uniform(0.05, 0.3))
-        kw["k_prony"] = truth["k_rel"] * CONDITION["k_P"]
+        truth["tau_rel"] = float(rng.uniform(0.05, 0.3))
     elif effect == "stiction":
-        truth["F_sj"] = kw["F_s"] = float(rng.uniform(3.0, 10.0))
+        truth["F_sj"] = float(rng.uniform(3.0, 10.0))
     elif effect == "load_dependent_friction":
-        truth["mu_F"] = kw["mu_F"] = float(rng.uniform(0.01, 0.05))
+        truth["mu_F"] = float(rng.uniform(0.01, 0.05))
     elif effect == "cogging":
         truth["T_cog"], truth["phase_cog"] = float(rng.uniform(1.5e-3, 4e-3)), float(rng.uniform(-np.pi, np.pi))
         truth["T_cog2"] = float(truth["T_cog"] * rng.uniform(0.1, 0.3))
         truth["phase_cog2"] = float(rng.uniform(-np.pi, np.pi))
-        kw["cogging"] = TabulatedCogging(truth["T_cog"], truth["phase_cog"], truth["T_cog2"], truth["phase_cog2"])
+    kw = _simulate_arguments(truth)
     slide = _experiment(experiment)
     records = []
     for k in range(trials):
         placed = (SLIDE_GAP0 if slide else CONDITION["gap0"]) + (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
-        t, i, F, theta = (simulate(gap0=placed, profile=SLIDE_PROFILE, duration=SLIDE_PROFILE[-1][0],
-                                   rate_hz=SLIDE_RATE_HZ, **kw) if slide else simulate(gap0=placed, **kw))
+        t, i, F, theta = _run(slide, placed, kw)
         sampled = np.arange(len(t)) % (int(round(SLIDE_RATE_HZ / RATE_HZ)) if slide else 1) == 0  # the load cell's
         force = np.full(len(t), np.nan)
         force[sampled] = F[sampled] + rng.normal(0.0, noise, int(sampled.sum()))
         angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
         records.append((t, i, force, angle, {"gap0": placed}))
     return records, truth
+
+
+def effect_signal(case, experiment="impact"):
+    """How much the hidden effect alone changes the case's records: the RMS over every record of the noise-free
+    truth with the effect less the truth without it (the same ``eta_g``, ``T_c0`` and object positions), as
+    (force [N], motor angle [rad]). An upper bound on the evidence a diagnosis can find: the baseline's free
+    parameters may absorb part of it. Zero for ``none``."""
+    records, truth = case
+    if truth["effect"] == "none":
+        return 0.0, 0.0
+    slide = _experiment(experiment)
+    with_effect = _simulate_arguments(truth)
+    without = _simulate_arguments({"eta_g": truth["eta_g"], "T_c0": truth["T_c0"]})
+    force, angle = [], []
+    for record in records:
+        _, _, F_1, theta_1 = _run(slide, record[4]["gap0"], with_effect)
+        _, _, F_0, theta_0 = _run(slide, record[4]["gap0"], without)
+        force.append(F_1 - F_0)
+        angle.append(theta_1 - theta_0)
+    return (float(np.sqrt(np.mean(np.concatenate(force) ** 2))),
+            float(np.sqrt(np.mean(np.concatenate(angle) ** 2))))
+
+
+def _simulate_arguments(truth):
+    """The :func:`simulate` keywords of a truth dict from :func:`make_case` (drawn parameters by Modelica name)."""
+    kw = {"eta": truth["eta_g"], "T_c0": truth["T_c0"]}
+    if "play" in truth:
+        kw["play"] = truth["play"]
+    if "c_hc" in truth:
+        kw["c_hc"], kw["p_hc"] = truth["c_hc"], truth["p_hc"]
+    if "k_rel" in truth:
+        kw["k_prony"], kw["tau_prony"] = truth["k_rel"] * CONDITION["k_P"], truth["tau_rel"]
+    if "F_sj" in truth:
+        kw["F_s"] = truth["F_sj"]
+    if "mu_F" in truth:
+        kw["mu_F"] = truth["mu_F"]
+    if "T_cog" in truth:
+        kw["cogging"] = TabulatedCogging(truth["T_cog"], truth["phase_cog"], truth["T_cog2"], truth["phase_cog2"])
+    return kw
+
+
+def _run(slide, gap0, kw):
+    """One noise-free record of :func:`simulate`: the impact, or the slide at ``SLIDE_RATE_HZ``."""
+    if slide:
+        return simulate(gap0=gap0, profile=SLIDE_PROFILE, duration=SLIDE_PROFILE[-1][0], rate_hz=SLIDE_RATE_HZ,
+                        **kw)
+    return simulate(gap0=gap0, **kw)
 
 
 def _experiment(name):
