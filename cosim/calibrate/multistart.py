@@ -124,8 +124,10 @@ def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", pr
         client = Client(scheduler)
     else:
         workers = max(1, min(len(items), max_workers or len(items), os.cpu_count() or 1))
+        # CRITICAL: a worker's heartbeat racing the close logs a harmless CommClosedError traceback at ERROR
+        # (dask/distributed#7105); a task's own error still reaches the caller through future.result()
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                               silence_logs=logging.ERROR)
+                               silence_logs=logging.CRITICAL)
         client = Client(cluster)
     try:
         futures = [client.submit(function, item, pure=False) for item in items]
