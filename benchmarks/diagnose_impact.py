@@ -15,8 +15,9 @@ and restarts against the jaw guides, then the object 15 mm away), diagnosed as a
 the guides' stiction, which the impact cannot.
 
 Run: python benchmarks/diagnose_impact.py [--cases N] [--seed S] [--workers W] [--effects a,b] [--trials N]
-                                          [--experiment impact|slide] [--only a]
-``--only`` re-runs a subset of a run's cases on the same draws (e.g. after a change to one candidate).
+                                          [--experiment impact|slide] [--only a] [--from-case K]
+``--only`` and ``--from-case`` re-run a subset of a run's cases on the same draws (e.g. after a change to one
+candidate, or to finish a run that was stopped).
 Prints one line per case, with how much the hidden effect alone changes the noise-free truth's records (a miss
 of an effect smaller than the 0.5 N load-cell noise and one encoder count is the experiment's limit, not the
 workflow's), then the confusion matrix (rows: truth, columns: named), the share named right, the false-alarm
@@ -57,7 +58,11 @@ def main(argv=None):
                         help="the current step onto the object, or the slide (two restarts, then the object)")
     parser.add_argument("--only", help="diagnose only the cases of these truth effects (comma-separated); the "
                                        "others are drawn and skipped, so the draws are those of a run of all")
+    parser.add_argument("--from-case", type=int, default=0,
+                        help="diagnose cases K and later only; the earlier are drawn and skipped, as with --only")
     args = parser.parse_args(argv)
+    if not 0 <= args.from_case < args.cases:
+        parser.error(f"--from-case must be in 0..{args.cases - 1}")
     labels = args.effects.split(",")
     unknown = sorted(set(labels) - set(TRUTH_EFFECTS))
     if unknown:
@@ -74,7 +79,7 @@ def main(argv=None):
     for k in range(args.cases):
         for effect in labels:
             case = make_case(effect, rng, trials=args.trials, experiment=args.experiment)
-            if effect not in only:
+            if effect not in only or k < args.from_case:
                 continue
             with tempfile.TemporaryDirectory() as folder:
                 t0 = time.time()
@@ -100,14 +105,16 @@ def main(argv=None):
                   f"truth {truth}; fitted {fitted}",
                   flush=True)
     print()
-    print(f"confusion matrix (rows: hidden effect, columns: named), {args.cases} cases each, seed {args.seed}, "
+    diagnosed = args.cases - args.from_case
+    print(f"confusion matrix (rows: hidden effect, columns: named), {diagnosed} cases each"
+          + (f" (cases {args.from_case}-{args.cases - 1})" if args.from_case else "") + f", seed {args.seed}, "
           f"{args.trials} {args.experiment}(s) a case, "
           f"{time.time() - start:.0f} s:")
     print(matrix.loc[only, (matrix != 0).any() | matrix.columns.isin(only)].to_string())
     effects = [e for e in only if e != "none"]
     right = sum(matrix.loc[e, e] for e in effects)
-    print(f"named right: {right}/{args.cases * len(effects)}"
-          + (f"; false alarms on 'none': {args.cases - matrix.loc['none', 'none']}/{args.cases}"
+    print(f"named right: {right}/{diagnosed * len(effects)}"
+          + (f"; false alarms on 'none': {diagnosed - matrix.loc['none', 'none']}/{diagnosed}"
              if "none" in only else ""))
     if gaps:
         both, force = np.array(gaps).T
