@@ -27,9 +27,10 @@ Hidden effects: ``gear_play`` (play 0.3-0.55 deg or 1.1-1.6 deg instead of 0.8 d
 dissipative law ``c_hc*pen^p_hc*v`` with an exponent ``p_hc`` in [1.2, 1.8], not the candidate's force-proportional
 Hunt-Crossley term), ``coating_relaxation`` (one Prony term: an internal coating force ``q`` updated by the
 recursive exponential integrator of finite-element viscoelasticity, not the candidate's dashpot state),
-``stiction`` (Karnopp breakaway ``F_s`` 3-10 N above the sliding guide friction, against the candidate's LuGre
-with a Stribeck curve), ``cogging`` (a detent energy tabulated over one period with a second harmonic, its torque
-a spline derivative: :class:`TabulatedCogging`; the candidate is one sinusoid), ``load_dependent_friction`` (the
+``stiction`` (Karnopp breakaway ``F_s`` 3-10 N above the sliding guide friction, against the candidate's
+elasto-plastic bristle with a Stribeck curve), ``cogging`` (a detent energy tabulated over one period with a second
+harmonic, its torque a spline derivative: :class:`TabulatedCogging`; the candidate is one sinusoid),
+``load_dependent_friction`` (the
 guide's Karnopp levels, static and sliding, raised by ``mu_F`` times the contact force; the candidate: a bristle
 friction of level ``mu_F*F_g``), or ``none``. Every case draws ``eta`` and ``T_c0`` near their nominal values (the
 baseline's free parameters).
