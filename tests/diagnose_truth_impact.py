@@ -30,9 +30,8 @@ recursive exponential integrator of finite-element viscoelasticity, not the cand
 ``stiction`` (Karnopp breakaway ``F_s`` 3-10 N above the sliding guide friction, against the candidate's
 elasto-plastic bristle with a Stribeck curve), ``cogging`` (a detent energy tabulated over one period with a second
 harmonic, its torque a spline derivative: :class:`TabulatedCogging`; the candidate is one sinusoid),
-``load_dependent_friction`` (the
-guide's Karnopp levels, static and sliding, raised by ``mu_F`` times the contact force; the candidate: a bristle
-friction of level ``mu_F*F_g``), or ``none``. Every case draws ``eta`` and ``T_c0`` near their nominal values (the
+``load_dependent_friction`` (the guide's Karnopp levels, static and sliding, raised by ``mu_F`` times the contact
+force; the candidate: a bristle friction of level ``mu_F*F_g``), or ``none``. Every case draws ``eta`` and ``T_c0`` near their nominal values (the
 baseline's free parameters).
 
 Integration: semi-implicit Euler with a fixed step ``DT`` (stable for the stiffest element, the dead-band spring
