@@ -58,7 +58,7 @@ def main(argv=None):
                         help="the current step onto the object, or the slide (two restarts, then the object)")
     parser.add_argument("--only", help="diagnose only the cases of these truth effects (comma-separated); the "
                                        "others are drawn and skipped, so the draws are those of a run of all")
-    parser.add_argument("--from-case", type=int, default=0,
+    parser.add_argument("--from-case", type=int, default=0, metavar="K",
                         help="diagnose cases K and later only; the earlier are drawn and skipped, as with --only")
     args = parser.parse_args(argv)
     if not 0 <= args.from_case < args.cases:
