@@ -3,8 +3,8 @@
 Each case: a current step closing P2-coated fingers onto the ABS cylinders, from the reduced gripper of
 tests/diagnose_truth_impact.py (written from the paper's equations independently of the Modelica plant and of the
 candidates) with random parameters and one hidden effect or none; load cell at 100 Hz with 0.5 N noise, 2048 cpt
-encoder. The workflow fits the baseline Gripper.GripperCurrentDriven (eta_g, T_c0 free) and the candidates on
-F_g and theta_m and names one effect or "none".
+encoder. The workflow fits the baseline Gripper.GripperCurrentDriven (eta_g, T_c0 free; on the impact also the
+presliding angle phi_b) and the candidates on F_g and theta_m and names one effect or "none".
 
 With ``--trials N`` each case is N repeated impacts (the paper's protocol repeats each condition), the object
 placed anew within 0.1 mm each time (its position given per record, as the encoder angle at first contact would
