@@ -70,10 +70,10 @@ W_STICK, V_STICK = 1e-3, 1e-5                     # rad/s, m/s: Karnopp stick wi
 PHI_DAHL = 1e-3                                   # rad, presliding angle of the motor-shaft friction
 # The jobs free the Modelica's presliding angle phi_b (an estimate there, 1 mrad) with eta_g and T_c0, within a
 # factor two of it: its elasto-plastic bristle and this Dahl law rebound differently after the impact at the same
-# angle (at 1 mrad the Modelica's motor swings back 3-5 counts further, in every trial; 0.5-0.7 mrad matches), a
-# gap above the encoder's floor that any candidate bending the rebound took for a missing effect. Free down to
-# 0.1 mrad, phi_b bent a detent torque's rest angles away; free on the slide, it traded with the guides' sliding
-# friction F_cj, so the slide keeps eta_g and T_c0 only (docs/diagnose.md, ninth round).
+# angle (at 1 mrad the Modelica's rebound is 3-5 counts off, the same in every trial; at 0.6-0.7 mrad the force
+# is closer), a gap above the encoder's floor that any candidate bending the rebound took for a missing effect.
+# Free down to 0.1 mrad, phi_b bent a detent torque's rest angles away; free on the slide, it traded with the
+# guides' sliding friction F_cj, so the slide keeps eta_g and T_c0 only (docs/diagnose.md, ninth round).
 PHI_B_START = 1e-3                                # rad
 N_COG = 24                                        # cogging periods per revolution (motor geometry, as the Modelica's)
 PLACEMENT = 1e-4                                  # m: scatter of the object's position over repeated trials
