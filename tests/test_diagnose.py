@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis
-from cosim.diagnose.analysis import cut_segments, noise_level, steady_mask, whiteness
+from cosim.diagnose.analysis import _best_lag, cut_segments, noise_level, steady_mask, whiteness
 from cosim.diagnose.effects import applicable, variant_text
 from cosim.diagnose.workflow import rivals_of
 from cosim.errors import ConfigError
@@ -99,6 +99,17 @@ def test_whiteness_tells_white_from_coloured():
     assert whiteness(e)["white"]
     assert not whiteness(ar)["white"]
 
+
+def test_lag_of_a_delayed_record_and_of_one_that_stands_still():
+    """A record 4 samples behind the prediction is found 4 samples late (the shape "phase lag"); a prediction that
+    moves only outside the compared window (an angle standing still, as an encoder's can over a segment) gives
+    lag 0 rather than an all-NaN correlation."""
+    n = np.arange(204)
+    s = np.sin(0.07 * n) + 0.3 * np.sin(0.23 * n)
+    assert _best_lag(s[:-4], s[4:]) == 4
+    still = np.zeros(200)
+    still[:10] = 1.0
+    assert _best_lag(s[:200], still) == 0
 
 def test_staircase_segments_are_the_holds():
     t = np.arange(600) * 0.01

@@ -234,11 +234,22 @@ def band_shape(r_all, r, pred, meas, sigma):
 
 
 def _best_lag(a, b, max_lag=10):
-    if len(a) < 3 * max_lag or np.std(a) == 0 or np.std(b) == 0:
+    """Shift of ``a`` against ``b`` [samples] that correlates them best; 0 when the records are too short or no
+    shifted window varies (a quantised angle can stand still over a whole segment's window)."""
+    if len(a) < 3 * max_lag:
         return 0
-    lags = range(-max_lag, max_lag + 1)
-    scores = [np.corrcoef(a[max_lag + k:len(a) - max_lag + k], b[max_lag:len(b) - max_lag])[0, 1] for k in lags]
-    return int(list(lags)[int(np.nanargmax(scores))])
+    lags = np.arange(-max_lag, max_lag + 1)
+    fixed = b[max_lag:len(b) - max_lag]
+    scores = np.array([_correlation(a[max_lag + k:len(a) - max_lag + k], fixed) for k in lags])
+    return 0 if np.isnan(scores).all() else int(lags[np.nanargmax(scores)])
+
+
+def _correlation(x, y):
+    """Pearson correlation; NaN when either does not vary (where np.corrcoef warns of a division by zero)."""
+    sx, sy = np.std(x), np.std(y)
+    if sx == 0 or sy == 0:
+        return np.nan
+    return float(np.mean((x - np.mean(x)) * (y - np.mean(y))) / (sx * sy))
 
 
 def branch_shapes(segments, rows, noise):
