@@ -111,6 +111,7 @@ def test_lag_of_a_delayed_record_and_of_one_that_stands_still():
     still[:10] = 1.0
     assert _best_lag(s[:200], still) == 0
 
+
 def test_staircase_segments_are_the_holds():
     t = np.arange(600) * 0.01
     u = np.repeat([0.0, 1.0, 2.0, 1.0, 0.0, 0.0], 100)[:, None]
