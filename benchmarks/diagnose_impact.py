@@ -15,14 +15,15 @@ and restarts against the jaw guides, then the object 15 mm away), diagnosed as a
 the guides' stiction, which the impact cannot.
 
 Run: python benchmarks/diagnose_impact.py [--cases N] [--seed S] [--workers W] [--effects a,b] [--trials N]
-                                          [--experiment impact|slide] [--only a] [--from-case K]
+                                          [--experiment impact|slide] [--only a] [--from-case K] [--save DIR]
 ``--only`` and ``--from-case`` re-run a subset of a run's cases on the same draws (e.g. after a change to one
 candidate, or to finish a run that was stopped).
 Prints one line per case, with how much the hidden effect alone changes the noise-free truth's records (a miss
 of an effect smaller than the 0.5 N load-cell noise and one encoder count is the experiment's limit, not the
-workflow's), then the confusion matrix (rows: truth, columns: named), the share named right, the false-alarm
-rate on "none" cases and the gap above the noise removed by the named effect when it is right: in the mean square
-of both compared signals in noise units (diagnosis.json's ``gap_removed``), and in the force alone.
+workflow's) and the three best candidates' held-out scores and delta BIC (a miss's or false alarm's margin), then
+the confusion matrix (rows: truth, columns: named), the share named right, the false-alarm rate on "none" cases
+and the gap above the noise removed by the named effect when it is right: in the mean square of both compared
+signals in noise units (diagnosis.json's ``gap_removed``), and in the force alone.
 """
 
 import argparse
@@ -40,6 +41,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from diagnose_truth_impact import COUNTS, TRUTH_EFFECTS, effect_signal, make_case, write_job  # noqa: E402
 
 from cosim.diagnose import load_diagnose_job, run_diagnosis  # noqa: E402
+from cosim.diagnose.report import write_diagnosis  # noqa: E402
 
 CANDIDATES = ("gear_play", "contact_damping", "coating_relaxation", "stiction", "loadcell_filter", "cogging",
               "load_dependent_friction")
@@ -60,6 +62,8 @@ def main(argv=None):
                                        "others are drawn and skipped, so the draws are those of a run of all")
     parser.add_argument("--from-case", type=int, default=0, metavar="K",
                         help="diagnose cases K and later only; the earlier are drawn and skipped, as with --only")
+    parser.add_argument("--save", type=Path, metavar="DIR",
+                        help="write each case's diagnosis (diagnosis.json, report.md, plots) to DIR/case<K>_<effect>")
     args = parser.parse_args(argv)
     if not 0 <= args.from_case < args.cases:
         parser.error(f"--from-case must be in 0..{args.cases - 1}")
@@ -85,7 +89,10 @@ def main(argv=None):
                 t0 = time.time()
                 job = load_diagnose_job(write_job(Path(folder), source, case, CANDIDATES, workers=args.workers,
                                                   experiment=args.experiment))
-                s = run_diagnosis(job, progress=False, build=False).summary
+                diagnosis = run_diagnosis(job, progress=False, build=False)
+            if args.save:
+                write_diagnosis(diagnosis, args.save / f"case{k}_{effect}", source)
+            s = diagnosis.summary
             matrix.loc[effect, s["effect"]] += 1
             force_noise = s["noise"]["used"][0]
             force_gap = (1 - (s["rmse_after"] ** 2 - force_noise ** 2) / (s["rmse_before"] ** 2 - force_noise ** 2)
@@ -102,7 +109,10 @@ def main(argv=None):
                   f"counts, gap removed {100 * s['gap_removed']:5.1f} % (F_g alone {100 * force_gap:5.1f} %) "
                   f"({time.time() - t0:.0f} s); the effect alone (truth, "
                   f"noise-free): F_g {alone[0]:.3f} N, theta_m {alone[1] / count:.1f} counts; "
-                  f"truth {truth}; fitted {fitted}",
+                  f"truth {truth}; fitted {fitted}; baseline mean square {s['baseline_mean_square']:.2f} "
+                  f"(gap found: {s['gap_found']}), held-out scores (need {s['decision']['min_gap_removed']:g}, "
+                  f"delta BIC {s['decision']['min_delta_bic']:g}): "
+                  + ", ".join(f"{c['effect']} {c['score']:.2f} ({c['delta_bic']:.0f})" for c in s["candidates"][:3]),
                   flush=True)
     print()
     diagnosed = args.cases - args.from_case
