@@ -11,11 +11,13 @@ placed anew within 0.1 mm each time (its position given per record, as the encod
 give it), diagnosed together: the rotor comes to rest at another angle in each.
 
 With ``--experiment slide`` the current is not a step but the slide of tests/diagnose_truth_impact.py (two stops
-and restarts against the jaw guides, then the object 15 mm away), diagnosed as a staircase: an attempt to show
-the guides' stiction, which the impact cannot.
+and restarts against the jaw guides, then the object 15 mm away), diagnosed as a staircase: it shows the guides'
+stiction, which the impact cannot. With ``--experiment speed`` the jaws run free under a PI speed loop at four
+slow speeds, the current (10 mA noise) and the encoder at 1 kHz compared (model Gripper.GripperSpeedControlled):
+the classic cogging measurement, where a detent shows as a ripple of the current.
 
 Run: python benchmarks/diagnose_impact.py [--cases N] [--seed S] [--workers W] [--effects a,b] [--trials N]
-                                          [--experiment impact|slide] [--only a] [--from-case K] [--save DIR]
+                                          [--experiment impact|slide|speed] [--only a] [--from-case K] [--save DIR]
 ``--only`` and ``--from-case`` re-run a subset of a run's cases on the same draws (e.g. after a change to one
 candidate, or to finish a run that was stopped).
 Prints one line per case, with how much the hidden effect alone changes the noise-free truth's records (a miss
@@ -23,7 +25,8 @@ of an effect smaller than the 0.5 N load-cell noise and one encoder count is the
 workflow's) and the three best candidates' held-out scores and delta BIC (a miss's or false alarm's margin), then
 the confusion matrix (rows: truth, columns: named), the share named right, the false-alarm rate on "none" cases
 and the gap above the noise removed by the named effect when it is right: in the mean square of both compared
-signals in noise units (diagnosis.json's ``gap_removed``), and in the force alone.
+signals in noise units (diagnosis.json's ``gap_removed``), and in the first (force, or the speed run's current)
+alone.
 """
 
 import argparse
@@ -38,7 +41,8 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from diagnose_truth_impact import COUNTS, TRUTH_EFFECTS, effect_signal, make_case, write_job  # noqa: E402
+from diagnose_truth_impact import (COUNTS, EXPERIMENTS, TRUTH_EFFECTS, effect_signal, make_case,  # noqa: E402
+                                   write_job)
 
 from cosim.diagnose import load_diagnose_job, run_diagnosis  # noqa: E402
 from cosim.diagnose.report import write_diagnosis  # noqa: E402
@@ -56,8 +60,9 @@ def main(argv=None):
     parser.add_argument("--trials", type=int, default=1,
                         help="repeated impacts per case, the object placed anew within 0.1 mm: one record each, "
                              "diagnosed together")
-    parser.add_argument("--experiment", choices=("impact", "slide"), default="impact",
-                        help="the current step onto the object, or the slide (two restarts, then the object)")
+    parser.add_argument("--experiment", choices=EXPERIMENTS, default="impact",
+                        help="the current step onto the object, the slide (two restarts, then the object), or the "
+                             "speed run (jaws free, four slow speeds under a PI speed loop)")
     parser.add_argument("--only", help="diagnose only the cases of these truth effects (comma-separated); the "
                                        "others are drawn and skipped, so the draws are those of a run of all")
     parser.add_argument("--from-case", type=int, default=0, metavar="K",
@@ -94,21 +99,21 @@ def main(argv=None):
                 write_diagnosis(diagnosis, args.save / f"case{k}_{effect}", source)
             s = diagnosis.summary
             matrix.loc[effect, s["effect"]] += 1
-            force_noise = s["noise"]["used"][0]
-            force_gap = (1 - (s["rmse_after"] ** 2 - force_noise ** 2) / (s["rmse_before"] ** 2 - force_noise ** 2)
-                         if s["rmse_before"] > force_noise else 0.0)
+            channel, unit, noise = s["signals"][0], s["units"][0], s["noise"]["used"][0]
+            force_gap = (1 - (s["rmse_after"] ** 2 - noise ** 2) / (s["rmse_before"] ** 2 - noise ** 2)
+                         if s["rmse_before"] > noise else 0.0)
             if effect != "none" and s["effect"] == effect:
                 gaps.append((s["gap_removed"], force_gap))
             truth = {key: round(float(v), 5) for key, v in case[1].items() if key != "effect"}
             fitted = {key: round(float(v), 5) for key, v in (s["after"] or {}).get("parameters", {}).items()}
             count = 2 * np.pi / COUNTS
             alone = effect_signal(case, args.experiment)
-            print(f"case {k} truth {effect:18s} named {s['effect']:18s} F_g RMSE {s['rmse_before']:.3f} -> "
-                  f"{s['rmse_after']:.3f} N (noise {s['noise']['used'][0]:.3f} N), theta_m RMSE "
+            print(f"case {k} truth {effect:18s} named {s['effect']:18s} {channel} RMSE {s['rmse_before']:.3f} -> "
+                  f"{s['rmse_after']:.3f} {unit} (noise {noise:.3f} {unit}), theta_m RMSE "
                   f"{s['rmse_before_per_signal'][1] / count:.1f} -> {s['rmse_after_per_signal'][1] / count:.1f} "
-                  f"counts, gap removed {100 * s['gap_removed']:5.1f} % (F_g alone {100 * force_gap:5.1f} %) "
+                  f"counts, gap removed {100 * s['gap_removed']:5.1f} % ({channel} alone {100 * force_gap:5.1f} %) "
                   f"({time.time() - t0:.0f} s); the effect alone (truth, "
-                  f"noise-free): F_g {alone[0]:.3f} N, theta_m {alone[1] / count:.1f} counts; "
+                  f"noise-free): {channel} {alone[0]:.3f} {unit}, theta_m {alone[1] / count:.1f} counts; "
                   f"truth {truth}; fitted {fitted}; baseline mean square {s['baseline_mean_square']:.2f} "
                   f"(gap found: {s['gap_found']}), held-out scores (need {s['decision']['min_gap_removed']:g}, "
                   f"delta BIC {s['decision']['min_delta_bic']:g}): "
@@ -128,9 +133,9 @@ def main(argv=None):
              if "none" in only else ""))
     if gaps:
         both, force = np.array(gaps).T
-        print(f"gap above the noise removed when named right (mean square of F_g and theta_m in noise units, as "
+        print(f"gap above the noise removed when named right (mean square of {channel} and theta_m in noise units, as "
               f"diagnosis.json's gap_removed): min {100 * both.min():.0f} %, median {100 * np.median(both):.0f} %; "
-              f"F_g alone: min {100 * force.min():.0f} %, median {100 * np.median(force):.0f} %")
+              f"{channel} alone: min {100 * force.min():.0f} %, median {100 * np.median(force):.0f} %")
 
 
 if __name__ == "__main__":

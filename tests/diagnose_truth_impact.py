@@ -85,14 +85,25 @@ SLIDE_PROFILE = ((0.0, 0.3), (0.1, 0.3), (0.1, 0.1), (0.25, 0.1), (0.65, 0.55), 
                  (1.4, 0.8), (1.7, 0.8))
 SLIDE_GAP0 = 0.015                                # m, travel to the object in the slide
 SLIDE_RATE_HZ = 1000.0                            # Hz: the slide's current and encoder (the load cell stays at 100 Hz)
+# The speed run (``experiment="speed"``), the classic cogging measurement: jaws free, a PI speed loop of ~30 Hz
+# bandwidth (not the paper's 100 Hz PID: an identification run) holds four slow motor speeds for 0.35 s each; a
+# torque periodic in the rotor angle shows as a ripple of the current the loop takes. The current sensor has
+# CURRENT_NOISE; current and encoder at SLIDE_RATE_HZ, no load cell. (time [s], motor speed reference [rad/s])
+SPEED_PROFILE = ((0.0, 0.0), (0.05, 0.0), (0.05, 2.0), (0.4, 2.0), (0.4, 3.5), (0.75, 3.5), (0.75, 2.5),
+                 (1.1, 2.5), (1.1, 4.0), (1.45, 4.0))
+K_PW, K_IW = 0.05, 2.5                            # A.s/rad, A/rad: the speed loop (the Modelica's defaults)
+CURRENT_NOISE = 0.01                              # A (1 sd): the q current as the drive measures it
+EXPERIMENTS = ("impact", "slide", "speed")
 
 
 def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p_hc=1.5, k_prony=0.0,
              tau_prony=0.1, cogging=None, mu_F=0.0, current=I_STEP, gap0=CONDITION["gap0"], rate_hz=RATE_HZ,
-             duration=DURATION, profile=None):
+             duration=DURATION, profile=None, speeds=None):
     """Noise-free force [N] and motor angle [rad] at ``rate_hz`` for a q-current step to ``current`` [A] at
     ``T_STEP``, or for ``profile``: (time [s], current [A]) corners joined by straight lines; the current is held
-    between samples, as the replay plays it. Returns (time, i, F, theta).
+    between samples, as the replay plays it. With ``speeds`` ((time [s], motor speed [rad/s]) corners, held
+    between samples) a PI speed loop (``K_PW``, ``K_IW``) sets the current at every step. Returns (time, i, F,
+    theta), ``i`` the current at each sample.
 
     Parameters: mesh efficiency ``eta`` [1], drag ``T_c0`` [N.m], total play ``play`` [rad], guide breakaway
     ``F_s`` [N] per jaw, guide friction ``mu_F`` [1] per unit contact force, extra contact damping
@@ -110,12 +121,19 @@ def simulate(eta=0.68, T_c0=7.88e-3, play=PLAY_NOMINAL, F_s=F_GUIDE, c_hc=0.0, p
     n = int(round(duration * rate_hz))
     time = np.arange(n) / rate_hz
     currents = np.interp(time, *zip(*profile)) if profile else np.where(time >= T_STEP - 1e-12, current, 0.0)
-    theta = w = x = v = q = delta = s = F_contact = 0.0
+    references = np.interp(time, *zip(*speeds)) if speeds else None
+    theta = w = x = v = q = delta = s = F_contact = speed_error = 0.0
     out = np.empty((n, 2))
     for k in range(n * steps_per_sample):
+        if speeds:
+            w_ref = references[k // steps_per_sample]
+            i_q = K_PW * (w_ref - w) + K_IW * speed_error
+            speed_error += DT * (w_ref - w)
+        else:
+            i_q = currents[k // steps_per_sample]
         if k % steps_per_sample == 0:
             out[k // steps_per_sample] = F_contact, theta
-        i_q = currents[k // steps_per_sample]
+            currents[k // steps_per_sample] = i_q
         # dead-band spring at the gear output
         rel = theta / RATIO - x / R_P
         rel_rate = w / RATIO - v / R_P
@@ -195,11 +213,13 @@ class TabulatedCogging:
 
 def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
     """A random hidden-effect case: one gripper with one draw of its parameters and ``trials`` repeated impacts
-    (the paper's protocol repeats each condition), or slides (``experiment="slide"``: ``SLIDE_PROFILE``). Trial 0
-    has the object at ``CONDITION["gap0"]`` (the slide: ``SLIDE_GAP0``); each further trial places it anew within
-    ``PLACEMENT`` of that, so the rotor comes to rest at another angle. Returns
-    (records, truth dict), each record (time, current, measured force, measured angle, {"gap0": travel [m]}). The
-    slide's rows are at ``SLIDE_RATE_HZ``, its force NaN between the load cell's samples at ``RATE_HZ``.
+    (the paper's protocol repeats each condition), slides (``experiment="slide"``: ``SLIDE_PROFILE``) or speed
+    runs (``"speed"``: ``SPEED_PROFILE``). Trial 0 has the object at ``CONDITION["gap0"]`` (slide and speed run:
+    ``SLIDE_GAP0``); each further trial places it anew within ``PLACEMENT`` of that, so the rotor comes to rest at
+    another angle. Returns (records, truth dict), each record (time, input, measured channel, measured angle,
+    {"gap0": travel [m]}): the current and the force (``noise`` [N]), or for the speed run the speed reference
+    and the current (``CURRENT_NOISE``). The slide's and speed run's rows are at ``SLIDE_RATE_HZ``, the slide's
+    force NaN between the load cell's samples at ``RATE_HZ``.
 
     The truth dict holds the drawn parameters under the names of the Modelica parameters they correspond to
     where there is one (``eta_g``, ``T_c0``, ``play``, ``F_sj``)."""
@@ -225,15 +245,20 @@ def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
         truth["T_cog2"] = float(truth["T_cog"] * rng.uniform(0.1, 0.3))
         truth["phase_cog2"] = float(rng.uniform(-np.pi, np.pi))
     kw = _simulate_arguments(truth)
-    slide = _experiment(experiment)
+    _experiment(experiment)
     records = []
     for k in range(trials):
-        placed = (SLIDE_GAP0 if slide else CONDITION["gap0"]) + (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
-        t, i, F, theta = _run(slide, placed, kw)
-        sampled = np.arange(len(t)) % (int(round(SLIDE_RATE_HZ / RATE_HZ)) if slide else 1) == 0  # the load cell's
-        force = np.full(len(t), np.nan)
-        force[sampled] = F[sampled] + rng.normal(0.0, noise, int(sampled.sum()))
+        placed = (CONDITION["gap0"] if experiment == "impact" else SLIDE_GAP0) + \
+            (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
+        t, i, F, theta = _run(experiment, placed, kw)
         angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
+        if experiment == "speed":
+            records.append((t, np.interp(t, *zip(*SPEED_PROFILE)), i + rng.normal(0.0, CURRENT_NOISE, len(t)),
+                            angle, {"gap0": placed}))
+            continue
+        sampled = np.arange(len(t)) % (int(round(SLIDE_RATE_HZ / RATE_HZ)) if experiment == "slide" else 1) == 0
+        force = np.full(len(t), np.nan)  # the load cell's samples
+        force[sampled] = F[sampled] + rng.normal(0.0, noise, int(sampled.sum()))
         records.append((t, i, force, angle, {"gap0": placed}))
     return records, truth
 
@@ -241,20 +266,21 @@ def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
 def effect_signal(case, experiment="impact"):
     """How much the hidden effect alone changes the case's records: the RMS over every record of the noise-free
     truth with the effect less the truth without it (the same ``eta_g``, ``T_c0`` and object positions), as
-    (force [N], motor angle [rad]). An upper bound on the evidence a diagnosis can find: the baseline's free
-    parameters may absorb part of it. Zero for ``none``."""
+    (force [N], motor angle [rad]); for the speed run (current [A], motor angle [rad]). An upper bound on the
+    evidence a diagnosis can find: the baseline's free parameters may absorb part of it. Zero for ``none``."""
     records, truth = case
     if truth["effect"] == "none":
         return 0.0, 0.0
-    slide = _experiment(experiment)
+    _experiment(experiment)
     with_effect = _simulate_arguments(truth)
     without = _simulate_arguments({"eta_g": truth["eta_g"], "T_c0": truth["T_c0"]})
+    column = 1 if experiment == "speed" else 2  # the compared channel beside the angle in simulate's result
     force, angle = [], []
     for record in records:
-        _, _, F_1, theta_1 = _run(slide, record[4]["gap0"], with_effect)
-        _, _, F_0, theta_0 = _run(slide, record[4]["gap0"], without)
-        force.append(F_1 - F_0)
-        angle.append(theta_1 - theta_0)
+        run_1 = _run(experiment, record[4]["gap0"], with_effect)
+        run_0 = _run(experiment, record[4]["gap0"], without)
+        force.append(run_1[column] - run_0[column])
+        angle.append(run_1[3] - run_0[3])
     return (float(np.sqrt(np.mean(np.concatenate(force) ** 2))),
             float(np.sqrt(np.mean(np.concatenate(angle) ** 2))))
 
@@ -277,34 +303,35 @@ def _simulate_arguments(truth):
     return kw
 
 
-def _run(slide, gap0, kw):
-    """One noise-free record of :func:`simulate`: the impact, or the slide at ``SLIDE_RATE_HZ``."""
-    if slide:
+def _run(experiment, gap0, kw):
+    """One noise-free record of :func:`simulate`: the impact, or the slide or speed run at ``SLIDE_RATE_HZ``."""
+    if experiment == "speed":
+        return simulate(gap0=gap0, speeds=SPEED_PROFILE, duration=SPEED_PROFILE[-1][0], rate_hz=SLIDE_RATE_HZ, **kw)
+    if experiment == "slide":
         return simulate(gap0=gap0, profile=SLIDE_PROFILE, duration=SLIDE_PROFILE[-1][0], rate_hz=SLIDE_RATE_HZ,
                         **kw)
     return simulate(gap0=gap0, **kw)
 
 
 def _experiment(name):
-    """True for the slide, False for the impact."""
-    if name not in ("impact", "slide"):
-        raise ValueError(f"experiment must be 'impact' or 'slide'; got {name!r}")
-    return name == "slide"
+    """Check that ``name`` is one of ``EXPERIMENTS``."""
+    if name not in EXPERIMENTS:
+        raise ValueError(f"experiment must be one of {', '.join(EXPERIMENTS)}; got {name!r}")
 
 
 JOB = """
 [model]
 source = "{source}"
-name = "Gripper.GripperCurrentDriven"
+name = "Gripper.{model}"
 parameters = {parameters}
 [data]
 {data}
-inputs = {{ i_ref = "i_ref" }}
+inputs = {{ {input} = "{input}" }}
 [experiment]
 kind = "{kind}"
 duration = {duration}{hold}
 [compare]
-signals = [{{ output = "F_g", column = "F_g", noise = {force_floor} }},
+signals = [{{ output = "{channel}", column = "{channel}", noise = {floor} }},
            {{ output = "theta_m", column = "theta_m", noise = {angle_floor} }}]
 rtol = 1e-6
 max_nfev = {max_nfev}
@@ -314,25 +341,32 @@ max_nfev = {max_nfev}
 def write_job(folder, source, case, effects, workers=0, max_nfev=20, experiment="impact"):
     """Write ``case`` (from :func:`make_case`) as data.csv (data0.csv, data1.csv, ...: one per record, with its
     object position in data.records) and the diagnosis job for it into ``folder``; returns the job path. The
-    slide is a staircase job (every sample compared, holds of at least 0.1 s), the impact an impact job. Noise
-    floors: 0.1 N under the force estimate, one encoder count under the angle's (the truncated counts are not a
-    zero-mean noise: their bias of half a count is part of the floor). Free: ``eta_g``, ``T_c0`` and, on the
-    impact, ``phi_b``."""
+    slide and the speed run are staircase jobs (every sample compared, holds of at least 0.1 s), the impact an
+    impact job; the speed run's model is ``Gripper.GripperSpeedControlled`` (input ``w_ref``, compared ``i_q``),
+    the others' ``Gripper.GripperCurrentDriven`` (input ``i_ref``, compared ``F_g``). Noise floors: 0.1 N under
+    the force estimate, 2 mA under the current's, one encoder count under the angle's (the truncated counts are
+    not a zero-mean noise: their bias of half a count is part of the floor). Free: ``eta_g``, ``T_c0`` and, on
+    the impact, ``phi_b``."""
     import pandas as pd
 
+    _experiment(experiment)
+    speed = experiment == "speed"
+    given, channel = ("w_ref", "i_q") if speed else ("i_ref", "F_g")
     records, _ = case
     names = ["data.csv"] if len(records) == 1 else [f"data{k}.csv" for k in range(len(records))]
-    for name, (t, i, force, angle, _) in zip(names, records):
-        pd.DataFrame({"time": t, "i_ref": i, "F_g": force, "theta_m": angle}).to_csv(folder / name, index=False)
+    for name, (t, u, y, angle, _) in zip(names, records):
+        pd.DataFrame({"time": t, given: u, channel: y, "theta_m": angle}).to_csv(folder / name, index=False)
     data = f'path = "{names[0]}"' if len(records) == 1 else "records = [" + ", ".join(
         f'{{ path = "{name}", parameters = {{ gap0 = {r[4]["gap0"]!r} }} }}' for name, r in zip(names, records)) + "]"
-    slide = _experiment(experiment)
-    fixed = {**CONDITION, "play": PLAY_NOMINAL, **({"gap0": SLIDE_GAP0} if slide else {})}
+    impact = experiment == "impact"
+    fixed = {**CONDITION, "play": PLAY_NOMINAL, **({} if impact else {"gap0": SLIDE_GAP0}),
+             **({"K_pw": K_PW, "K_iw": K_IW} if speed else {})}
     parameters = "{ " + ", ".join(f"{k} = {v!r}" for k, v in fixed.items()) + " }"
     path = folder / "job.toml"
     path.write_text(JOB.format(source=source.as_posix(), parameters=parameters, data=data,
-                               kind="staircase" if slide else "impact", hold="\nmin_hold_s = 0.1" if slide else "",
-                               duration=records[0][0][-1], force_floor=0.1, angle_floor=2 * np.pi / COUNTS,
-                               max_nfev=max_nfev)
-                    + free_and_candidates(0.68, 7.88e-3, effects, workers, phi_b=None if slide else PHI_B_START))
+                               model="GripperSpeedControlled" if speed else "GripperCurrentDriven", input=given,
+                               channel=channel, kind="impact" if impact else "staircase",
+                               hold="" if impact else "\nmin_hold_s = 0.1", duration=records[0][0][-1],
+                               floor=0.002 if speed else 0.1, angle_floor=2 * np.pi / COUNTS, max_nfev=max_nfev)
+                    + free_and_candidates(0.68, 7.88e-3, effects, workers, phi_b=PHI_B_START if impact else None))
     return path
