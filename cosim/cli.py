@@ -116,8 +116,10 @@ def _cmd_diagnose(args):
                       build=not args.no_build)
     s = result.summary
     print(s["verdict"])
-    print(f"RMSE {s['rmse_before']:.4g} -> {s['rmse_after']:.4g}, max error {s['max_error_before']:.4g} -> "
-          f"{s['max_error_after']:.4g}; wrote {out}/diagnosis.json, report.md")
+    unit = f" {s['units'][0]}" if s["units"][0] else ""
+    print(f"{s['signals'][0]}, measured vs replayed model: RMSE {s['rmse_before']:.4g} -> "
+          f"{s['rmse_after']:.4g}{unit}, max error {s['max_error_before']:.4g} -> {s['max_error_after']:.4g}{unit}; "
+          f"wrote {out}/diagnosis.json, report.md")
     return 0
 
 
