@@ -284,7 +284,6 @@ def test_workflow_names_guide_stiction_on_the_slide(tmp_path):
     assert abs(fitted["F_cj"] - F_GUIDE) < 0.05
 
 
-
 def test_workflow_names_cogging_on_the_speed_run(tmp_path):
     """Where an impact hardly sees a detent (the rotor runs through it fast and rests at a few angles), a slow run
     under a PI speed loop shows it as a ripple of the current the loop takes, phase-locked to the rotor angle:
