@@ -100,10 +100,10 @@ def main(argv=None):
             s = diagnosis.summary
             matrix.loc[effect, s["effect"]] += 1
             channel, unit, noise = s["signals"][0], s["units"][0], s["noise"]["used"][0]
-            force_gap = (1 - (s["rmse_after"] ** 2 - noise ** 2) / (s["rmse_before"] ** 2 - noise ** 2)
+            channel_gap = (1 - (s["rmse_after"] ** 2 - noise ** 2) / (s["rmse_before"] ** 2 - noise ** 2)
                          if s["rmse_before"] > noise else 0.0)
             if effect != "none" and s["effect"] == effect:
-                gaps.append((s["gap_removed"], force_gap))
+                gaps.append((s["gap_removed"], channel_gap))
             truth = {key: round(float(v), 5) for key, v in case[1].items() if key != "effect"}
             fitted = {key: round(float(v), 5) for key, v in (s["after"] or {}).get("parameters", {}).items()}
             count = 2 * np.pi / COUNTS
@@ -111,7 +111,7 @@ def main(argv=None):
             print(f"case {k} truth {effect:18s} named {s['effect']:18s} {channel} RMSE {s['rmse_before']:.3f} -> "
                   f"{s['rmse_after']:.3f} {unit} (noise {noise:.3f} {unit}), theta_m RMSE "
                   f"{s['rmse_before_per_signal'][1] / count:.1f} -> {s['rmse_after_per_signal'][1] / count:.1f} "
-                  f"counts, gap removed {100 * s['gap_removed']:5.1f} % ({channel} alone {100 * force_gap:5.1f} %) "
+                  f"counts, gap removed {100 * s['gap_removed']:5.1f} % ({channel} alone {100 * channel_gap:5.1f} %) "
                   f"({time.time() - t0:.0f} s); the effect alone (truth, "
                   f"noise-free): {channel} {alone[0]:.3f} {unit}, theta_m {alone[1] / count:.1f} counts; "
                   f"truth {truth}; fitted {fitted}; baseline mean square {s['baseline_mean_square']:.2f} "
@@ -132,10 +132,10 @@ def main(argv=None):
           + (f"; false alarms on 'none': {diagnosed - matrix.loc['none', 'none']}/{diagnosed}"
              if "none" in only else ""))
     if gaps:
-        both, force = np.array(gaps).T
+        both, channel_only = np.array(gaps).T
         print(f"gap above the noise removed when named right (mean square of {channel} and theta_m in noise units, as "
               f"diagnosis.json's gap_removed): min {100 * both.min():.0f} %, median {100 * np.median(both):.0f} %; "
-              f"{channel} alone: min {100 * force.min():.0f} %, median {100 * np.median(force):.0f} %")
+              f"{channel} alone: min {100 * channel_only.min():.0f} %, median {100 * np.median(channel_only):.0f} %")
 
 
 if __name__ == "__main__":

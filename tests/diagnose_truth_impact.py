@@ -275,13 +275,13 @@ def effect_signal(case, experiment="impact"):
     with_effect = _simulate_arguments(truth)
     without = _simulate_arguments({"eta_g": truth["eta_g"], "T_c0": truth["T_c0"]})
     column = 1 if experiment == "speed" else 2  # the compared channel beside the angle in simulate's result
-    force, angle = [], []
+    channel, angle = [], []
     for record in records:
         run_1 = _run(experiment, record[4]["gap0"], with_effect)
         run_0 = _run(experiment, record[4]["gap0"], without)
-        force.append(run_1[column] - run_0[column])
+        channel.append(run_1[column] - run_0[column])
         angle.append(run_1[3] - run_0[3])
-    return (float(np.sqrt(np.mean(np.concatenate(force) ** 2))),
+    return (float(np.sqrt(np.mean(np.concatenate(channel) ** 2))),
             float(np.sqrt(np.mean(np.concatenate(angle) ** 2))))
 
 
