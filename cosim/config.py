@@ -272,7 +272,8 @@ def load_config(path, overrides=()):
         The file is missing or malformed, or any key is unknown or invalid; the message lists every
         problem with ``file:line`` (or ``--set key``) and the key path.
     """
-    from cosim.fmi import FmuFileError, read_model_info
+    from cosim.errors import FmuFileError
+    from cosim.fmi import read_model_info
     from controllers.base import load_controller_class
 
     path = Path(path)

@@ -8,6 +8,10 @@ __all__ = [
     "BuildError",
     "ConfigError",
     "FmiCallError",
+    "FmuFileError",
+    "NotFittedError",
+    "HapticDataError",
+    "EngineFallbackWarning",
 ]
 
 
@@ -68,3 +72,19 @@ class FmiCallError(CosimError, RuntimeError):
         self.function = function
         self.status = status
         super().__init__(f"{function} returned {status}{': ' + detail if detail else ''}")
+
+
+class FmuFileError(CosimError, FileNotFoundError):
+    """An FMU file is missing, not a zip archive, or has no usable modelDescription.xml."""
+
+
+class NotFittedError(CosimError, AttributeError):
+    """A result was asked of an estimator (a calibrator, an identification fit) before ``fit`` ran."""
+
+
+class HapticDataError(CosimError, ValueError):
+    """A requested user, position, axis or structure is not in the shipped tables, or a value is missing."""
+
+
+class EngineFallbackWarning(UserWarning):
+    """The compiled engine was asked for but the run uses the Python engine (the message says why)."""

@@ -20,7 +20,8 @@ from test_master_support import EXAMPLES, ROOT, gripper_dir, gripper_overrides, 
 
 from cosim.config import load_config
 from cosim.master import run, run_config
-from cosim.master.compiled import CompiledEngine, EngineFallbackWarning, engine_for
+from cosim.errors import EngineFallbackWarning
+from cosim.master.compiled import CompiledEngine, engine_for
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,8 @@ from numpy.testing import assert_allclose
 from test_master_support import gripper_dir, master_dir  # noqa: F401  (fixtures)
 
 from cosim.errors import FmiCallError
-from cosim.fmi import FmuFileError, FmuInstance, check, read_model_info, safe_extract
+from cosim.errors import FmuFileError
+from cosim.fmi import FmuInstance, check, read_model_info, safe_extract
 
 
 def test_model_info_of_a_compiled_model(master_dir):

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from cosim.errors import HapticDataError
 from cosim.analysis.haptic_params import (
-    HapticDataError, load_arm_params, load_uncertainty_weight, load_user_params, user_params_table,
+    load_arm_params, load_uncertainty_weight, load_user_params, user_params_table,
 )
 from cosim.analysis.haptic_tf import tf_11, tf_7, tf_arm, tf_user
 

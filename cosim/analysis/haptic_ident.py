@@ -17,12 +17,11 @@ import math
 import numpy as np
 from scipy.optimize import least_squares
 
-from cosim.errors import CosimError
+from cosim.errors import NotFittedError
 from cosim.analysis.freqresp import FrequencyResponse, zoh_freq_response
 from cosim.analysis.haptic_params import PARAMS_11, PARAMS_7, USERS, load_user_params
 
 __all__ = [
-    "NotFittedError",
     "device_user_ss",
     "arm_ss",
     "model_response",
@@ -32,10 +31,6 @@ __all__ = [
 ]
 
 ARM_PARAMS = ("M", "k1", "k2", "b1", "b2")
-
-
-class NotFittedError(CosimError, AttributeError):
-    """A method that needs a fitted estimator was called before ``fit``."""
 
 
 def device_user_ss(values, structure):

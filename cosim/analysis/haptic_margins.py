@@ -15,8 +15,9 @@ import pandas as pd
 import control
 from scipy.optimize import brentq
 
-from cosim.analysis.haptic_params import USERS, POSITIONS, HapticDataError, load_user_params
+from cosim.analysis.haptic_params import USERS, POSITIONS, load_user_params
 from cosim.analysis.haptic_tf import tf_user
+from cosim.errors import HapticDataError
 
 __all__ = [
     "WallMargins",

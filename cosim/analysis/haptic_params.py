@@ -14,10 +14,9 @@ import math
 import numpy as np
 import pandas as pd
 
-from cosim.errors import CosimError
+from cosim.errors import HapticDataError
 
 __all__ = [
-    "HapticDataError",
     "USERS",
     "POSITIONS",
     "R_POINT_A",
@@ -56,10 +55,6 @@ _COLUMNS = {
 }
 # Table I prints values below 0.001 (in table units) as 0; the table unit of masses is g.m2.
 _TABLE_UNIT_TO_SI = {"m1": 1e-3, "m2": 1e-3, "mh": 1e-3}
-
-
-class HapticDataError(CosimError, ValueError):
-    """A requested user, position, axis or structure is not in the shipped tables, or a value is missing."""
 
 
 @dataclass(frozen=True)

@@ -6,13 +6,9 @@ import numpy as np
 
 from cosim.calibrate.problem import Transcription
 from cosim.calibrate.shooting import SingleShooting
-from cosim.errors import ConfigError, CosimError
+from cosim.errors import ConfigError, NotFittedError
 
-__all__ = ["Calibrator", "NotFittedError", "gauss_newton_uncertainty"]
-
-
-class NotFittedError(CosimError, AttributeError):
-    """A result was asked of a Calibrator before ``fit`` ran."""
+__all__ = ["Calibrator", "gauss_newton_uncertainty"]
 
 
 def gauss_newton_uncertainty(jac, cost, fitted, scale=1.0):

@@ -3,6 +3,6 @@ FMI 2.0 / 3.0 Model-Exchange and Co-Simulation instances. No other cosim module 
 
 from cosim.fmi.extract import safe_extract
 from cosim.fmi.instance import FmuInstance, Port, check
-from cosim.fmi.model import FmuFileError, ModelInfo, Variable, read_model_info
+from cosim.fmi.model import ModelInfo, Variable, read_model_info
 
-__all__ = ["FmuInstance", "Port", "check", "safe_extract", "read_model_info", "ModelInfo", "Variable", "FmuFileError"]
+__all__ = ["FmuInstance", "Port", "check", "safe_extract", "read_model_info", "ModelInfo", "Variable"]

@@ -5,7 +5,7 @@ import stat
 import zipfile
 from pathlib import Path
 
-from cosim.fmi.model import FmuFileError
+from cosim.errors import FmuFileError
 
 __all__ = ["safe_extract"]
 

@@ -7,13 +7,9 @@ import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from cosim.errors import CosimError
+from cosim.errors import FmuFileError
 
-__all__ = ["Variable", "ModelInfo", "read_model_info", "FmuFileError"]
-
-
-class FmuFileError(CosimError, FileNotFoundError):
-    """An FMU file is missing, not a zip archive, or has no usable modelDescription.xml."""
+__all__ = ["Variable", "ModelInfo", "read_model_info"]
 
 
 @dataclass(frozen=True)

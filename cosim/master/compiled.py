@@ -21,18 +21,14 @@ import warnings
 import numpy as np
 
 from controllers.base import Controller, compile_kernel, kernel_problem, native_kernel
-from cosim.errors import FmiCallError
+from cosim.errors import EngineFallbackWarning, FmiCallError
 from cosim.fmi import check
 from cosim.master import ckernel
 from cosim.master.engine import Engine, RunResult
 
-__all__ = ["CompiledEngine", "EngineFallbackWarning", "engine_for", "compiled_problem"]
+__all__ = ["CompiledEngine", "engine_for", "compiled_problem"]
 
 CHUNK = 4096  # instants per kernel call (about 1-5 ms of wall time at the FOC rate)
-
-
-class EngineFallbackWarning(UserWarning):
-    """The compiled engine was asked for but the run uses the Python engine (the message says why)."""
 
 
 def compiled_problem(config):
