@@ -10,11 +10,11 @@ VirtualWall
         v   = (phi_n - phi_{n-1}) / T            (backward difference of the encoder angle)
         tau = -(K pen + B v)  if pen > 0,  else 0
 
-    With pen > 0 this is C(z) = K + B (1 - z^-1)/T of cosim.analysis.haptic_margins, applied without delay
+    With pen > 0 this is C(z) = K + B (1 - z^-1)/T of cosim.haptic.margins, applied without delay
     (the loop of eq. 15). K = 10 N.m/rad and B = 0 are the paper's wall (346 N/m at point A).
 AdaptiveWall
     The same wall with B taken from a per-grasp-position table (seed 000 Sec. V, Table II, lost in the text
-    extraction and re-derived by cosim.analysis.haptic_margins.adaptive_damping for user 1: PM >= 50 deg).
+    extraction and re-derived by cosim.haptic.margins.adaptive_damping for user 1: PM >= 50 deg).
     The grasp position is a parameter (the paper detected it by vision; here each run has one position).
 UserIntent
     The hand's intended position ``phi_ref`` (the reference of the user's grounded elements in the Haptic
@@ -86,7 +86,7 @@ class VirtualWall(Controller):
 
 
 # B per grasp position tuned on user 1 of Table I for PM >= 50 deg at K = 10 N.m/rad, 1 kHz
-# (cosim.analysis.haptic_margins.adaptive_damping(user=1); tests/test_haptic_controllers.py checks the values)
+# (cosim.haptic.margins.adaptive_damping(user=1); tests/test_haptic_controllers.py checks the values)
 ADAPTIVE_B_USER1 = (0.0, 0.0, 0.0265, 0.0297, 0.0943, 0.1193)
 
 

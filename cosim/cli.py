@@ -44,7 +44,7 @@ def _add_build(sub):
 
 
 def _add_haptic(sub):
-    from cosim.analysis.haptic_cli import add_haptic_parser
+    from cosim.haptic.cli import add_haptic_parser
 
     add_haptic_parser(sub)
 

@@ -10,7 +10,7 @@ of the response at this torque).
 
 True plants (all at the phi axis, SI):
 
-* ``none``: a 7-parameter device + user (seed 000 eq. 9), the transfer function of cosim.analysis.haptic_tf.tf_7.
+* ``none``: a 7-parameter device + user (seed 000 eq. 9), the transfer function of cosim.haptic.tf.tf_7.
 * ``hand_mass``: an 11-parameter device + user (eq. 2, ``tf_11``): the hand mass mh held by kh, bh behind the skin
   ks, bs, and the stylus friction b2.
 * ``vibration_mode``: the 7-parameter plant plus an inertia m3 hung on the motor-side inertia m1 by k3, b3,
@@ -32,9 +32,9 @@ import numpy as np
 import pandas as pd
 from scipy import linalg
 
-from cosim.analysis.freqresp import simulate_lti, welch_tf, white_noise
-from cosim.analysis.haptic_params import PARAMS_11, PARAMS_7, POSITIONS, USERS, load_user_params
-from cosim.analysis.haptic_tf import tf_11, tf_7
+from cosim.freqresp import simulate_lti, welch_tf, white_noise
+from cosim.haptic.params import PARAMS_11, PARAMS_7, POSITIONS, USERS, load_user_params
+from cosim.haptic.tf import tf_11, tf_7
 
 __all__ = ["TRUTH_EFFECTS", "FS", "ENCODER_STEP", "random_plant", "measure", "make_case", "second_mode_ss",
            "delayed_response"]

@@ -1,7 +1,7 @@
 """The haptic half of the discrepancy workflow: frequency-response jobs on Haptic.Device7 and the effects
 hand_mass, vibration_mode, loop_delay.
 
-References are independent of the Modelica variants: the paper's transfer functions (cosim.analysis.haptic_tf),
+References are independent of the Modelica variants: the paper's transfer functions (cosim.haptic.tf),
 a hand-written state space for the second mode and the exact delay exp(-j w T) (tests/diagnose_truth_haptic.py);
 hidden-effect data are Welch estimates of simulated identification experiments with encoder quantisation.
 """
@@ -11,8 +11,8 @@ import json
 import numpy as np
 import pytest
 
-from cosim.analysis.haptic_ident import device_user_ss
-from cosim.analysis.haptic_tf import tf_11
+from cosim.haptic.ident import device_user_ss
+from cosim.haptic.tf import tf_11
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis, write_variant
 from cosim.diagnose.effects import variant_text
 from cosim.diagnose.frequency import FrequencyExperiment, frequency_noise, response
@@ -101,7 +101,7 @@ def test_neutral_variant_reproduces_the_baseline(name, neutral):
 
 def test_hand_mass_variant_is_the_eleven_parameter_model():
     """Device7 + hand_mass at user 1 position 3 (Table I) equals seed 000 eq. (2) (tf_11, continuous) to 1e-9."""
-    from cosim.analysis.haptic_params import load_user_params
+    from cosim.haptic.params import load_user_params
 
     values = load_user_params(1, 3).values
     H, _ = _variant_response("hand_mass", values, sample_rate=0.0)

@@ -7,7 +7,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from controllers.haptic import ADAPTIVE_B_USER1, AdaptiveWall, UserIntent, VirtualWall
-from cosim.analysis.haptic_margins import adaptive_damping
+from cosim.haptic.margins import adaptive_damping
 
 FMUS = __import__("pathlib").Path(__file__).resolve().parent.parent / "fmus"
 
@@ -78,8 +78,8 @@ def fmu_dir(tmp_path_factory):
 def test_step_contact_matches_margin_prediction(fmu_dir):
     # master run: the motor-torque step on the stylus resting in the wall; final penetration = tau/(K + k_user)
     # (statics, independent of the dynamics) and overshoot/settling near exp(-pi z/sqrt(1-z^2)), 4/(z w_cg)
-    from cosim.analysis.haptic_collision import collision_study, user_static_stiffness
-    from cosim.analysis.haptic_params import load_user_params
+    from cosim.haptic.collision import collision_study, user_static_stiffness
+    from cosim.haptic.params import load_user_params
 
     df = collision_study(users=(1,), positions=(3, 5), fmu_dir=fmu_dir, scenarios=("step",))
     for _, r in df.iterrows():
@@ -94,7 +94,7 @@ def test_step_contact_matches_margin_prediction(fmu_dir):
 
 def test_adaptive_wall_equalises_settling(fmu_dir):
     # seed 000 Sec. V-C: with the adaptive impedances positions 3 and 5 settle alike (0.183 vs 0.185 s measured)
-    from cosim.analysis.haptic_collision import collision_study
+    from cosim.haptic.collision import collision_study
 
     df = collision_study(users=(1,), positions=(3, 5), adaptive=True, fmu_dir=fmu_dir, scenarios=("step",))
     s3, s5 = df.step_settling_s
@@ -102,8 +102,8 @@ def test_adaptive_wall_equalises_settling(fmu_dir):
 
 
 def test_collision_reaches_target_force(fmu_dir):
-    from cosim.analysis.haptic_collision import collision_metrics, simulate_contact
-    from cosim.analysis.haptic_params import load_user_params
+    from cosim.haptic.collision import collision_metrics, simulate_contact
+    from cosim.haptic.params import load_user_params
 
     d = simulate_contact(load_user_params(1, 3), "collision", fmu_dir=fmu_dir, v_approach=0.5, tau_final=0.1)
     m = collision_metrics(d["time"], d["phi"])

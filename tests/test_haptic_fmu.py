@@ -1,6 +1,6 @@
 """The Haptic FMUs equal the papers' transfer functions (seed 000 eqs. 2, 9; seed 001 eq. 1) within 0.1 dB / 1 deg.
 
-References are the formulas evaluated directly with python-control polynomials (cosim.analysis.haptic_tf), not
+References are the formulas evaluated directly with python-control polynomials (cosim.haptic.tf), not
 the Modelica source; the FMU is linearised by central differences through its FMI 3 ME interface.
 """
 
@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from cosim.analysis.haptic_fmu import fmu_parameters, linearize_fmu, simulate_fmu
-from cosim.analysis.haptic_ident import model_response
-from cosim.analysis.haptic_experiments import device_experiment
-from cosim.analysis.haptic_params import PARAMS_11, load_arm_params, load_user_params
-from cosim.analysis.haptic_tf import tf_arm, tf_device_arm, tf_user
+from cosim.haptic.fmu import fmu_parameters, linearize_fmu, simulate_fmu
+from cosim.haptic.ident import model_response
+from cosim.haptic.experiments import device_experiment
+from cosim.haptic.params import PARAMS_11, load_arm_params, load_user_params
+from cosim.haptic.tf import tf_arm, tf_device_arm, tf_user
 
 ROOT = Path(__file__).resolve().parent.parent
 SOURCE = ROOT / "modelica" / "Haptic" / "package.mo"

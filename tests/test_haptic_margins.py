@@ -7,11 +7,11 @@ import pytest
 import control
 from numpy.testing import assert_allclose
 
-from cosim.analysis.haptic_margins import (
+from cosim.haptic.margins import (
     MARGIN_COLUMNS, adaptive_damping, discretize, margins_table, position_means, wall_margins,
 )
-from cosim.analysis.haptic_params import load_user_params
-from cosim.analysis.haptic_tf import tf_user
+from cosim.haptic.params import load_user_params
+from cosim.haptic.tf import tf_user
 
 
 @pytest.fixture(scope="module")

@@ -7,10 +7,10 @@ import pytest
 from numpy.testing import assert_allclose
 
 from cosim.errors import HapticDataError
-from cosim.analysis.haptic_params import (
+from cosim.haptic.params import (
     load_arm_params, load_uncertainty_weight, load_user_params, user_params_table,
 )
-from cosim.analysis.haptic_tf import tf_11, tf_7, tf_arm, tf_user
+from cosim.haptic.tf import tf_11, tf_7, tf_arm, tf_user
 
 
 def test_user1_position3_row_in_si():

@@ -18,8 +18,8 @@ from pathlib import Path
 import control
 import numpy as np
 
-from cosim.analysis.freqresp import simulate_lti, welch_tf, white_noise
-from cosim.analysis.haptic_params import load_user_params
+from cosim.freqresp import simulate_lti, welch_tf, white_noise
+from cosim.haptic.params import load_user_params
 from cosim.compile import lower
 from cosim.diagnose import EFFECTS, write_variant
 

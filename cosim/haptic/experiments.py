@@ -15,10 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 import control
 
-from cosim.analysis.freqresp import coloured_noise, simulate_lti, welch_tf, white_noise
-from cosim.analysis.haptic_ident import ArmFit, DeviceUserFit
-from cosim.analysis.haptic_params import R_POINT_A, load_arm_params, load_uncertainty_weight
-from cosim.analysis.haptic_tf import tf_arm, uncertainty_weight_tf
+from cosim.freqresp import coloured_noise, simulate_lti, welch_tf, white_noise
+from cosim.haptic.ident import ArmFit, DeviceUserFit
+from cosim.haptic.params import R_POINT_A, load_arm_params, load_uncertainty_weight
+from cosim.haptic.tf import tf_arm, uncertainty_weight_tf
 
 __all__ = [
     "device_experiment",

@@ -15,8 +15,8 @@ import pandas as pd
 import control
 from scipy.optimize import brentq
 
-from cosim.analysis.haptic_params import USERS, POSITIONS, load_user_params
-from cosim.analysis.haptic_tf import tf_user
+from cosim.haptic.params import USERS, POSITIONS, load_user_params
+from cosim.haptic.tf import tf_user
 from cosim.errors import HapticDataError
 
 __all__ = [

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.analysis.haptic_params import ArmParams, HapticParams, R_POINT_A
+from cosim.haptic.params import ArmParams, HapticParams, R_POINT_A
 
 __all__ = ["FMU_NAMES", "fmu_parameters", "linearize_fmu", "simulate_fmu"]
 

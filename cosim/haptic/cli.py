@@ -4,7 +4,7 @@ __all__ = ["add_haptic_parser"]
 
 
 def _cmd_margins(args):
-    from cosim.analysis.haptic_report import write_margins
+    from cosim.haptic.report import write_margins
 
     for path in write_margins(args.out, K=args.K, rate=args.rate, adaptive=args.adaptive):
         print(f"wrote {path}")
@@ -12,7 +12,7 @@ def _cmd_margins(args):
 
 
 def _cmd_collisions(args):
-    from cosim.analysis.haptic_report import write_collisions
+    from cosim.haptic.report import write_collisions
 
     users = _int_list(args.users, "--users")
     for path in write_collisions(args.out, users=users, adaptive=args.adaptive, fmu_dir=args.fmus, K=args.K,
@@ -22,7 +22,7 @@ def _cmd_collisions(args):
 
 
 def _cmd_identify(args):
-    from cosim.analysis.haptic_report import write_identification
+    from cosim.haptic.report import write_identification
 
     for path in write_identification(args.out, user=args.user, position=args.position, use_fmu=args.fmu,
                                      fmu_dir=args.fmus, seed=args.seed):
@@ -31,7 +31,7 @@ def _cmd_identify(args):
 
 
 def _cmd_arm(args):
-    from cosim.analysis.haptic_report import write_arm
+    from cosim.haptic.report import write_arm
 
     for path in write_arm(args.out, seed=args.seed):
         print(f"wrote {path}")

@@ -18,8 +18,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from cosim.errors import NotFittedError
-from cosim.analysis.freqresp import FrequencyResponse, zoh_freq_response
-from cosim.analysis.haptic_params import PARAMS_11, PARAMS_7, USERS, load_user_params
+from cosim.freqresp import FrequencyResponse, zoh_freq_response
+from cosim.haptic.params import PARAMS_11, PARAMS_7, USERS, load_user_params
 
 __all__ = [
     "device_user_ss",

@@ -18,7 +18,7 @@ from numpy.polynomial import polynomial as P
 
 import control
 
-from cosim.analysis.haptic_params import PARAMS_11, PARAMS_7, HapticParams, ArmParams, R_POINT_A
+from cosim.haptic.params import PARAMS_11, PARAMS_7, HapticParams, ArmParams, R_POINT_A
 from cosim.errors import HapticDataError
 
 __all__ = [

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.analysis.haptic_margins import MARGIN_COLUMNS, adaptive_damping, margins_table, position_means
+from cosim.haptic.margins import MARGIN_COLUMNS, adaptive_damping, margins_table, position_means
 
 __all__ = ["write_margins", "plot_margins", "write_collisions", "write_identification", "write_arm"]
 
@@ -115,7 +115,7 @@ def _plt():
 def write_collisions(out_dir, users=(1,), adaptive=False, fmu_dir="fmus", K=10.0, rate=1000.0):
     """Simulate wall contacts through the master for ``users`` x 6 positions and write the comparison.
 
-    Writes ``collisions.csv`` (predicted vs simulated, `cosim.analysis.haptic_collision.collision_study`),
+    Writes ``collisions.csv`` (predicted vs simulated, `cosim.haptic.collision.collision_study`),
     ``collisions_means.csv`` (per position) and ``collisions.png`` (user ``users[0]`` at positions 1, 3, 5:
     step and collision responses, as the paper's Figs. 12 and 15).
 
@@ -123,9 +123,9 @@ def write_collisions(out_dir, users=(1,), adaptive=False, fmu_dir="fmus", K=10.0
     -------
     list of Path
     """
-    from cosim.analysis.haptic_collision import collision_study, simulate_contact
-    from cosim.analysis.haptic_margins import adaptive_damping
-    from cosim.analysis.haptic_params import load_user_params
+    from cosim.haptic.collision import collision_study, simulate_contact
+    from cosim.haptic.margins import adaptive_damping
+    from cosim.haptic.params import load_user_params
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -189,10 +189,10 @@ def write_identification(out_dir, user=1, position=3, use_fmu=False, fmu_dir="fm
     """
     import pandas as pd
 
-    from cosim.analysis.haptic_experiments import device_experiment
-    from cosim.analysis.haptic_fmu import fmu_parameters, simulate_fmu
-    from cosim.analysis.haptic_params import load_user_params
-    from cosim.analysis.haptic_tf import tf_user
+    from cosim.haptic.experiments import device_experiment
+    from cosim.haptic.fmu import fmu_parameters, simulate_fmu
+    from cosim.haptic.params import load_user_params
+    from cosim.haptic.tf import tf_user
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -249,9 +249,9 @@ def write_arm(out_dir, seed=0):
     """
     import pandas as pd
 
-    from cosim.analysis.haptic_experiments import arm_experiment, arm_robust_stability, plot_arm_models
-    from cosim.analysis.haptic_ident import ARM_PARAMS
-    from cosim.analysis.haptic_params import load_arm_params
+    from cosim.haptic.experiments import arm_experiment, arm_robust_stability, plot_arm_models
+    from cosim.haptic.ident import ARM_PARAMS
+    from cosim.haptic.params import load_arm_params
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
