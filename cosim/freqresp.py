@@ -1,4 +1,4 @@
-"""Frequency-response experiments: excitation signals, sampled simulation of an LTI plant, Welch estimates.
+"""Frequency responses, generic: excitations, sampled LTI simulation, Welch estimates, model responses (ZOH).
 
 The estimate follows MATLAB's ``tfestimate`` (H1 = P_xy / P_xx) and ``mscohere`` with the windows the seed
 papers used; the exact zero-order-hold frequency response lets a model be compared with data that were
@@ -20,6 +20,7 @@ __all__ = [
     "welch_tf",
     "zoh_freq_response",
     "continuous_freq_response",
+    "model_response",
 ]
 
 
@@ -206,3 +207,28 @@ def continuous_freq_response(num, den, f):
     """Evaluate num(s)/den(s) (coefficients highest power first) at s = j 2 pi f."""
     s = 2j * np.pi * np.asarray(f, dtype=float)
     return np.polyval(num, s) / np.polyval(den, s)
+
+
+def model_response(ss, f, fs=None):
+    """Frequency response of a state-space plant: continuous, or through a zero-order hold at ``fs``.
+
+    Parameters
+    ----------
+    ss : tuple of numpy.ndarray
+        Continuous SISO (A, B, C, D), shapes (n, n), (n, 1), (1, n), (1, 1).
+    f : array_like, shape (m,)
+        Frequencies, Hz.
+    fs : float, optional
+        Sample rate of the hold, Hz (default None: the continuous response C (sI - A)^-1 B + D).
+
+    Returns
+    -------
+    numpy.ndarray of complex, shape (m,)
+    """
+    A, B, C, D = ss
+    if fs is None:
+        s = 2j * np.pi * np.asarray(f, dtype=float)
+        n = A.shape[0]
+        x = np.linalg.solve(s[:, None, None] * np.eye(n)[None] - A[None], np.broadcast_to(B.astype(complex), (len(s), n, 1)))
+        return x[:, :, 0] @ C.ravel() + D[0, 0]
+    return zoh_freq_response(A, B, C, D, f, fs)

@@ -12,7 +12,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from cosim.haptic.fmu import fmu_parameters, linearize_fmu, simulate_fmu
-from cosim.haptic.ident import model_response
+from cosim.freqresp import model_response
 from cosim.haptic.experiments import device_experiment
 from cosim.haptic.params import PARAMS_11, load_arm_params, load_user_params
 from cosim.haptic.tf import tf_arm, tf_device_arm, tf_user

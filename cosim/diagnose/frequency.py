@@ -17,8 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cosim.freqresp import zoh_freq_response
-from cosim.haptic.ident import model_response
+from cosim.freqresp import model_response, zoh_freq_response
 from cosim.calibrate.data import load_measurements
 from cosim.diagnose.fitting import check_parameters
 from cosim.errors import ConfigError
@@ -132,7 +131,7 @@ def response(abcd, frequency, sample_rate):
     Evaluated in modal form, sum_i c_i b_i g_i / (z - mu_i), from one eigendecomposition of A (a fit calls this
     thousands of times; a matrix exponential per call costs ~10x more): ZOH poles mu = exp(lambda h) with input
     gains g = (exp(lambda h) - 1)/lambda, or s - lambda when continuous. When the eigenvectors are nearly
-    dependent (repeated poles) the direct solves of freqresp / haptic.ident are used instead."""
+    dependent (repeated poles) the direct solves of cosim.freqresp are used instead."""
     A, B, C, D = abcd
     lam, V = np.linalg.eig(A)
     if np.linalg.cond(V) > 1e8:

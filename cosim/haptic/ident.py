@@ -18,13 +18,12 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from cosim.errors import NotFittedError
-from cosim.freqresp import FrequencyResponse, zoh_freq_response
+from cosim.freqresp import FrequencyResponse, model_response
 from cosim.haptic.params import PARAMS_11, PARAMS_7, USERS, load_user_params
 
 __all__ = [
     "device_user_ss",
     "arm_ss",
-    "model_response",
     "DeviceUserFit",
     "ArmFit",
     "ARM_PARAMS",
@@ -89,17 +88,6 @@ def arm_ss(values):
     B = np.array([[1 / b1], [0.0], [1 / M]])
     C = np.array([[1.0, 0.0, 0.0]])
     return A, B, C, np.zeros((1, 1))
-
-
-def model_response(ss, f, fs=None):
-    """Frequency response of (A, B, C, D) at ``f`` (Hz): continuous, or through a ZOH at ``fs`` (Hz)."""
-    A, B, C, D = ss
-    if fs is None:
-        s = 2j * np.pi * np.asarray(f, dtype=float)
-        n = A.shape[0]
-        x = np.linalg.solve(s[:, None, None] * np.eye(n)[None] - A[None], np.broadcast_to(B.astype(complex), (len(s), n, 1)))
-        return x[:, :, 0] @ C.ravel() + D[0, 0]
-    return zoh_freq_response(A, B, C, D, f, fs)
 
 
 class _FrequencyFit:
