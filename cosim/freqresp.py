@@ -19,7 +19,6 @@ __all__ = [
     "simulate_lti",
     "welch_tf",
     "zoh_freq_response",
-    "continuous_freq_response",
     "model_response",
 ]
 
@@ -201,12 +200,6 @@ def zoh_freq_response(A, B, C, D, f, fs):
     rhs = np.broadcast_to(Bd.astype(complex), (len(z), n, 1))
     x = np.linalg.solve(lhs, rhs)[:, :, 0]
     return x @ C.ravel() + D
-
-
-def continuous_freq_response(num, den, f):
-    """Evaluate num(s)/den(s) (coefficients highest power first) at s = j 2 pi f."""
-    s = 2j * np.pi * np.asarray(f, dtype=float)
-    return np.polyval(num, s) / np.polyval(den, s)
 
 
 def model_response(ss, f, fs=None):
