@@ -1,10 +1,10 @@
-"""Analyses of models and runs: haptic wall stability margins, frequency-response identification, contacts.
+"""Haptic analyses of the PHANToM phi axis held by a user: wall stability margins, identification, contacts.
 
 The most used functions are available here (imported on first use, so that ``cosim`` commands that do not
-need them start fast); the modules hold the rest: ``params`` (shipped tables), ``tf`` (the
-papers' transfer functions), ``margins`` (sampled-wall stability, adaptive damping), ``freqresp`` /
-``ident`` / ``experiments`` (identification), ``fmu`` / ``collision`` (FMU and
-master runs), ``report`` (files, plots), ``cli`` (``cosim haptic ...``).
+need them start fast); the modules hold the rest: ``params`` (shipped tables), ``tf`` (the papers' transfer
+functions), ``margins`` (sampled-wall stability, adaptive damping), ``ident`` / ``experiments``
+(identification; the generic frequency-response tools are in `cosim.freqresp`), ``fmu`` / ``collision`` (FMU
+and master runs), ``report`` (files, plots), ``cli`` (``cosim haptic ...``).
 """
 
 import importlib
