@@ -25,7 +25,7 @@ import tomllib
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
-from cosim.tomldoc import Problems, parse_overrides, read_toml
+from cosim.tomldoc import parse_overrides, read_toml
 
 __all__ = [
     "load_config",
