@@ -21,6 +21,10 @@ Profiles (``profile``)
     "impact": velocity ramp from 0 at ``t_start`` to ``speed_rpm`` in ``ramp_s``, then the trigger and
     switch above. "staircase": current mode from ``t_start``: ``step_A`` steps of ``step_s`` up to
     ``top_A`` and back down to 0 A, held at 0 A afterwards. "velocity": the ramp without the trigger.
+
+Summaries (``OuterLoop.summaries``, chosen by a run config's ``[summary] kind``)
+    "static" (:class:`StaircaseSummary`) and "impact" (:class:`ImpactSummary`): the experiment keys a run of
+    the staircase or the impact trial writes to summary.json, read from the recorded force.
 """
 
 import math
@@ -30,7 +34,7 @@ import numpy as np
 
 from controllers.base import Controller
 
-__all__ = ["OuterLoop", "staircase_current", "staircase_steps"]
+__all__ = ["OuterLoop", "staircase_current", "staircase_steps", "StaircaseSummary", "ImpactSummary"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -68,6 +72,119 @@ def staircase_steps(t0, step_a, step_s, top_a):
         cur = staircase_current(t0 + (k + 0.5) * step_s, t0, step_a, step_s, top_a)
         out.append((round(cur, 10), t0 + k * step_s, t0 + (k + 1) * step_s, "up" if k < n_up else "down"))
     return out
+
+
+def _window_mean(t, f, a, b):
+    m = (t >= a - 1e-12) & (t < b - 1e-12)
+    return float(np.mean(f[m])) if m.any() else None
+
+
+class StaircaseSummary:
+    """The static staircase (``profile = "staircase"``) in summary.json.
+
+    For each staircase step (A, as a string like "1.5"), the mean force of the step's last second (the
+    last half of the step when steps are shorter than 2 s) on the way up (``force_up_N``) and down
+    (``force_down_N``); ``max_force_N`` (largest force over the run), ``residual_force_N`` (mean force
+    of the final 0 A step after the way down) and ``staircase_window_s`` (the averaging window).
+    """
+
+    signals = ("force",)  # [summary] keys naming a recorded column
+    outputs = ()  # outputs of the controller it reads
+
+    @staticmethod
+    def summarize(data, values, columns):
+        """The summary keys of a run.
+
+        Parameters
+        ----------
+        data : numpy.ndarray
+            The recorded structured array (``time`` first).
+        values : dict
+            The outer loop's parameter values (``t_start``, ``step_A``, ``step_s``, ``top_A``).
+        columns : dict of str to str
+            ``"force"`` -> the force column (N).
+
+        Returns
+        -------
+        dict
+        """
+        t = data["time"]
+        f = data[columns["force"]]
+        steps = staircase_steps(values["t_start"], values["step_A"], values["step_s"], values["top_A"])
+        win = 1.0 if values["step_s"] >= 2.0 else values["step_s"] / 2.0
+        up, down = {}, {}
+        residual = None
+        for cur, a, b, branch in steps:
+            mean = _window_mean(t, f, b - win, b)
+            if mean is None:
+                continue
+            key = f"{cur:.1f}" if abs(cur * 10 - round(cur * 10)) < 1e-9 else f"{cur:g}"
+            (up if branch == "up" else down)[key] = mean
+            if branch == "down" and cur == 0.0:
+                residual = mean
+        return {
+            "max_force_N": float(np.max(f)) if len(f) else None,
+            "residual_force_N": residual,
+            "force_up_N": up,
+            "force_down_N": down,
+            "staircase_window_s": win,
+        }
+
+
+class ImpactSummary:
+    """The impact trial (``profile = "impact"``) in summary.json.
+
+    ``peak_force_N`` (largest force), ``min_force_after_peak_N`` (smallest force from the peak to the end
+    of tightening: 0 when the finger bounces off), ``steady_force_N`` (mean force over the last second of
+    tightening, or of the recorded part of it when the run stops earlier, with its ``steady_window_s``),
+    ``t_switch_s`` (time of the velocity-to-current switch; None when the trigger never fired) and
+    ``t_contact_s`` (first time the force exceeds 1 N).
+    """
+
+    signals = ("force",)  # [summary] keys naming a recorded column
+    outputs = ("t_switch",)  # outputs of the controller it reads (recorded even when the config does not list them)
+
+    @staticmethod
+    def summarize(data, values, columns):
+        """The summary keys of a run.
+
+        Parameters
+        ----------
+        data : numpy.ndarray
+            The recorded structured array (``time`` first).
+        values : dict
+            The outer loop's parameter values (``hold_s``).
+        columns : dict of str to str
+            ``"force"`` -> the force column (N); ``"t_switch"`` -> the loop's switch time column (s).
+
+        Returns
+        -------
+        dict
+        """
+        t = data["time"]
+        f = data[columns["force"]]
+        col = columns["t_switch"]
+        t_sw = None
+        if col in data.dtype.names and len(t):
+            v = float(data[col][-1])
+            t_sw = v if v >= 0 else None
+        out = {"peak_force_N": None, "min_force_after_peak_N": None, "steady_force_N": None,
+               "t_switch_s": t_sw, "t_contact_s": None}
+        if not len(f):
+            return out
+        ipk = int(np.argmax(f))
+        end = t[-1] if t_sw is None else min(t[-1], t_sw + values["hold_s"])
+        after = (t >= t[ipk]) & (t <= end + 1e-12)
+        contact = np.nonzero(f > 1.0)[0]
+        out["peak_force_N"] = float(f[ipk])
+        out["min_force_after_peak_N"] = float(np.min(f[after]))
+        out["t_contact_s"] = float(t[contact[0]]) if len(contact) else None
+        if t_sw is not None:
+            a = max(end - 1.0, t_sw)
+            m = (t >= a - 1e-12) & (t <= end + 1e-12)
+            out["steady_force_N"] = float(np.mean(f[m])) if m.any() else None
+            out["steady_window_s"] = [float(a), float(end)]
+        return out
 
 
 def _outer_kernel(t, u, y, x, p):
@@ -145,7 +262,8 @@ class OuterLoop(Controller):
 
     Input: ``theta_m`` (rad, motor angle). Outputs: ``i_q_ref`` (A, to the FOC), ``w_est`` (rad/s,
     differenced encoder speed), ``w_set`` (rad/s), ``mode`` (0 velocity, 1 current), ``t_switch``
-    (s, time of the switch; -1 before).
+    (s, time of the switch; -1 before). ``summaries``: the summary.json keys of the staircase ("static")
+    and of the impact trial ("impact").
     """
 
     parameters = {
@@ -176,6 +294,7 @@ class OuterLoop(Controller):
              "speed_rpm": "rpm", "ramp_s": "s", "t_start": "s", "i_tight": "A", "hold_s": "s", "step_A": "A",
              "step_s": "s", "top_A": "A"}
     kernel = staticmethod(_outer_kernel)
+    summaries = {"static": StaircaseSummary, "impact": ImpactSummary}
 
     def pack(self):
         v = self.values

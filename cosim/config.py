@@ -3,7 +3,8 @@
 :func:`load_config` parses the file once, applies ``--set key=value`` overrides, checks every key
 against the schema, the FMUs' model descriptions and the controller classes, and collects *every*
 problem, each with its TOML key path and ``file:line`` (found by scanning the text: tomllib gives no
-line numbers for keys), before raising one :class:`cosim.errors.ConfigError`.
+line numbers for keys), before raising one :class:`cosim.errors.ConfigError`. Each section is read by
+one function; a key's default is the default of its field in the section's frozen dataclass.
 
 The schema (see docs/config.md for the full reference)::
 
@@ -14,17 +15,17 @@ The schema (see docs/config.md for the full reference)::
     [[connections]]     from = "inst.var", to = "inst.var", gain, offset
     [record]      rate, signals = ["inst.var", ...]
     [plot]        file, panels = [["sig", ...], ...]
-    [summary]     kind (none|static|impact), force, controller
+    [summary]     kind (none, or a summary the controller provides), controller, the summary's signals
 """
 
 import difflib
 import math
 import re
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
-from cosim.tomldoc import Problems, parse_overrides, read_toml
+from cosim.tomldoc import parse_overrides, read_toml
 
 __all__ = [
     "load_config",
@@ -48,10 +49,10 @@ _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 # ----------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class RunSpec:
-    """Run window and options. ``start``/``stop`` in s; ``progress`` is True, False or "auto"."""
+    """Run window and options. ``start``/``stop`` in s (``stop`` is required); ``progress`` is True, False or "auto"."""
 
     start: float = 0.0
-    stop: float = 1.0
+    stop: float = None
     seed: int = 0
     engine: str = "compiled"  # "compiled" (falls back to "python" where controllers need it) or "python"
     progress: object = "auto"
@@ -87,12 +88,12 @@ class FmuSpec:
 
 @dataclass(frozen=True)
 class ControllerSpec:
-    """One controller instance: ``cls`` the imported class, ``rate`` in Hz (as written)."""
+    """One controller instance: ``cls`` the imported class, ``rate`` in Hz (as written, required)."""
 
     name: str
     class_path: str
-    rate: float
-    parameters: dict
+    rate: float = None
+    parameters: dict = field(default_factory=dict)
     jit: bool = True
     cls: object = field(repr=False, compare=False, default=None)
 
@@ -111,8 +112,8 @@ class Connection:
 class RecordSpec:
     """Signals ("inst.var") recorded at ``rate`` Hz (instants ``start + k / rate`` up to ``stop``)."""
 
-    rate: float
-    signals: tuple
+    rate: float = 1000.0
+    signals: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -125,11 +126,16 @@ class PlotSpec:
 
 @dataclass(frozen=True)
 class SummarySpec:
-    """Experiment summary written to summary.json: "static", "impact" or "none"."""
+    """The experiment keys of summary.json: ``plugin`` is ``controller``'s ``cls.summaries[kind]`` (None for "none").
+
+    ``columns`` maps each name the plugin reads (its ``signals``, the keys of ``[summary]``, and its
+    ``outputs``, the controller's outputs) to the recorded column.
+    """
 
     kind: str = "none"
-    force: str = "F_g"
-    controller: str = "outer"
+    controller: str = None
+    columns: dict = field(default_factory=dict)
+    plugin: object = field(repr=False, compare=False, default=None)
 
 
 @dataclass(frozen=True)
@@ -155,43 +161,20 @@ class Config:
 
 
 # ----------------------------------------------------------------------------------------------
-# suggestions
-# ----------------------------------------------------------------------------------------------
-def _close(name, names):
-    close = difflib.get_close_matches(name, list(names), n=4, cutoff=0.5)
-    return f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
-
-
-# ----------------------------------------------------------------------------------------------
 # schema helpers
 # ----------------------------------------------------------------------------------------------
 _TOP = ("run", "solver", "fmus", "controllers", "connections", "record", "plot", "summary")
-_RUN = {"start": 0.0, "stop": None, "seed": 0, "engine": "compiled", "progress": "auto"}
-_SOLVER = {"method": "rk4", "substeps": 1, "max_step": 0.0, "rtol": 1e-6, "atol": 1e-9}
 _FMU = ("path", "kind", "parameters_file", "parameters", "start")
 _CTRL = ("class", "rate", "jit", "parameters")
 _CONN = ("from", "to", "gain", "offset")
-_RECORD = ("rate", "signals")
-_PLOT = ("file", "panels")
-_SUMMARY = ("kind", "force", "controller")
+_SUMMARY = ("kind", "controller")  # and the signals of the chosen summary
+_ENGINES = ("compiled", "python")
 _METHODS = ("rk4", "bdf", "radau", "lsoda")
 
 
-def _parameters_file(table, base_dir, problems, path):
-    """The ``[parameters]`` table of a TOML file (as ``cosim calibrate`` writes it); ``parameters`` override it."""
-    name = table.get("parameters_file")
-    if name is None:
-        return {}
-    file = base_dir / str(name)
-    try:
-        values = tomllib.loads(file.read_text(encoding="utf-8")).get("parameters", {})
-    except (OSError, tomllib.TOMLDecodeError) as err:
-        problems.add(path + ("parameters_file",), f"cannot read a [parameters] table from {file}: {err}")
-        return {}
-    if not isinstance(values, dict):
-        problems.add(path + ("parameters_file",), f"{file}: [parameters] must be a table of name = value")
-        return {}
-    return values
+def _close(name, names):
+    close = difflib.get_close_matches(name, list(names), n=4, cutoff=0.5)
+    return f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
 
 
 def _is_num(v):
@@ -212,33 +195,46 @@ def _unknown(table, allowed, problems, path):
             problems.add(path + (k,), f"unknown key{_close(k, allowed)} (allowed: {', '.join(allowed)})")
 
 
-def _number(table, key, default, problems, path, positive=False, nonneg=False, integer=False):
-    v = table.get(key, default)
-    if v is None:
-        problems.add(path + (key,), "is required")
-        return default
-    if integer:
-        if isinstance(v, bool) or not isinstance(v, int):
-            problems.add(path + (key,), f"must be an integer; got {v!r}")
+class _Section:
+    """One table read against a spec dataclass: unknown keys are problems, a missing key takes its field's
+    default (a default of None: the key is required)."""
+
+    def __init__(self, table, path, spec, problems, allowed=None):
+        self.table, self.path, self.problems = table, path, problems
+        self.defaults = {f.name: f.default for f in fields(spec) if f.default is not MISSING}
+        _unknown(table, allowed or tuple(self.defaults), problems, path)
+
+    def number(self, key, positive=False, nonneg=False, integer=False):
+        """``table[key]`` checked as a finite number (the default, after a problem, when it is not)."""
+        default = self.defaults.get(key)
+        v = self.table.get(key, default)
+        where = self.path + (key,)
+        if v is None:
+            self.problems.add(where, "is required")
             return default
-    elif not _is_num(v):
-        problems.add(path + (key,), f"must be a finite number; got {v!r}")
-        return default
-    if positive and not v > 0:
-        problems.add(path + (key,), f"must be > 0; got {v!r}")
-        return default
-    if nonneg and v < 0:
-        problems.add(path + (key,), f"must be >= 0; got {v!r}")
-        return default
-    return v
+        if integer:
+            if isinstance(v, bool) or not isinstance(v, int):
+                self.problems.add(where, f"must be an integer; got {v!r}")
+                return default
+        elif not _is_num(v):
+            self.problems.add(where, f"must be a finite number; got {v!r}")
+            return default
+        if positive and not v > 0:
+            self.problems.add(where, f"must be > 0; got {v!r}")
+            return default
+        if nonneg and v < 0:
+            self.problems.add(where, f"must be >= 0; got {v!r}")
+            return default
+        return v
 
-
-def _choice(table, key, default, choices, problems, path):
-    v = table.get(key, default)
-    if v not in choices:
-        problems.add(path + (key,), f"must be one of {', '.join(repr(c) for c in choices)}; got {v!r}{_close(str(v), choices)}")
-        return default
-    return v
+    def choice(self, key, choices):
+        """``table[key]`` checked against ``choices`` (the default, after a problem, when it is not one)."""
+        v = self.table.get(key, self.defaults[key])
+        if v not in choices:
+            self.problems.add(self.path + (key,), f"must be one of {', '.join(repr(c) for c in choices)}; "
+                                                  f"got {v!r}{_close(str(v), choices)}")
+            return self.defaults[key]
+        return v
 
 
 def _signal(text, problems, path):
@@ -247,6 +243,342 @@ def _signal(text, problems, path):
         return None
     inst, _, var = text.partition(".")
     return inst, var
+
+
+# ----------------------------------------------------------------------------------------------
+# one function per section
+# ----------------------------------------------------------------------------------------------
+def _run(data, problems):
+    s = _Section(_table(data, "run", problems, ()), ("run",), RunSpec, problems)
+    start = s.number("start")
+    stop = s.number("stop")
+    if _is_num(start) and _is_num(stop) and stop <= start:
+        problems.add(("run", "stop"), f"must be > run.start ({start}); got {stop}")
+    seed = s.number("seed", integer=True, nonneg=True)
+    engine = s.choice("engine", _ENGINES)
+    progress = s.table.get("progress", s.defaults["progress"])
+    if progress not in (True, False, "auto"):
+        problems.add(("run", "progress"), f"must be true, false or \"auto\"; got {progress!r}")
+        progress = s.defaults["progress"]
+    return RunSpec(float(start), None if stop is None else float(stop), int(seed), engine, progress)
+
+
+def _solver(data, problems):
+    s = _Section(_table(data, "solver", problems, ()), ("solver",), SolverSpec, problems)
+    return SolverSpec(
+        method=s.choice("method", _METHODS),
+        substeps=s.number("substeps", positive=True, integer=True),
+        max_step=float(s.number("max_step", nonneg=True)),
+        rtol=float(s.number("rtol", positive=True)),
+        atol=float(s.number("atol", positive=True)),
+    )
+
+
+def _parameters_file(table, base_dir, problems, path):
+    """The ``[parameters]`` table of a TOML file (as ``cosim calibrate`` writes it); ``parameters`` override it."""
+    name = table.get("parameters_file")
+    if name is None:
+        return {}
+    file = base_dir / str(name)
+    try:
+        values = tomllib.loads(file.read_text(encoding="utf-8")).get("parameters", {})
+    except (OSError, tomllib.TOMLDecodeError) as err:
+        problems.add(path + ("parameters_file",), f"cannot read a [parameters] table from {file}: {err}")
+        return {}
+    if not isinstance(values, dict):
+        problems.add(path + ("parameters_file",), f"{file}: [parameters] must be a table of name = value")
+        return {}
+    return values
+
+
+def _fmu_values(info, file, params, starts, problems, p):
+    """Check parameter and start values against the model description ``info`` of ``file``."""
+    for pn, pv in params.items():
+        var = info.variables.get(pn)
+        if var is None:
+            names = [v.name for v in info.variables.values() if v.causality == "parameter"]
+            problems.add(p + ("parameters", pn), f"{file.name} has no parameter {pn!r}{_close(pn, names)}")
+        elif var.causality not in ("parameter",) or var.variability == "constant":
+            problems.add(p + ("parameters", pn), f"{pn!r} is a {var.variability} {var.causality}, not a settable parameter")
+        elif not (_is_num(pv) or isinstance(pv, bool)):
+            problems.add(p + ("parameters", pn), f"must be a number or boolean; got {pv!r}")
+    for sn, sv in starts.items():
+        var = info.variables.get(sn)
+        if var is None:
+            problems.add(p + ("start", sn), f"{file.name} has no variable {sn!r}{_close(sn, info.variables)}")
+        elif var.causality in ("output", "independent", "calculatedParameter") or var.variability == "constant":
+            problems.add(p + ("start", sn), f"{sn!r} is a {var.causality}; its start value cannot be set")
+        elif not _is_num(sv):
+            problems.add(p + ("start", sn), f"must be a number; got {sv!r}")
+
+
+def _fmu(name, t, base_dir, problems):
+    """One ``[fmus.NAME]`` table -> FmuSpec, or None when its FMU cannot be read."""
+    from cosim.errors import FmuFileError
+    from cosim.fmi import read_model_info
+
+    p = ("fmus", name)
+    if not _NAME.match(name):
+        problems.add(p, f"instance name {name!r} must be an identifier (letters, digits, _)")
+    if not isinstance(t, dict):
+        problems.add(p, "must be a table")
+        return None
+    _unknown(t, _FMU, problems, p)
+    fpath = t.get("path")
+    if not isinstance(fpath, str):
+        problems.add(p + ("path",), "is required: the .fmu file (relative to the config's folder)")
+        return None
+    full = Path(fpath) if Path(fpath).is_absolute() else (base_dir / fpath)
+    try:
+        info = read_model_info(full)
+    except FmuFileError as err:
+        problems.add(p + ("path",), str(err))
+        return None
+    kind = t.get("kind", "ME" if "ME" in info.kinds else "CS")
+    if kind not in info.kinds:
+        problems.add(p + ("kind",), f"{full.name} provides {', '.join(info.kinds)}, not {kind!r}")
+    params = {**_parameters_file(t, base_dir, problems, p), **_table(t, "parameters", problems, p)}
+    starts = _table(t, "start", problems, p)
+    _fmu_values(info, full, params, starts, problems, p)
+    return FmuSpec(name, full, kind, dict(params), dict(starts), info)
+
+
+def _fmus(fmus_t, base_dir, problems):
+    if not fmus_t:
+        problems.add(("fmus",), "at least one FMU is required: [fmus.plant] path = \"...fmu\"")
+    specs = {name: _fmu(name, t, base_dir, problems) for name, t in fmus_t.items()}
+    return {name: spec for name, spec in specs.items() if spec is not None}
+
+
+def _controller(name, t, fmus_t, base_dir, problems):
+    """One ``[controllers.NAME]`` table -> ControllerSpec, or None when its class cannot be loaded."""
+    from controllers.base import load_controller_class
+
+    p = ("controllers", name)
+    if not _NAME.match(name):
+        problems.add(p, f"instance name {name!r} must be an identifier (letters, digits, _)")
+    if name in fmus_t:
+        problems.add(p, f"name {name!r} is already an FMU instance")
+    if not isinstance(t, dict):
+        problems.add(p, "must be a table")
+        return None
+    s = _Section(t, p, ControllerSpec, problems, allowed=_CTRL)
+    rate = s.number("rate", positive=True)
+    jit = t.get("jit", s.defaults["jit"])
+    if not isinstance(jit, bool):
+        problems.add(p + ("jit",), f"must be true or false; got {jit!r}")
+    params = dict(_table(t, "parameters", problems, p))
+    cpath = t.get("class")
+    if not isinstance(cpath, str):
+        problems.add(p + ("class",), "is required: \"module:Class\" or \"file.py:Class\"")
+        return None
+    try:
+        cls = load_controller_class(cpath, base_dir)
+    except ImportError as err:
+        problems.add(p + ("class",), str(err))
+        return None
+    for pn in cls.path_parameters:
+        if isinstance(params.get(pn), str) and params[pn]:
+            params[pn] = str(base_dir / params[pn])
+    for pn in params:
+        if pn not in cls.parameters:
+            problems.add(p + ("parameters", pn), f"{cls.__name__} has no parameter {pn!r}{_close(pn, cls.parameters)}")
+    if rate is not None and all(pn in cls.parameters for pn in params):
+        try:
+            cls(rate=rate, jit=False, **params)
+        except (TypeError, ValueError) as err:
+            problems.add(p + ("parameters",), str(err))
+    return ControllerSpec(name, cpath, rate, dict(params), bool(jit), cls)
+
+
+def _controllers(ctrl_t, fmus_t, base_dir, problems):
+    specs = {name: _controller(name, t, fmus_t, base_dir, problems) for name, t in ctrl_t.items()}
+    return {name: spec for name, spec in specs.items() if spec is not None}
+
+
+class _Instances:
+    """The FMU and controller instances of a config, to check the signals that connections and records name.
+
+    ``declared`` also holds the names whose table had a problem (already reported): they are not reported again.
+    """
+
+    def __init__(self, fmus, ctrls, declared):
+        self.fmus, self.ctrls, self.declared = fmus, ctrls, declared
+        self.known = set(fmus) | set(ctrls)
+
+    def outputs(self, inst):
+        if inst in self.fmus:
+            return [v.name for v in self.fmus[inst].info.variables.values() if v.causality == "output" and v.is_real]
+        return list(self.ctrls[inst].cls.outputs)
+
+    def inputs(self, inst):
+        if inst in self.fmus:
+            return [v.name for v in self.fmus[inst].info.variables.values() if v.causality == "input" and v.is_real]
+        return list(self.ctrls[inst].cls.inputs)
+
+    def end(self, text, cpath, direction, problems):
+        """The (instance, variable) of a connection's ``direction`` ("from"/"to") end, or None after a problem."""
+        sig = _signal(text, problems, cpath)
+        if sig is None:
+            return None
+        inst, var = sig
+        if inst not in self.known:
+            if inst not in self.declared:
+                problems.add(cpath, f"no instance {inst!r}{_close(inst, self.known)} "
+                                    f"(instances: {', '.join(sorted(self.known))})")
+            return None
+        good = self.outputs(inst) if direction == "from" else self.inputs(inst)
+        if var in good:
+            return inst, var
+        want, other_kind = ("an output", "an input") if direction == "from" else ("an input", "an output")
+        other = self.inputs(inst) if direction == "from" else self.outputs(inst)
+        if inst in self.fmus and var in self.fmus[inst].info.variables:
+            v = self.fmus[inst].info.variables[var]
+            problems.add(cpath, f"{text} has causality {v.causality!r}; a connection's {direction!r} end must be "
+                                f"{want}{_close(var, good)}")
+        elif var in other:
+            problems.add(cpath, f"{text} is {other_kind}; a connection's {direction!r} end must be {want}")
+        else:
+            problems.add(cpath, f"{inst} has no {'output' if direction == 'from' else 'input'} {var!r}{_close(var, good)}")
+        return None
+
+    def recorded(self, text, sp, problems):
+        """The (instance, variable) of a recorded signal, or None after a problem."""
+        sig = _signal(text, problems, sp)
+        if sig is None:
+            return None
+        inst, var = sig
+        if inst in self.fmus:
+            v = self.fmus[inst].info.variables.get(var)
+            if v is None or not v.is_real:
+                problems.add(sp, f"{self.fmus[inst].path.name} has no real variable {var!r}"
+                                 f"{_close(var, self.fmus[inst].info.variables)}")
+                return None
+        elif inst in self.ctrls:
+            names = list(self.ctrls[inst].cls.inputs) + list(self.ctrls[inst].cls.outputs)
+            if var not in names:
+                problems.add(sp, f"{inst} has no signal {var!r}{_close(var, names)}")
+                return None
+        else:
+            if inst not in self.declared:
+                problems.add(sp, f"no instance {inst!r}{_close(inst, self.known)}")
+            return None
+        return inst, var
+
+
+def _connections(data, instances, problems):
+    ctab = data.get("connections", [])
+    if not isinstance(ctab, list):
+        problems.add(("connections",), "must be an array of tables: [[connections]]")
+        ctab = []
+    conns, seen_dst = [], {}
+    for i, c in enumerate(ctab):
+        p = ("connections", i)
+        if not isinstance(c, dict):
+            problems.add(p, "must be a table with from/to")
+            continue
+        s = _Section(c, p, Connection, problems, allowed=_CONN)
+        if "from" not in c or "to" not in c:
+            problems.add(p, "needs both 'from' and 'to'")
+            continue
+        src = instances.end(c["from"], p + ("from",), "from", problems)
+        dst = instances.end(c["to"], p + ("to",), "to", problems)
+        gain = s.number("gain")
+        offset = s.number("offset")
+        if dst is not None:
+            if dst in seen_dst:
+                problems.add(p + ("to",), f"{c['to']} is already driven by connections[{seen_dst[dst]}]")
+            seen_dst[dst] = i
+        if src is not None and dst is not None:
+            if src[0] == dst[0]:
+                problems.add(p, f"connects {src[0]} to itself")
+            conns.append(Connection(src, dst, float(gain), float(offset)))
+    return tuple(conns)
+
+
+def _record(data, instances, problems):
+    s = _Section(_table(data, "record", problems, ()), ("record",), RecordSpec, problems)
+    rate = s.number("rate", positive=True)
+    sigs = s.table.get("signals", list(s.defaults["signals"]))
+    if not isinstance(sigs, list):
+        problems.add(("record", "signals"), "must be a list of 'instance.variable' strings")
+        sigs = []
+    good = []
+    for i, text in enumerate(sigs):
+        sig = instances.recorded(text, ("record", "signals", i), problems)
+        if sig is not None and sig not in good:
+            good.append(sig)
+    return RecordSpec(float(rate), tuple(good))
+
+
+def _plot(data, problems):
+    s = _Section(_table(data, "plot", problems, ()), ("plot",), PlotSpec, problems)
+    pfile = s.table.get("file", s.defaults["file"])
+    if not isinstance(pfile, str) or not pfile.endswith(".png") or "/" in pfile:
+        problems.add(("plot", "file"), f"must be a file name ending in .png; got {pfile!r}")
+        pfile = s.defaults["file"]
+    panels = s.table.get("panels", list(s.defaults["panels"]))
+    if not isinstance(panels, list) or not all(isinstance(x, list) and all(isinstance(y, str) for y in x) for x in panels):
+        problems.add(("plot", "panels"), "must be a list of lists of recorded column names")
+        panels = []
+    return PlotSpec(pfile, tuple(tuple(x) for x in panels))
+
+
+def _summary_plugins(kind, name, instances, problems):
+    """The summaries the named controller's class provides (``Class.summaries``); None when they cannot be
+    told (a problem is reported when the summary needs them: ``kind`` is not "none")."""
+    if name in instances.ctrls:
+        return getattr(instances.ctrls[name].cls, "summaries", {})
+    if kind != "none":
+        if name is None:
+            problems.add(("summary", "controller"), "is required: the controller whose class provides the summary")
+        elif name not in instances.declared:
+            problems.add(("summary", "controller"), f"no controller {name!r}{_close(name, instances.ctrls)}")
+    return {} if name is None and kind == "none" else None
+
+
+def _summary(data, instances, record, problems):
+    """The ``[summary]`` table -> SummarySpec, and the record with the controller outputs the summary reads."""
+    t = _table(data, "summary", problems, ())
+    kind = t.get("kind", SummarySpec.kind)
+    name = t.get("controller", SummarySpec.controller)
+    for key, value in (("kind", kind), ("controller", name)):
+        if value is not None and not isinstance(value, str):
+            problems.add(("summary", key), f"must be a string; got {value!r}")
+            return SummarySpec(), record
+    plugins = _summary_plugins(kind, name, instances, problems)
+    plugin = None
+    if plugins is not None and kind != "none":
+        plugin = plugins.get(kind)
+        if plugin is None:
+            cls = instances.ctrls[name].cls.__name__
+            provided = ", ".join(repr(k) for k in ("none", *plugins))
+            problems.add(("summary", "kind"), f"must be one of {provided} (the summaries {cls} provides); "
+                                              f"got {kind!r}{_close(str(kind), plugins)}")
+            plugins = None
+    if plugins is not None:
+        # "none" keeps the keys of any summary of the controller, so that --set summary.kind=none turns one off
+        chosen = [plugin] if plugin is not None else list(plugins.values())
+        _unknown(t, _SUMMARY + tuple(dict.fromkeys(k for p in chosen for k in p.signals)), problems, ("summary",))
+    if plugin is None:
+        return SummarySpec(kind, name), record
+    columns = {}
+    for key in plugin.signals:
+        column = t.get(key)
+        if column is None:
+            problems.add(("summary", key), f"is required: the recorded column the {kind!r} summary reads")
+        elif not isinstance(column, str):
+            problems.add(("summary", key), f"must be a recorded column name; got {column!r}")
+        elif not any(var == column for _, var in record.signals):
+            problems.add(("summary", key), f"{column!r} is not among record.signals")
+        columns[key] = column
+    outputs = instances.ctrls[name].cls.outputs
+    for out in plugin.outputs:
+        columns[out] = f"{name}.{out}"
+        # the summary reads the controller's output: record it even when the config does not list it
+        if out in outputs and (name, out) not in record.signals:
+            record = RecordSpec(record.rate, record.signals + ((name, out),))
+    return SummarySpec(kind, name, columns, plugin), record
 
 
 # ----------------------------------------------------------------------------------------------
@@ -272,271 +604,21 @@ def load_config(path, overrides=()):
         The file is missing or malformed, or any key is unknown or invalid; the message lists every
         problem with ``file:line`` (or ``--set key``) and the key path.
     """
-    from cosim.errors import FmuFileError
-    from cosim.fmi import read_model_info
-    from controllers.base import load_controller_class
-
     path = Path(path)
     data, problems = read_toml(path, overrides, what="config")
     base_dir = path.parent
-
     _unknown(data, _TOP, problems, ())
-
-    # [run]
-    run_t = _table(data, "run", problems, ())
-    _unknown(run_t, tuple(_RUN), problems, ("run",))
-    start = _number(run_t, "start", 0.0, problems, ("run",))
-    stop = _number(run_t, "stop", None, problems, ("run",))
-    if _is_num(start) and _is_num(stop) and stop <= start:
-        problems.add(("run", "stop"), f"must be > run.start ({start}); got {stop}")
-    seed = _number(run_t, "seed", 0, problems, ("run",), integer=True, nonneg=True)
-    engine = _choice(run_t, "engine", "compiled", ("compiled", "python"), problems, ("run",))
-    progress = run_t.get("progress", "auto")
-    if progress not in (True, False, "auto"):
-        problems.add(("run", "progress"), f"must be true, false or \"auto\"; got {progress!r}")
-        progress = "auto"
-    run = RunSpec(float(start), float(stop or 1.0), int(seed), engine, progress)
-
-    # [solver]
-    sol_t = _table(data, "solver", problems, ())
-    _unknown(sol_t, tuple(_SOLVER), problems, ("solver",))
-    solver = SolverSpec(
-        method=_choice(sol_t, "method", "rk4", _METHODS, problems, ("solver",)),
-        substeps=_number(sol_t, "substeps", 1, problems, ("solver",), positive=True, integer=True),
-        max_step=float(_number(sol_t, "max_step", 0.0, problems, ("solver",), nonneg=True)),
-        rtol=float(_number(sol_t, "rtol", 1e-6, problems, ("solver",), positive=True)),
-        atol=float(_number(sol_t, "atol", 1e-9, problems, ("solver",), positive=True)),
-    )
-
-    # [fmus.*]
-    fmus = {}
+    run = _run(data, problems)
+    solver = _solver(data, problems)
     fmus_t = _table(data, "fmus", problems, ())
-    if not fmus_t:
-        problems.add(("fmus",), "at least one FMU is required: [fmus.plant] path = \"...fmu\"")
-    for name, t in fmus_t.items():
-        p = ("fmus", name)
-        if not _NAME.match(name):
-            problems.add(p, f"instance name {name!r} must be an identifier (letters, digits, _)")
-        if not isinstance(t, dict):
-            problems.add(p, "must be a table")
-            continue
-        _unknown(t, _FMU, problems, p)
-        fpath = t.get("path")
-        if not isinstance(fpath, str):
-            problems.add(p + ("path",), "is required: the .fmu file (relative to the config's folder)")
-            continue
-        full = Path(fpath) if Path(fpath).is_absolute() else (base_dir / fpath)
-        try:
-            info = read_model_info(full)
-        except FmuFileError as err:
-            problems.add(p + ("path",), str(err))
-            continue
-        kind = t.get("kind", "ME" if "ME" in info.kinds else "CS")
-        if kind not in info.kinds:
-            problems.add(p + ("kind",), f"{full.name} provides {', '.join(info.kinds)}, not {kind!r}")
-        params = {**_parameters_file(t, base_dir, problems, p), **_table(t, "parameters", problems, p)}
-        for pn, pv in params.items():
-            var = info.variables.get(pn)
-            if var is None:
-                names = [v.name for v in info.variables.values() if v.causality == "parameter"]
-                problems.add(p + ("parameters", pn), f"{full.name} has no parameter {pn!r}{_close(pn, names)}")
-            elif var.causality not in ("parameter",) or var.variability == "constant":
-                problems.add(p + ("parameters", pn), f"{pn!r} is a {var.variability} {var.causality}, not a settable parameter")
-            elif not (_is_num(pv) or isinstance(pv, bool)):
-                problems.add(p + ("parameters", pn), f"must be a number or boolean; got {pv!r}")
-        starts = _table(t, "start", problems, p)
-        for sn, sv in starts.items():
-            var = info.variables.get(sn)
-            if var is None:
-                problems.add(p + ("start", sn), f"{full.name} has no variable {sn!r}{_close(sn, info.variables)}")
-            elif var.causality in ("output", "independent", "calculatedParameter") or var.variability == "constant":
-                problems.add(p + ("start", sn), f"{sn!r} is a {var.causality}; its start value cannot be set")
-            elif not _is_num(sv):
-                problems.add(p + ("start", sn), f"must be a number; got {sv!r}")
-        fmus[name] = FmuSpec(name, full, kind, dict(params), dict(starts), info)
-
-    # [controllers.*]
-    ctrls = {}
-    for name, t in _table(data, "controllers", problems, ()).items():
-        p = ("controllers", name)
-        if not _NAME.match(name):
-            problems.add(p, f"instance name {name!r} must be an identifier (letters, digits, _)")
-        if name in fmus_t:
-            problems.add(p, f"name {name!r} is already an FMU instance")
-        if not isinstance(t, dict):
-            problems.add(p, "must be a table")
-            continue
-        _unknown(t, _CTRL, problems, p)
-        rate = _number(t, "rate", None, problems, p, positive=True)
-        jit = t.get("jit", True)
-        if not isinstance(jit, bool):
-            problems.add(p + ("jit",), f"must be true or false; got {jit!r}")
-        params = dict(_table(t, "parameters", problems, p))
-        cpath = t.get("class")
-        if not isinstance(cpath, str):
-            problems.add(p + ("class",), "is required: \"module:Class\" or \"file.py:Class\"")
-            continue
-        try:
-            cls = load_controller_class(cpath, base_dir)
-        except ImportError as err:
-            problems.add(p + ("class",), str(err))
-            continue
-        for pn in cls.path_parameters:
-            if isinstance(params.get(pn), str) and params[pn]:
-                params[pn] = str(base_dir / params[pn])
-        for pn in params:
-            if pn not in cls.parameters:
-                problems.add(p + ("parameters", pn), f"{cls.__name__} has no parameter {pn!r}{_close(pn, cls.parameters)}")
-        if rate is not None and all(pn in cls.parameters for pn in params):
-            try:
-                cls(rate=rate, jit=False, **params)
-            except (TypeError, ValueError) as err:
-                problems.add(p + ("parameters",), str(err))
-        ctrls[name] = ControllerSpec(name, cpath, rate or 1.0, dict(params), bool(jit), cls)
-
-    def outputs_of(inst):
-        if inst in fmus:
-            return [v.name for v in fmus[inst].info.variables.values() if v.causality == "output" and v.is_real]
-        return list(ctrls[inst].cls.outputs)
-
-    def inputs_of(inst):
-        if inst in fmus:
-            return [v.name for v in fmus[inst].info.variables.values() if v.causality == "input" and v.is_real]
-        return list(ctrls[inst].cls.inputs)
-
-    known = set(fmus) | set(ctrls)
-    declared = set(fmus_t) | set(_table(data, "controllers", Problems("", None, {}), ()))
-
-    def check_end(text, cpath, direction):
-        sig = _signal(text, problems, cpath)
-        if sig is None:
-            return None
-        inst, var = sig
-        if inst not in known:
-            if inst not in declared:
-                problems.add(cpath, f"no instance {inst!r}{_close(inst, known)} (instances: {', '.join(sorted(known))})")
-            return None
-        good = outputs_of(inst) if direction == "from" else inputs_of(inst)
-        if var not in good:
-            other = inputs_of(inst) if direction == "from" else outputs_of(inst)
-            if inst in fmus and var in fmus[inst].info.variables:
-                v = fmus[inst].info.variables[var]
-                problems.add(cpath, f"{text} has causality {v.causality!r}; a connection's {direction!r} end must be "
-                                    f"{'an output' if direction == 'from' else 'an input'}{_close(var, good)}")
-            elif var in other:
-                problems.add(cpath, f"{text} is {'an input' if direction == 'from' else 'an output'}; a connection's "
-                                    f"{direction!r} end must be {'an output' if direction == 'from' else 'an input'}")
-            else:
-                problems.add(cpath, f"{inst} has no {'output' if direction == 'from' else 'input'} {var!r}"
-                                    f"{_close(var, good)}")
-            return None
-        return inst, var
-
-    # [[connections]]
-    conns = []
-    ctab = data.get("connections", [])
-    if not isinstance(ctab, list):
-        problems.add(("connections",), "must be an array of tables: [[connections]]")
-        ctab = []
-    seen_dst = {}
-    for i, c in enumerate(ctab):
-        p = ("connections", i)
-        if not isinstance(c, dict):
-            problems.add(p, "must be a table with from/to")
-            continue
-        _unknown(c, _CONN, problems, p)
-        if "from" not in c or "to" not in c:
-            problems.add(p, "needs both 'from' and 'to'")
-            continue
-        src = check_end(c["from"], p + ("from",), "from")
-        dst = check_end(c["to"], p + ("to",), "to")
-        gain = _number(c, "gain", 1.0, problems, p)
-        offset = _number(c, "offset", 0.0, problems, p)
-        if dst is not None:
-            if dst in seen_dst:
-                problems.add(p + ("to",), f"{c['to']} is already driven by connections[{seen_dst[dst]}]")
-            seen_dst[dst] = i
-        if src is not None and dst is not None:
-            if src[0] == dst[0]:
-                problems.add(p, f"connects {src[0]} to itself")
-            conns.append(Connection(src, dst, float(gain), float(offset)))
-
-    # [record]
-    rec_t = _table(data, "record", problems, ())
-    _unknown(rec_t, _RECORD, problems, ("record",))
-    rrate = _number(rec_t, "rate", 1000.0, problems, ("record",), positive=True)
-    sigs = rec_t.get("signals", [])
-    if not isinstance(sigs, list):
-        problems.add(("record", "signals"), "must be a list of 'instance.variable' strings")
-        sigs = []
-    good_sigs = []
-    for i, s in enumerate(sigs):
-        sp = ("record", "signals", i)
-        sig = _signal(s, problems, sp)
-        if sig is None:
-            continue
-        inst, var = sig
-        if inst in fmus:
-            v = fmus[inst].info.variables.get(var)
-            if v is None or not v.is_real:
-                problems.add(sp, f"{fmus[inst].path.name} has no real variable {var!r}{_close(var, fmus[inst].info.variables)}")
-                continue
-        elif inst in ctrls:
-            names = list(ctrls[inst].cls.inputs) + list(ctrls[inst].cls.outputs)
-            if var not in names:
-                problems.add(sp, f"{inst} has no signal {var!r}{_close(var, names)}")
-                continue
-        else:
-            if inst not in declared:
-                problems.add(sp, f"no instance {inst!r}{_close(inst, known)}")
-            continue
-        if (inst, var) not in good_sigs:
-            good_sigs.append((inst, var))
-    record = RecordSpec(float(rrate), tuple(good_sigs))
-
-    # [plot]
-    plot_t = _table(data, "plot", problems, ())
-    _unknown(plot_t, _PLOT, problems, ("plot",))
-    pfile = plot_t.get("file", "signals.png")
-    if not isinstance(pfile, str) or not pfile.endswith(".png") or "/" in pfile:
-        problems.add(("plot", "file"), f"must be a file name ending in .png; got {pfile!r}")
-        pfile = "signals.png"
-    panels = plot_t.get("panels", [])
-    if not isinstance(panels, list) or not all(isinstance(x, list) and all(isinstance(s, str) for s in x) for x in panels):
-        problems.add(("plot", "panels"), "must be a list of lists of recorded column names")
-        panels = []
-    plot = PlotSpec(pfile, tuple(tuple(x) for x in panels))
-
-    # [summary]
-    sum_t = _table(data, "summary", problems, ())
-    _unknown(sum_t, _SUMMARY, problems, ("summary",))
-    summary = SummarySpec(
-        kind=_choice(sum_t, "kind", "none", ("none", "static", "impact"), problems, ("summary",)),
-        force=sum_t.get("force", "F_g"),
-        controller=sum_t.get("controller", "outer"),
-    )
-    if summary.kind != "none":
-        if summary.controller not in ctrls and summary.controller not in declared:
-            problems.add(("summary", "controller"), f"no controller {summary.controller!r}{_close(summary.controller, ctrls)}")
-        if not any(var == summary.force for _, var in good_sigs):
-            problems.add(("summary", "force"), f"{summary.force!r} is not among record.signals")
-
-    if summary.kind == "impact" and summary.controller in ctrls:
-        # the impact summary needs the switch time: record it even when the config does not list it
-        if "t_switch" in ctrls[summary.controller].cls.outputs and (summary.controller, "t_switch") not in good_sigs:
-            record = RecordSpec(record.rate, record.signals + ((summary.controller, "t_switch"),))
-
+    fmus = _fmus(fmus_t, base_dir, problems)
+    ctrl_t = _table(data, "controllers", problems, ())
+    ctrls = _controllers(ctrl_t, fmus_t, base_dir, problems)
+    instances = _Instances(fmus, ctrls, set(fmus_t) | set(ctrl_t))
+    connections = _connections(data, instances, problems)
+    record = _record(data, instances, problems)
+    plot = _plot(data, problems)
+    summary, record = _summary(data, instances, record, problems)
     problems.raise_if_any()
-    return Config(
-        path=path,
-        run=run,
-        solver=solver,
-        fmus=fmus,
-        controllers=ctrls,
-        connections=tuple(conns),
-        record=record,
-        plot=plot,
-        summary=summary,
-        raw=data,
-        overrides=tuple(overrides or ()),
-    )
+    return Config(path=path, run=run, solver=solver, fmus=fmus, controllers=ctrls, connections=connections,
+                  record=record, plot=plot, summary=summary, raw=data, overrides=tuple(overrides or ()))

@@ -1,7 +1,9 @@
 """cosim.config: frozen spec, --set overrides, and every bad input reported with file:line, exit 2, nothing written."""
 
 import dataclasses
+import json
 import shutil
+import textwrap
 
 import pytest
 from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
@@ -9,6 +11,7 @@ from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master
 from cosim.cli import main
 from cosim.config import load_config, parse_overrides
 from cosim.errors import ConfigError
+from cosim.master import run_config
 
 
 def _problems(path, overrides=()):
@@ -127,6 +130,107 @@ def test_shipped_configs_validate(gripper_dir):
         assert set(cfg.controllers) == {"foc", "outer"} and "plant" in cfg.fmus
     cfg = load_config(EXAMPLES / "gripper_impact_split.toml", gripper_overrides(gripper_dir, split=True))
     assert set(cfg.fmus) == {"plant", "drive"}
+    assert cfg.summary.columns == {"force": "F_g", "t_switch": "outer.t_switch"}
+
+
+def test_summary_kind_none_keeps_the_keys_of_the_controllers_summaries(gripper_dir):
+    overrides = gripper_overrides(gripper_dir) + ["summary.kind=none", "record.signals=[\"plant.F_g\"]"]
+    cfg = load_config(EXAMPLES / "gripper_impact.toml", overrides)
+    assert cfg.summary.plugin is None and cfg.record.signals == (("plant", "F_g"),)
+    cfg = load_config(EXAMPLES / "gripper_impact.toml", overrides[:-2] + ["record.signals=[\"plant.F_g\"]"])
+    assert cfg.record.signals == (("plant", "F_g"), ("outer", "t_switch"))  # the impact summary reads it
+
+
+# a controller that provides a summary plugin: the master and the config know nothing of it
+RAMP_PY = textwrap.dedent(
+    '''
+    import numpy as np
+    from controllers.base import Controller
+
+    def _ramp(t, u, y, x, p):
+        y[0] = p[0] * t
+        y[1] = p[0]
+
+    class PeakSummary:
+        """The largest value of a recorded column, the ramp's slope output and its gain parameter."""
+        signals = ("column",)
+        outputs = ("slope",)
+
+        @staticmethod
+        def summarize(data, values, columns):
+            return {"peak": float(np.max(data[columns["column"]])), "slope": float(data[columns["slope"]][-1]),
+                    "gain": values["gain"]}
+
+    class Ramp(Controller):
+        """Source: gain * t, and the slope."""
+        parameters = {"gain": 1.0}
+        outputs = ("u", "slope")
+        kernel = staticmethod(_ramp)
+        summaries = {"peak": PeakSummary}
+    '''
+)
+
+RAMP_TOML = textwrap.dedent(
+    """
+    [run]
+    stop = 0.5
+    engine = "python"
+
+    [fmus.plant]
+    path = "Osc.fmu"
+
+    [controllers.src]
+    class = "ramp.py:Ramp"
+    rate = 100
+    jit = false
+    parameters = { gain = 3.0 }
+
+    [[connections]]
+    from = "src.u"
+    to = "plant.u"
+
+    [record]
+    rate = 100
+    signals = ["plant.y"]
+
+    [summary]
+    kind = "peak"
+    controller = "src"
+    column = "y"
+    """
+)
+
+
+@pytest.fixture
+def ramp_config(master_dir, tmp_path):
+    shutil.copy(master_dir / "Osc.fmu", tmp_path)
+    (tmp_path / "ramp.py").write_text(RAMP_PY)
+    path = tmp_path / "ramp.toml"
+    path.write_text(RAMP_TOML)
+    return path
+
+
+def test_summary_plugin_of_a_controller(ramp_config, tmp_path):
+    result, summary, _ = run_config(ramp_config, out=tmp_path / "out", progress=False)
+    assert summary["peak"] == pytest.approx(float(max(result.data["y"])))
+    assert summary["slope"] == 3.0 and summary["gain"] == 3.0  # src.slope recorded for the summary
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["peak"] == summary["peak"]
+
+
+def test_summary_problems(ramp_config, master_dir):
+    msg = _problems(ramp_config, ["summary.column=v_out", "summary.force=y"])
+    assert "--set summary.column: summary.column: 'v_out' is not among record.signals" in msg
+    assert "--set summary.force: summary.force: unknown key (allowed: kind, controller, column)" in msg
+    msg = _problems(ramp_config, ["summary.kind=peek"])
+    assert "summary.kind: must be one of 'none', 'peak' (the summaries Ramp provides); got 'peek'; " \
+           "did you mean 'peak'?" in msg
+    text = ramp_config.read_text()
+    ramp_config.write_text(text.replace('column = "y"\n', ""))
+    assert "summary.column: is required: the recorded column the 'peak' summary reads" in _problems(ramp_config)
+    ramp_config.write_text(text.replace('controller = "src"\n', ""))
+    assert "summary.controller: is required" in _problems(ramp_config)
+    msg = _problems(osc_config(master_dir), ["summary.kind=impact", "summary.controller=src"])
+    assert "summary.kind: must be one of 'none' (the summaries Sine provides); got 'impact'" in msg
 
 
 @pytest.mark.parametrize("key", ["run.bogus", "solver.bogus", "fmus.plant.bogus", "controllers.src.bogus",

@@ -1,80 +1,12 @@
-"""Experiment summaries written to summary.json: the static staircase and the impact trial.
+"""summary.json: the facts of a run, plus the experiment keys of the summary its config names.
 
-Static (``kind = "static"``): for each staircase step (A, as a string like "1.5"), the mean force of
-the step's last second (the last half of the step when steps are shorter than 2 s) on the way up
-(``force_up_N``) and down (``force_down_N``); ``max_force_N`` (largest force over the run) and
-``residual_force_N`` (mean force of the final 0 A step after the way down).
-
-Impact (``kind = "impact"``): ``peak_force_N`` (largest force), ``min_force_after_peak_N`` (smallest
-force from the peak to the end of tightening: 0 when the finger bounces off), ``steady_force_N``
-(mean force over the last second of tightening, or of the recorded part of it when the run stops
-earlier), ``t_switch_s`` (time of the velocity-to-current switch; None when the trigger never fired)
-and ``t_contact_s`` (first time the force exceeds 1 N).
+The experiment keys come from a summary plugin that a controller class provides (``Class.summaries``,
+chosen by ``[summary] kind`` and ``controller``; see docs/config.md): this module knows no experiment.
 """
 
 import math
 
-import numpy as np
-
-from controllers.outer import staircase_steps
-
 __all__ = ["summarize"]
-
-
-def _window_mean(t, f, a, b):
-    m = (t >= a - 1e-12) & (t < b - 1e-12)
-    return float(np.mean(f[m])) if m.any() else None
-
-
-def _static(result, spec, values):
-    t = result.data["time"]
-    f = result.data[spec.force]
-    steps = staircase_steps(values["t_start"], values["step_A"], values["step_s"], values["top_A"])
-    win = 1.0 if values["step_s"] >= 2.0 else values["step_s"] / 2.0
-    up, down = {}, {}
-    residual = None
-    for cur, a, b, branch in steps:
-        mean = _window_mean(t, f, b - win, b)
-        if mean is None:
-            continue
-        key = f"{cur:.1f}" if abs(cur * 10 - round(cur * 10)) < 1e-9 else f"{cur:g}"
-        (up if branch == "up" else down)[key] = mean
-        if branch == "down" and cur == 0.0:
-            residual = mean
-    return {
-        "max_force_N": float(np.max(f)) if len(f) else None,
-        "residual_force_N": residual,
-        "force_up_N": up,
-        "force_down_N": down,
-        "staircase_window_s": win,
-    }
-
-
-def _impact(result, spec, values, ctrl):
-    t = result.data["time"]
-    f = result.data[spec.force]
-    col = f"{ctrl}.t_switch"
-    t_sw = None
-    if col in result.data.dtype.names and len(t):
-        v = float(result.data[col][-1])
-        t_sw = v if v >= 0 else None
-    out = {"peak_force_N": None, "min_force_after_peak_N": None, "steady_force_N": None,
-           "t_switch_s": t_sw, "t_contact_s": None}
-    if not len(f):
-        return out
-    ipk = int(np.argmax(f))
-    end = t[-1] if t_sw is None else min(t[-1], t_sw + values["hold_s"])
-    after = (t >= t[ipk]) & (t <= end + 1e-12)
-    contact = np.nonzero(f > 1.0)[0]
-    out["peak_force_N"] = float(f[ipk])
-    out["min_force_after_peak_N"] = float(np.min(f[after]))
-    out["t_contact_s"] = float(t[contact[0]]) if len(contact) else None
-    if t_sw is not None:
-        a = max(end - 1.0, t_sw)
-        m = (t >= a - 1e-12) & (t <= end + 1e-12)
-        out["steady_force_N"] = float(np.mean(f[m])) if m.any() else None
-        out["steady_window_s"] = [float(a), float(end)]
-    return out
 
 
 def summarize(result, config):
@@ -84,6 +16,12 @@ def summarize(result, config):
     ----------
     result : cosim.master.engine.RunResult
     config : cosim.config.Config
+
+    Returns
+    -------
+    dict
+        Run facts (config, overrides, times, rows, controller calls, solver, engine), then the keys the
+        summary plugin returns; non-finite floats become None.
     """
     out = {
         "config": str(config.path),
@@ -103,11 +41,8 @@ def summarize(result, config):
     if result.engine_note:
         out["engine_note"] = result.engine_note
     spec = config.summary
-    if spec.kind == "none":
+    if spec.plugin is None:
         return out
     values = result.controller_values.get(spec.controller, {})
-    if spec.kind == "static":
-        out.update(_static(result, spec, values))
-    else:
-        out.update(_impact(result, spec, values, spec.controller))
+    out.update(spec.plugin.summarize(result.data, values, dict(spec.columns)))
     return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}
