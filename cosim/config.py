@@ -274,7 +274,7 @@ def load_config(path, overrides=()):
     """
     from cosim.errors import FmuFileError
     from cosim.fmi import read_model_info
-    from controllers.base import load_controller_class
+    from cosim.plugins import load_controller_class
 
     path = Path(path)
     data, problems = read_toml(path, overrides, what="config")
