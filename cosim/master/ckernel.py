@@ -1,12 +1,12 @@
 """The compiled engine's per-instant kernel: one numba function that runs a chunk of instants.
 
-It does exactly what :class:`cosim.master.engine.Engine` and :class:`cosim.master.plant.PlantSystem`
+It does exactly what :class:`cosim.master.loop.PythonLoop` and :class:`cosim.master.plant.PlantSystem`
 do at each instant, in the same order and with the same floating-point operations (so both engines
 give the same numbers): sample the plant, route, step the due controllers (numba ``cfunc`` kernels
 called by address), hold their outputs, record, and advance the plant (RK4 substeps over the ME
 FMUs' combined state, ``doStep`` of CS FMUs). FMU functions are called by address through
 :mod:`cosim.fmi.native`. Everything a run needs is in integer/float tables built by
-:mod:`cosim.master.compiled`; the kernel itself is compiled once and cached on disk.
+``cosim.master.compiled.CompiledLoop``; the kernel itself is compiled once and cached on disk.
 
 Tables (all int64 unless said):
 
@@ -32,8 +32,10 @@ Tables (all int64 unless said):
 ``ff`` (float64)
     start time, h_max.
 ``st`` (N_ST,)
-    run state kept between chunks: k, row, synced tick, first-chunk flag, error FMU, error function,
+    run state kept between chunks: k, synced tick, first-chunk flag, error FMU, error function,
     error status, event FMU + 1, event tick.
+``rec`` (n_rows, n_col) float64, ``times`` (n_rows,) float64, ``rows`` (1,)
+    the recorder's arrays (:class:`cosim.master.recorder.Recorder`): rows are written at ``rows[0]``.
 ``scr`` (n_fmu, 16) uint8
     the scratch bytes whose addresses are in ``fmu`` (flags written by the FMUs).
 
@@ -55,8 +57,8 @@ FMU_COLS = ("component", "SetTime", "SetContinuousStates", "GetDerivatives", "Ge
             "CompletedIntegratorStep", "version", "x_off", "n_states", "scratch")
 (_C, _ST, _SX, _GD, _GR, _SR, _DS, _CI, _V, _XO, _NX, _SC) = range(len(FMU_COLS))
 CTL_COLS = ("fn", "period", "route", "u", "nu", "y", "ny", "x", "nx", "p", "np")
-ST = ("k", "row", "synced", "first", "err_fmu", "err_fn", "err_status", "event_fmu", "event_k")
-(_K, _ROW, _SYNC, _FIRST, _EF, _EFN, _ES, _EVF, _EVK) = range(len(ST))
+ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "event_fmu", "event_k")
+(_K, _SYNC, _FIRST, _EF, _EFN, _ES, _EVF, _EVK) = range(len(ST))
 FUNCTIONS = ("SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "SetReal", "DoStep",
              "CompletedIntegratorStep", "DoStep:terminate")
 DONE, MORE, ERROR = 0, 1, 2
@@ -135,7 +137,7 @@ def _stage(W, s, c):
 
 @numba.njit(cache=True, _nrt=False)
 def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec, times,
-              rec_idx, calls, scr, st, max_instants):
+              rows, rec_idx, calls, scr, st, max_instants):
     """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR."""
     k_stop = ii[0]
     rec_p = ii[1]
@@ -150,7 +152,7 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
     dx_addr = x_addr + 8 * 2 * nX
     n_me = me.shape[0]
     k = st[_K]
-    row = st[_ROW]
+    row = rows[0]
     if max_instants <= 0:
         return MORE
     if st[_FIRST] == 1:
@@ -277,5 +279,5 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
             break
         k = k_next
     st[_K] = k
-    st[_ROW] = row
+    rows[0] = row
     return code

@@ -46,10 +46,21 @@ class PlantSystem:
     Parameters
     ----------
     config : cosim.config.Config
-    layout : cosim.master.engine.Layout
+    layout : cosim.master.layout.Layout
         Where each routed/recorded FMU variable lives in the signal buffer.
     buf : numpy.ndarray
         The master's signal buffer.
+
+    Attributes
+    ----------
+    me, cs : list of cosim.fmi.FmuInstance
+        The Model-Exchange FMUs (their states form ``X``, in this order) and the Co-Simulation FMUs.
+    completed : list of cosim.fmi.FmuInstance
+        The ME FMUs that need ``CompletedIntegratorStep`` after each step.
+    program : list of tuple
+        ME-to-ME evaluation by dependency level: (get ports, route arrays, set ports) per level.
+    W : numpy.ndarray
+        The RK4 work array: rows X, X0, dX, K1..K4.
     """
 
     def __init__(self, config, layout, buf):
@@ -73,7 +84,7 @@ class PlantSystem:
                     "not located, discontinuities are stepped over by the fixed step",
                     stacklevel=3,
                 )
-        self._completed = [i for i in self.me if i.info.needs_completed_step]
+        self.completed = [i for i in self.me if i.info.needs_completed_step]
         self._event_warned = False
         # combined state vector
         n = sum(i.n_states for i in self.me)
@@ -94,7 +105,7 @@ class PlantSystem:
             for port in _ports(inst, layout.fmu_instant_inputs.get(name, []), layout, buf):
                 self.instant_in_ports.setdefault(name, []).append((inst, port))
         self.buf = buf
-        self._program = self._stage_program(layout, buf)
+        self.program = self._stage_program(layout, buf)
         self._route_instant = layout.route_fmu_instant  # (src, dst, gain, offset) arrays
 
     # -- ME-to-ME evaluation order --------------------------------------------------------------
@@ -155,7 +166,7 @@ class PlantSystem:
             for inst in self.me:
                 inst.set_time(t)
                 inst.push_states()
-        for gets, (src, dst, gain, off), sets in self._program:
+        for gets, (src, dst, gain, off), sets in self.program:
             for inst, port in gets:
                 inst.get(port)
             kernels.route(self.buf, src, dst, gain, off)
@@ -222,12 +233,12 @@ class PlantSystem:
             stage(W, 2, h)
             deriv(t1)
             final(W, h)
-            if self._completed:
+            if self.completed:
                 self._complete(t1)
 
     def _complete(self, t):
         self._eval(t)
-        for inst in self._completed:
+        for inst in self.completed:
             if inst.completed_integrator_step() and not self._event_warned:
                 self._event_warned = True
                 warnings.warn(f"{inst.name}: the FMU asked for event mode at t={t}; events are not handled",
@@ -249,7 +260,7 @@ class PlantSystem:
 
             raise CosimError(f"solver {self.solver.method} failed between t={ta} and t={tb}: {sol.message}")
         self.X[:] = sol.y[:, -1]
-        if self._completed:
+        if self.completed:
             self._complete(tb)
 
     def close(self):
