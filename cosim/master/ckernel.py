@@ -136,6 +136,82 @@ def _stage(W, s, c):
 
 
 @numba.njit(cache=True, _nrt=False)
+def _completed(k, fmu, cmp, scr, st):
+    """CompletedIntegratorStep of the ME FMUs that need it; notes the first event request; True on an FMI error."""
+    for i in range(cmp.shape[0]):
+        f = cmp[i]
+        sc = fmu[f, _SC]
+        if fmu[f, _V] == 3:
+            s = native.completed3(fmu[f, _CI], fmu[f, _C], sc)
+        else:
+            s = native.completed2(fmu[f, _CI], fmu[f, _C], sc)
+        if s > 1:
+            return _fail(st, f, 6, s)
+        if st[_EVF] == 0 and (scr[f, 0] != 0 or (fmu[f, _V] == 2 and (scr[f, 1] | scr[f, 2] | scr[f, 3]) != 0)):
+            st[_EVF] = f + 1
+            st[_EVK] = k
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
+def _rk4(t, t_next, k, h_max, fmu, me, cmp, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr,
+         buf_addr, scr, st):
+    """RK4 substeps of the ME FMUs' combined state from ``t`` to ``t_next``; True on an FMI error."""
+    nX = W.shape[1]
+    L = t_next - t
+    n = max(1, math.ceil(L / h_max - 1e-9))
+    synced = st[_SYNC] == k  # the first stage can reuse (t, X) set when sampling: only the inputs changed
+    st[_SYNC] = -1
+    for i in range(nX):
+        W[1, i] = W[0, i]
+    for j in range(n):
+        ta = t + L * j / n
+        t1 = t + L * (j + 1) / n
+        h = t1 - ta
+        th = ta + 0.5 * h
+        if _deriv(ta, not (synced and j == 0), fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
+                  x_addr, dx_addr, buf_addr, st):
+            return True
+        _stage(W, 0, 0.5 * h)
+        if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+                  buf_addr, st):
+            return True
+        _stage(W, 1, 0.5 * h)
+        if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+                  buf_addr, st):
+            return True
+        _stage(W, 2, h)
+        if _deriv(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+                  buf_addr, st):
+            return True
+        for i in range(nX):
+            W[0, i] = W[1, i] + h / 6.0 * (W[3, i] + 2.0 * W[4, i] + 2.0 * W[5, i] + W[2, i])
+            W[1, i] = W[0, i]
+        if cmp.shape[0] > 0:
+            if _eval(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
+                return True
+            if _completed(k, fmu, cmp, scr, st):
+                return True
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
+def _do_steps(t, t_next, fmu, cs, scr, st):
+    """doStep of every CS FMU from ``t`` to ``t_next``; True on an FMI error or a request to terminate."""
+    for i in range(cs.shape[0]):
+        f = cs[i]
+        if fmu[f, _V] == 3:
+            s = native.do_step3(fmu[f, _DS], fmu[f, _C], t, t_next - t, fmu[f, _SC])
+        else:
+            s = native.do_step2(fmu[f, _DS], fmu[f, _C], t, t_next - t)
+        if s > 1:
+            return _fail(st, f, 5, s)
+        if fmu[f, _V] == 3 and scr[f, 1] != 0:
+            return _fail(st, f, 7, 0)
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
 def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec, times,
               rows, rec_idx, calls, scr, st, max_instants):
     """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR."""
@@ -204,77 +280,11 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
         t_next = t0 + (k_next * den) / num
         # 6. advance: RK4 over the ME FMUs, then doStep of the CS FMUs
         if n_me > 0 and nX > 0:
-            L = t_next - t
-            n = max(1, math.ceil(L / h_max - 1e-9))
-            synced = st[_SYNC] == k
-            st[_SYNC] = -1
-            for i in range(nX):
-                W[1, i] = W[0, i]
-            failed = False
-            for j in range(n):
-                ta = t + L * j / n
-                t1 = t + L * (j + 1) / n
-                h = t1 - ta
-                th = ta + 0.5 * h
-                if _deriv(ta, not (synced and j == 0), fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
-                          x_addr, dx_addr, buf_addr, st):
-                    failed = True
-                    break
-                _stage(W, 0, 0.5 * h)
-                if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
-                          buf_addr, st):
-                    failed = True
-                    break
-                _stage(W, 1, 0.5 * h)
-                if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
-                          buf_addr, st):
-                    failed = True
-                    break
-                _stage(W, 2, h)
-                if _deriv(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
-                          buf_addr, st):
-                    failed = True
-                    break
-                for i in range(nX):
-                    W[0, i] = W[1, i] + h / 6.0 * (W[3, i] + 2.0 * W[4, i] + 2.0 * W[5, i] + W[2, i])
-                    W[1, i] = W[0, i]
-                if cmp.shape[0] > 0:
-                    if _eval(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr,
-                             st):
-                        failed = True
-                        break
-                    for i in range(cmp.shape[0]):
-                        f = cmp[i]
-                        sc = fmu[f, _SC]
-                        if fmu[f, _V] == 3:
-                            s = native.completed3(fmu[f, _CI], fmu[f, _C], sc)
-                        else:
-                            s = native.completed2(fmu[f, _CI], fmu[f, _C], sc)
-                        if s > 1:
-                            failed = _fail(st, f, 6, s)
-                            break
-                        if st[_EVF] == 0 and (scr[f, 0] != 0 or (fmu[f, _V] == 2 and (scr[f, 1] | scr[f, 2] | scr[f, 3]) != 0)):
-                            st[_EVF] = f + 1
-                            st[_EVK] = k
-                    if failed:
-                        break
-            if failed:
+            if _rk4(t, t_next, k, h_max, fmu, me, cmp, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr,
+                    dx_addr, buf_addr, scr, st):
                 code = ERROR
                 break
-        failed = False
-        for i in range(cs.shape[0]):
-            f = cs[i]
-            if fmu[f, _V] == 3:
-                s = native.do_step3(fmu[f, _DS], fmu[f, _C], t, t_next - t, fmu[f, _SC])
-            else:
-                s = native.do_step2(fmu[f, _DS], fmu[f, _C], t, t_next - t)
-            if s > 1:
-                failed = _fail(st, f, 5, s)
-                break
-            if fmu[f, _V] == 3 and scr[f, 1] != 0:
-                failed = _fail(st, f, 7, 0)
-                break
-        if failed:
+        if _do_steps(t, t_next, fmu, cs, scr, st):
             code = ERROR
             break
         k = k_next

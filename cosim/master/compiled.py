@@ -19,12 +19,11 @@ from controllers.base import Controller
 from cosim.errors import FmiCallError
 from cosim.fmi import check
 from cosim.jit import compile_kernel, kernel_problem, native_kernel
-from cosim.master import ckernel
+from cosim.master.ckernel import CTL_COLS, DONE, ERROR, FMU_COLS, FUNCTIONS, ST, run_chunk
 
 __all__ = ["CompiledLoop", "compiled_problem"]
 
-_K, _EF, _EFN, _ES, _EVF, _EVK = (ckernel.ST.index(n) for n in ("k", "err_fmu", "err_fn", "err_status", "event_fmu",
-                                                                 "event_k"))
+_K, _EF, _EFN, _ES, _EVF, _EVK = (ST.index(n) for n in ("k", "err_fmu", "err_fn", "err_status", "event_fmu", "event_k"))
 
 
 def compiled_problem(config):
@@ -72,7 +71,7 @@ class CompiledLoop:
         self.engine = engine
         self._native = {name: native_kernel(type(c).kernel) for name, c in engine.controllers.items()}
         self.calls = np.zeros(len(engine.layout.ctrl_order), dtype=np.int64)
-        self.st = np.zeros(len(ckernel.ST), dtype=np.int64)
+        self.st = np.zeros(len(ST), dtype=np.int64)
         self.plant = None
         self._args = None
         self._event_warned = False
@@ -94,8 +93,8 @@ class CompiledLoop:
         self.plant = plant
         self.calls[:] = 0
         self.st[:] = 0
-        self.st[ckernel.ST.index("synced")] = -1
-        self.st[ckernel.ST.index("first")] = 1  # first chunk: send the initial FMU inputs
+        self.st[ST.index("synced")] = -1
+        self.st[ST.index("first")] = 1  # first chunk: send the initial FMU inputs
         self._event_warned = False
         rec = eng.recorder
         tab = self._tables(plant)
@@ -103,7 +102,7 @@ class CompiledLoop:
                       tab["rdst"], tab["rgain"], tab["roff"], tab["rgrp"], tab["lvl"], tab["ctl"], tab["ii"], tab["ff"],
                       eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st)
         t0 = _time.perf_counter()
-        ckernel.run_chunk(*self._args, 0)  # compile, or load from numba's cache
+        run_chunk(*self._args, 0)  # compile, or load from numba's cache
         return _time.perf_counter() - t0
 
     def call_counts(self):
@@ -118,12 +117,12 @@ class CompiledLoop:
         cosim.errors.FmiCallError
             An FMI call returned an error, or a Co-Simulation FMU asked to terminate.
         """
-        code = ckernel.run_chunk(*self._args, n)
-        if code == ckernel.ERROR:
+        code = run_chunk(*self._args, n)
+        if code == ERROR:
             self._raise()
         if self.st[_EVF]:
             self._warn_event()
-        return code == ckernel.DONE
+        return code == DONE
 
     def _tables(self, plant):
         eng = self.engine
@@ -132,7 +131,7 @@ class CompiledLoop:
         fidx = {n: i for i, n in enumerate(names)}
         buf_addr = buf.ctypes.data
         scr = np.zeros((len(names), 16), dtype=np.uint8)
-        fmu = np.zeros((len(names), len(ckernel.FMU_COLS)), dtype=np.int64)
+        fmu = np.zeros((len(names), len(FMU_COLS)), dtype=np.int64)
         x_off = {}
         off = 0
         for inst in plant.me:
@@ -201,14 +200,14 @@ class CompiledLoop:
             rsrc=r[:, 0].astype(np.int64), rdst=r[:, 1].astype(np.int64),
             rgain=np.ascontiguousarray(r[:, 2]), roff=np.ascontiguousarray(r[:, 3]),
             rgrp=np.array(rgrp, dtype=np.int64).reshape(-1, 2), lvl=np.array(lvl, dtype=np.int64).reshape(-1, 3),
-            ctl=np.array(ctl, dtype=np.int64).reshape(-1, len(ckernel.CTL_COLS)), ii=ii,
+            ctl=np.array(ctl, dtype=np.int64).reshape(-1, len(CTL_COLS)), ii=ii,
             ff=np.array([eng.tb.start, eng.h_max]), scr=scr, port_items=items_, fmu_names=names,
         )
 
     def _raise(self):
         st = self.st
         inst = list(self.plant.instances.values())[int(st[_EF])]
-        fn = ckernel.FUNCTIONS[int(st[_EFN])]
+        fn = FUNCTIONS[int(st[_EFN])]
         t = self.engine.tb.time(int(st[_K]))
         if fn == "DoStep:terminate":
             raise FmiCallError("DoStep", "terminateSimulation", f"{inst.name} asked to stop after t={t}")

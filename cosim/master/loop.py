@@ -16,7 +16,7 @@ kernels), ``run(n)`` (at most ``n`` instants; True when the last one is done), `
 instant) and ``call_counts()``.
 """
 
-from cosim.master import kernels
+from cosim.master.kernels import route
 
 __all__ = ["PythonLoop"]
 
@@ -62,7 +62,6 @@ class PythonLoop:
         rec_p = tb.clocks["record"].period
         c2f = eng.layout.route_ctrl_to_fmu
         has_c2f = len(c2f[0]) > 0
-        route = kernels.route
         k = self.tick
         t = tb.time(k)
         for _ in range(n):

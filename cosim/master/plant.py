@@ -15,7 +15,7 @@ import numpy as np
 
 from cosim.errors import ConfigError
 from cosim.fmi import FmuInstance
-from cosim.master import kernels
+from cosim.master.kernels import rk4_begin, rk4_final, rk4_stage, route
 
 __all__ = ["PlantSystem"]
 
@@ -169,7 +169,7 @@ class PlantSystem:
         for gets, (src, dst, gain, off), sets in self.program:
             for inst, port in gets:
                 inst.get(port)
-            kernels.route(self.buf, src, dst, gain, off)
+            route(self.buf, src, dst, gain, off)
             for inst, port in sets:
                 inst.set(port)
 
@@ -191,7 +191,7 @@ class PlantSystem:
         """Route FMU-to-FMU connections that act at instants (to or from a CS FMU) and set the inputs."""
         src, dst, gain, off = self._route_instant
         if len(src):
-            kernels.route(self.buf, src, dst, gain, off)
+            route(self.buf, src, dst, gain, off)
 
     def push_instant_inputs(self):
         """Send the inputs held over the next interval (from controllers and CS FMUs) to the FMUs."""
@@ -214,12 +214,12 @@ class PlantSystem:
         L = tb - ta
         n = max(1, math.ceil(L / h_max - 1e-9))
         W = self.W
-        stage, final = kernels.rk4_stage, kernels.rk4_final
+        stage, final = rk4_stage, rk4_final
         deriv = self.derivatives
         # the first stage at ta can reuse (ta, X) set by sample(ta): only the inputs changed since
         synced = self._synced == ta
         self._synced = None
-        kernels.rk4_begin(W)
+        rk4_begin(W)
         for j in range(n):
             t = ta + L * j / n
             t1 = ta + L * (j + 1) / n
