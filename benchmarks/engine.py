@@ -152,10 +152,10 @@ def c_limit(cfg, workdir):
     from fmpy import extract, read_model_description
 
     from cosim.master import run
-    from cosim.master.compiled import CompiledEngine
+    from cosim.master import CompiledLoop, Engine
     from cosim.master.plant import PlantSystem
 
-    eng = CompiledEngine(cfg)
+    eng = Engine(cfg, CompiledLoop)
     lay = eng.layout
     src = lay.route_ctrl_to_fmu[0]
     inverse = {v: k for k, v in lay.index.items()}
@@ -168,7 +168,7 @@ def c_limit(cfg, workdir):
     inputs = np.column_stack([res.data[n] for n in names]) if names else np.zeros((len(res.data), 0))
     plant = PlantSystem(cfg, lay, eng.buf)
     try:
-        tab = eng._tables(plant)
+        tab = eng.loop._tables(plant)
         x0 = plant.X.copy()
     finally:
         plant.close()

@@ -352,7 +352,7 @@ def _fmus(fmus_t, base_dir, problems):
 
 def _controller(name, t, fmus_t, base_dir, problems):
     """One ``[controllers.NAME]`` table -> ControllerSpec, or None when its class cannot be loaded."""
-    from controllers.base import load_controller_class
+    from cosim.plugins import load_controller_class
 
     p = ("controllers", name)
     if not _NAME.match(name):
@@ -528,7 +528,7 @@ def _summary_plugins(kind, name, instances, problems):
     """The summaries the named controller's class provides (``Class.summaries``); None when they cannot be
     told (a problem is reported when the summary needs them: ``kind`` is not "none")."""
     if name in instances.ctrls:
-        return getattr(instances.ctrls[name].cls, "summaries", {})
+        return instances.ctrls[name].cls.summaries
     if kind != "none":
         if name is None:
             problems.add(("summary", "controller"), "is required: the controller whose class provides the summary")

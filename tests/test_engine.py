@@ -21,7 +21,8 @@ from test_master_support import EXAMPLES, ROOT, gripper_dir, gripper_overrides, 
 from cosim.config import load_config
 from cosim.master import run, run_config
 from cosim.errors import EngineFallbackWarning
-from cosim.master.compiled import CompiledEngine, engine_for
+from cosim.master.compiled import CompiledLoop
+from cosim.master.engine import engine_for
 
 
 @pytest.fixture(scope="module")
@@ -109,7 +110,7 @@ def test_engines_agree_on_cs_feeding_me_with_gain_offset_and_substeps(master_dir
 def test_compiled_is_the_default_and_reports_compile_time(master_dir, tmp_path):
     cfg = load_config(osc_config(master_dir, stop=0.2))
     assert cfg.run.engine == "compiled"
-    assert isinstance(engine_for(cfg), CompiledEngine)
+    assert isinstance(engine_for(cfg).loop, CompiledLoop)
     result, summary, _ = run_config(osc_config(master_dir, stop=0.2), out=tmp_path / "o", progress=False)
     assert result.engine == "compiled" and result.compile_s > 0.0
     s = json.loads((tmp_path / "o" / "summary.json").read_text())
@@ -170,7 +171,7 @@ def test_ctrl_c_keeps_what_was_recorded(gripper_dir):
                                              "plot.panels=[]"]
     run(load_config(EXAMPLES / "gripper_impact.toml", sets + ["run.stop=0.01"]), progress=False)  # compiled now
     engine = engine_for(load_config(EXAMPLES / "gripper_impact.toml", sets + ["run.stop=3000"]))
-    assert isinstance(engine, CompiledEngine)
+    assert isinstance(engine.loop, CompiledLoop)
     # Ctrl-C as the default handler delivers it (an earlier test's Dask cluster may have left its own handler)
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(1.0, _thread.interrupt_main)
@@ -202,8 +203,8 @@ def test_every_shipped_controller_runs_as_a_cfunc(cls, tmp_path):
     # the compiled engine calls each kernel through its cfunc wrapper: same outputs and state as step()
     import numba
 
-    from controllers.base import native_kernel
     from cosim.fmi import native
+    from cosim.jit import native_kernel
 
     @numba.njit
     def call(addr, t, u, y, x, p):
@@ -229,9 +230,9 @@ def test_fmi_error_in_the_kernel_raises_fmi_call_error(master_dir):
 
     cfg = load_config(osc_config(master_dir, stop=0.1), ["fmus.plant.path=Osc2.fmu", 'record.signals=["plant.y"]'])
     engine = engine_for(cfg)
-    assert isinstance(engine, CompiledEngine)
+    assert isinstance(engine.loop, CompiledLoop)
     bad_vr = np.array([99], dtype=np.uint32)
-    tables = engine._tables
+    tables = engine.loop._tables
 
     def broken(plant):
         tab = tables(plant)
@@ -239,7 +240,7 @@ def test_fmi_error_in_the_kernel_raises_fmi_call_error(master_dir):
         tab["port"][0, 2] = 1
         return tab
 
-    engine._tables = broken
+    engine.loop._tables = broken
     with pytest.raises(FmiCallError, match="GetReal.*Error"):
         engine.run(progress=False)
 

@@ -1,12 +1,12 @@
 """The compiled engine's per-instant kernel: one numba function that runs a chunk of instants.
 
-It does exactly what :class:`cosim.master.engine.Engine` and :class:`cosim.master.plant.PlantSystem`
+It does exactly what :class:`cosim.master.loop.PythonLoop` and :class:`cosim.master.plant.PlantSystem`
 do at each instant, in the same order and with the same floating-point operations (so both engines
 give the same numbers): sample the plant, route, step the due controllers (numba ``cfunc`` kernels
 called by address), hold their outputs, record, and advance the plant (RK4 substeps over the ME
 FMUs' combined state, ``doStep`` of CS FMUs). FMU functions are called by address through
 :mod:`cosim.fmi.native`. Everything a run needs is in integer/float tables built by
-:mod:`cosim.master.compiled`; the kernel itself is compiled once and cached on disk.
+``cosim.master.compiled.CompiledLoop``; the kernel itself is compiled once and cached on disk.
 
 Tables (all int64 unless said):
 
@@ -32,8 +32,10 @@ Tables (all int64 unless said):
 ``ff`` (float64)
     start time, h_max.
 ``st`` (N_ST,)
-    run state kept between chunks: k, row, synced tick, first-chunk flag, error FMU, error function,
+    run state kept between chunks: k, synced tick, first-chunk flag, error FMU, error function,
     error status, event FMU + 1, event tick.
+``rec`` (n_rows, n_col) float64, ``times`` (n_rows,) float64, ``rows`` (1,)
+    the recorder's arrays (:class:`cosim.master.recorder.Recorder`): rows are written at ``rows[0]``.
 ``scr`` (n_fmu, 16) uint8
     the scratch bytes whose addresses are in ``fmu`` (flags written by the FMUs).
 
@@ -55,8 +57,8 @@ FMU_COLS = ("component", "SetTime", "SetContinuousStates", "GetDerivatives", "Ge
             "CompletedIntegratorStep", "version", "x_off", "n_states", "scratch")
 (_C, _ST, _SX, _GD, _GR, _SR, _DS, _CI, _V, _XO, _NX, _SC) = range(len(FMU_COLS))
 CTL_COLS = ("fn", "period", "route", "u", "nu", "y", "ny", "x", "nx", "p", "np")
-ST = ("k", "row", "synced", "first", "err_fmu", "err_fn", "err_status", "event_fmu", "event_k")
-(_K, _ROW, _SYNC, _FIRST, _EF, _EFN, _ES, _EVF, _EVK) = range(len(ST))
+ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "event_fmu", "event_k")
+(_K, _SYNC, _FIRST, _EF, _EFN, _ES, _EVF, _EVK) = range(len(ST))
 FUNCTIONS = ("SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "SetReal", "DoStep",
              "CompletedIntegratorStep", "DoStep:terminate")
 DONE, MORE, ERROR = 0, 1, 2
@@ -134,8 +136,84 @@ def _stage(W, s, c):
 
 
 @numba.njit(cache=True, _nrt=False)
+def _completed(k, fmu, cmp, scr, st):
+    """CompletedIntegratorStep of the ME FMUs that need it; notes the first event request; True on an FMI error."""
+    for i in range(cmp.shape[0]):
+        f = cmp[i]
+        sc = fmu[f, _SC]
+        if fmu[f, _V] == 3:
+            s = native.completed3(fmu[f, _CI], fmu[f, _C], sc)
+        else:
+            s = native.completed2(fmu[f, _CI], fmu[f, _C], sc)
+        if s > 1:
+            return _fail(st, f, 6, s)
+        if st[_EVF] == 0 and (scr[f, 0] != 0 or (fmu[f, _V] == 2 and (scr[f, 1] | scr[f, 2] | scr[f, 3]) != 0)):
+            st[_EVF] = f + 1
+            st[_EVK] = k
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
+def _rk4(t, t_next, k, h_max, fmu, me, cmp, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr,
+         buf_addr, scr, st):
+    """RK4 substeps of the ME FMUs' combined state from ``t`` to ``t_next``; True on an FMI error."""
+    nX = W.shape[1]
+    L = t_next - t
+    n = max(1, math.ceil(L / h_max - 1e-9))
+    synced = st[_SYNC] == k  # the first stage can reuse (t, X) set when sampling: only the inputs changed
+    st[_SYNC] = -1
+    for i in range(nX):
+        W[1, i] = W[0, i]
+    for j in range(n):
+        ta = t + L * j / n
+        t1 = t + L * (j + 1) / n
+        h = t1 - ta
+        th = ta + 0.5 * h
+        if _deriv(ta, not (synced and j == 0), fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
+                  x_addr, dx_addr, buf_addr, st):
+            return True
+        _stage(W, 0, 0.5 * h)
+        if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+                  buf_addr, st):
+            return True
+        _stage(W, 1, 0.5 * h)
+        if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+                  buf_addr, st):
+            return True
+        _stage(W, 2, h)
+        if _deriv(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+                  buf_addr, st):
+            return True
+        for i in range(nX):
+            W[0, i] = W[1, i] + h / 6.0 * (W[3, i] + 2.0 * W[4, i] + 2.0 * W[5, i] + W[2, i])
+            W[1, i] = W[0, i]
+        if cmp.shape[0] > 0:
+            if _eval(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
+                return True
+            if _completed(k, fmu, cmp, scr, st):
+                return True
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
+def _do_steps(t, t_next, fmu, cs, scr, st):
+    """doStep of every CS FMU from ``t`` to ``t_next``; True on an FMI error or a request to terminate."""
+    for i in range(cs.shape[0]):
+        f = cs[i]
+        if fmu[f, _V] == 3:
+            s = native.do_step3(fmu[f, _DS], fmu[f, _C], t, t_next - t, fmu[f, _SC])
+        else:
+            s = native.do_step2(fmu[f, _DS], fmu[f, _C], t, t_next - t)
+        if s > 1:
+            return _fail(st, f, 5, s)
+        if fmu[f, _V] == 3 and scr[f, 1] != 0:
+            return _fail(st, f, 7, 0)
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
 def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec, times,
-              rec_idx, calls, scr, st, max_instants):
+              rows, rec_idx, calls, scr, st, max_instants):
     """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR."""
     k_stop = ii[0]
     rec_p = ii[1]
@@ -150,7 +228,7 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
     dx_addr = x_addr + 8 * 2 * nX
     n_me = me.shape[0]
     k = st[_K]
-    row = st[_ROW]
+    row = rows[0]
     if max_instants <= 0:
         return MORE
     if st[_FIRST] == 1:
@@ -202,80 +280,14 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
         t_next = t0 + (k_next * den) / num
         # 6. advance: RK4 over the ME FMUs, then doStep of the CS FMUs
         if n_me > 0 and nX > 0:
-            L = t_next - t
-            n = max(1, math.ceil(L / h_max - 1e-9))
-            synced = st[_SYNC] == k
-            st[_SYNC] = -1
-            for i in range(nX):
-                W[1, i] = W[0, i]
-            failed = False
-            for j in range(n):
-                ta = t + L * j / n
-                t1 = t + L * (j + 1) / n
-                h = t1 - ta
-                th = ta + 0.5 * h
-                if _deriv(ta, not (synced and j == 0), fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
-                          x_addr, dx_addr, buf_addr, st):
-                    failed = True
-                    break
-                _stage(W, 0, 0.5 * h)
-                if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
-                          buf_addr, st):
-                    failed = True
-                    break
-                _stage(W, 1, 0.5 * h)
-                if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
-                          buf_addr, st):
-                    failed = True
-                    break
-                _stage(W, 2, h)
-                if _deriv(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
-                          buf_addr, st):
-                    failed = True
-                    break
-                for i in range(nX):
-                    W[0, i] = W[1, i] + h / 6.0 * (W[3, i] + 2.0 * W[4, i] + 2.0 * W[5, i] + W[2, i])
-                    W[1, i] = W[0, i]
-                if cmp.shape[0] > 0:
-                    if _eval(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr,
-                             st):
-                        failed = True
-                        break
-                    for i in range(cmp.shape[0]):
-                        f = cmp[i]
-                        sc = fmu[f, _SC]
-                        if fmu[f, _V] == 3:
-                            s = native.completed3(fmu[f, _CI], fmu[f, _C], sc)
-                        else:
-                            s = native.completed2(fmu[f, _CI], fmu[f, _C], sc)
-                        if s > 1:
-                            failed = _fail(st, f, 6, s)
-                            break
-                        if st[_EVF] == 0 and (scr[f, 0] != 0 or (fmu[f, _V] == 2 and (scr[f, 1] | scr[f, 2] | scr[f, 3]) != 0)):
-                            st[_EVF] = f + 1
-                            st[_EVK] = k
-                    if failed:
-                        break
-            if failed:
+            if _rk4(t, t_next, k, h_max, fmu, me, cmp, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr,
+                    dx_addr, buf_addr, scr, st):
                 code = ERROR
                 break
-        failed = False
-        for i in range(cs.shape[0]):
-            f = cs[i]
-            if fmu[f, _V] == 3:
-                s = native.do_step3(fmu[f, _DS], fmu[f, _C], t, t_next - t, fmu[f, _SC])
-            else:
-                s = native.do_step2(fmu[f, _DS], fmu[f, _C], t, t_next - t)
-            if s > 1:
-                failed = _fail(st, f, 5, s)
-                break
-            if fmu[f, _V] == 3 and scr[f, 1] != 0:
-                failed = _fail(st, f, 7, 0)
-                break
-        if failed:
+        if _do_steps(t, t_next, fmu, cs, scr, st):
             code = ERROR
             break
         k = k_next
     st[_K] = k
-    st[_ROW] = row
+    rows[0] = row
     return code

@@ -1,18 +1,13 @@
-"""The compiled engine: the per-instant loop as one numba kernel calling the FMUs' C entry points.
+"""The compiled per-instant loop: one numba kernel calling the FMUs' C entry points, and when a config can use it.
 
-:func:`engine_for` picks the engine of a config: ``run.engine = "compiled"`` (the default) runs
-:class:`CompiledEngine` when every controller's kernel compiles with numba and the solver is the
-fixed-step RK4; otherwise the run falls back to the Python engine (:class:`cosim.master.engine.Engine`)
-with a one-line explanation: a warning naming the construct when numba cannot compile a kernel, a
-note in the result (``RunResult.engine_note``, summary.json) when the config itself asks for
-Python (``jit = false``, a controller overriding ``step`` in Python, an implicit solver).
-
-The compiled engine builds the same :class:`~cosim.master.engine.Layout` and
-:class:`~cosim.master.plant.PlantSystem` as the Python engine and turns them into the integer/float
-tables of :mod:`cosim.master.ckernel`, so both engines do the same operations at the same instants.
-The kernel runs in chunks of instants: between chunks the progress bar moves and Ctrl-C stops the
-run with what was recorded. Numba compile time (or loading from numba's on-disk cache) is reported
-separately in ``RunResult.compile_s``.
+:class:`CompiledLoop` is the loop :class:`cosim.master.engine.Engine` swaps in for the Python one
+(:class:`cosim.master.loop.PythonLoop`) when :func:`compiled_problem` finds nothing against it
+(every controller's kernel compiles with numba, the solver is the fixed-step RK4, FMI 2.0 or 3.0).
+It turns the engine's :class:`~cosim.master.layout.Layout` and the run's
+:class:`~cosim.master.plant.PlantSystem` into the integer/float tables of :mod:`cosim.master.ckernel`,
+so both loops do the same operations at the same instants, and runs the kernel in chunks of
+instants. Numba compile time (or loading from numba's on-disk cache) is what :meth:`CompiledLoop.start`
+returns.
 """
 
 import time as _time
@@ -20,15 +15,15 @@ import warnings
 
 import numpy as np
 
-from controllers.base import Controller, compile_kernel, kernel_problem, native_kernel
-from cosim.errors import EngineFallbackWarning, FmiCallError
+from controllers.base import Controller
+from cosim.errors import FmiCallError
 from cosim.fmi import check
-from cosim.master import ckernel
-from cosim.master.engine import Engine, RunResult
+from cosim.jit import compile_kernel, kernel_problem, native_kernel
+from cosim.master.ckernel import CTL_COLS, DONE, ERROR, FMU_COLS, FUNCTIONS, ST, run_chunk
 
-__all__ = ["CompiledEngine", "engine_for", "compiled_problem"]
+__all__ = ["CompiledLoop", "compiled_problem"]
 
-CHUNK = 4096  # instants per kernel call (about 1-5 ms of wall time at the FOC rate)
+_K, _EF, _EFN, _ES, _EVF, _EVK = (ST.index(n) for n in ("k", "err_fmu", "err_fn", "err_status", "event_fmu", "event_k"))
 
 
 def compiled_problem(config):
@@ -60,57 +55,83 @@ def compiled_problem(config):
     return None, False
 
 
-def engine_for(config):
-    """The engine that runs ``config`` (compiled where possible, see the module docstring).
+class CompiledLoop:
+    """The per-instant loop as one numba kernel (see the module docstring; same interface as
+    :class:`cosim.master.loop.PythonLoop`).
 
     Parameters
     ----------
-    config : cosim.config.Config
-
-    Returns
-    -------
-    CompiledEngine or cosim.master.engine.Engine
-    """
-    if config.run.engine == "python":
-        return Engine(config)
-    t0 = _time.perf_counter()
-    reason, numba_failed = compiled_problem(config)  # compiles the controllers' cfuncs (or loads them)
-    if reason is None:
-        engine = CompiledEngine(config)
-        engine._cfunc_s += _time.perf_counter() - t0
-        return engine
-    if numba_failed:
-        warnings.warn(f"{config.name}: running the Python engine: {reason}", EngineFallbackWarning, stacklevel=2)
-    with warnings.catch_warnings():  # the controllers' own "runs in plain Python" warning: said just above
-        warnings.simplefilter("ignore", UserWarning)
-        engine = Engine(config)
-    engine.engine_note = f"Python engine: {reason}"
-    return engine
-
-
-class CompiledEngine(Engine):
-    """Run a config with the compiled per-instant kernel (see the module docstring).
-
-    Parameters
-    ----------
-    config : cosim.config.Config
-        A config :func:`compiled_problem` accepts.
+    engine : cosim.master.engine.Engine
+        The set-up the loop runs; a config :func:`compiled_problem` accepts.
     """
 
-    def __init__(self, config):
-        super().__init__(config)
+    name = "compiled"
+
+    def __init__(self, engine):
+        self.engine = engine
+        self._native = {name: native_kernel(type(c).kernel) for name, c in engine.controllers.items()}
+        self.calls = np.zeros(len(engine.layout.ctrl_order), dtype=np.int64)
+        self.st = np.zeros(len(ST), dtype=np.int64)
+        self.plant = None
+        self._args = None
+        self._event_warned = False
+
+    @property
+    def tick(self):
+        """The next instant (ticks of the time base)."""
+        return int(self.st[_K])
+
+    def start(self, plant):
+        """Build the kernel's tables for ``plant`` and compile the kernel (or load it from numba's cache).
+
+        Returns
+        -------
+        float
+            Seconds spent compiling or loading the kernel.
+        """
+        eng = self.engine
+        self.plant = plant
+        self.calls[:] = 0
+        self.st[:] = 0
+        self.st[ST.index("synced")] = -1
+        self.st[ST.index("first")] = 1  # first chunk: send the initial FMU inputs
+        self._event_warned = False
+        rec = eng.recorder
+        tab = self._tables(plant)
+        self._args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["port"], tab["pgrp"], tab["rsrc"],
+                      tab["rdst"], tab["rgain"], tab["roff"], tab["rgrp"], tab["lvl"], tab["ctl"], tab["ii"], tab["ff"],
+                      eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st)
         t0 = _time.perf_counter()
-        self._native = {name: native_kernel(type(c).kernel) for name, c in self.controllers.items()}
-        self._cfunc_s = _time.perf_counter() - t0
+        run_chunk(*self._args, 0)  # compile, or load from numba's cache
+        return _time.perf_counter() - t0
 
-    # -- tables ----------------------------------------------------------------------------------
+    def call_counts(self):
+        """Number of ``step`` calls per controller so far."""
+        return {name: int(self.calls[i]) for i, name in enumerate(self.engine.layout.ctrl_order)}
+
+    def run(self, n):
+        """Run at most ``n`` instants; True when the stop instant is done.
+
+        Raises
+        ------
+        cosim.errors.FmiCallError
+            An FMI call returned an error, or a Co-Simulation FMU asked to terminate.
+        """
+        code = run_chunk(*self._args, n)
+        if code == ERROR:
+            self._raise()
+        if self.st[_EVF]:
+            self._warn_event()
+        return code == DONE
+
     def _tables(self, plant):
-        lay, buf = self.layout, self.buf
+        eng = self.engine
+        lay, buf = eng.layout, eng.buf
         names = list(plant.instances)
         fidx = {n: i for i, n in enumerate(names)}
         buf_addr = buf.ctypes.data
         scr = np.zeros((len(names), 16), dtype=np.uint8)
-        fmu = np.zeros((len(names), len(ckernel.FMU_COLS)), dtype=np.int64)
+        fmu = np.zeros((len(names), len(FMU_COLS)), dtype=np.int64)
         x_off = {}
         off = 0
         for inst in plant.me:
@@ -121,7 +142,7 @@ class CompiledEngine(Engine):
             ep = inst.entry_points()
             need = ["GetReal", "SetReal"] + (["SetTime", "SetContinuousStates", "GetDerivatives"] if inst.kind == "ME"
                                              else ["DoStep"])
-            if inst in plant._completed:
+            if inst in plant.completed:
                 need.append("CompletedIntegratorStep")
             missing = [f for f in need if not ep[f]]
             if missing:  # a call through address 0 would crash the process: refuse here
@@ -131,7 +152,7 @@ class CompiledEngine(Engine):
                    inst.n_states, scr[i].ctypes.data]
             fmu[i] = row
         me = np.array([fidx[i.name] for i in plant.me], dtype=np.int64)
-        cmp = np.array([fidx[i.name] for i in plant._completed], dtype=np.int64)
+        cmp = np.array([fidx[i.name] for i in plant.completed], dtype=np.int64)
         cs = np.array([fidx[i.name] for i in plant.cs], dtype=np.int64)
 
         ports, pgrp, items_ = [], [], []
@@ -160,18 +181,18 @@ class CompiledEngine(Engine):
         rgroup(lay.route_ctrl_to_fmu)
         ctrl_route = {name: rgroup(lay.route_ctrl_in[name]) for name in lay.ctrl_order}
         lvl = []
-        for gets, arrays, sets in plant._program:
+        for gets, arrays, sets in plant.program:
             lvl.append((group(gets), rgroup(arrays), group(sets)))
-        clocks = self.tb.clocks
+        clocks = eng.tb.clocks
         ctl = []
         for name in lay.ctrl_order:
-            c = self.controllers[name]
+            c = eng.controllers[name]
             ctl.append((self._native[name].address, clocks[f"ctrl:{name}"].period, ctrl_route[name],
                         c.u.ctypes.data, len(c.u), c.y.ctypes.data, len(c.y), c.x.ctypes.data, len(c.x),
                         c.p.ctypes.data, len(c.p)))
         periods = sorted({c.period for c in clocks.values()})
-        num, den = self.tb.base.numerator, self.tb.base.denominator
-        ii = np.array([self.k_stop, clocks["record"].period, num, den, len(periods)] + periods, dtype=np.int64)
+        num, den = eng.tb.base.numerator, eng.tb.base.denominator
+        ii = np.array([eng.k_stop, clocks["record"].period, num, den, len(periods)] + periods, dtype=np.int64)
         r = np.array(routes, dtype=np.float64).reshape(-1, 4)
         return dict(
             fmu=fmu, me=me, cmp=cmp, cs=cs,
@@ -179,94 +200,24 @@ class CompiledEngine(Engine):
             rsrc=r[:, 0].astype(np.int64), rdst=r[:, 1].astype(np.int64),
             rgain=np.ascontiguousarray(r[:, 2]), roff=np.ascontiguousarray(r[:, 3]),
             rgrp=np.array(rgrp, dtype=np.int64).reshape(-1, 2), lvl=np.array(lvl, dtype=np.int64).reshape(-1, 3),
-            ctl=np.array(ctl, dtype=np.int64).reshape(-1, len(ckernel.CTL_COLS)), ii=ii,
-            ff=np.array([self.tb.start, self.h_max]), scr=scr, port_items=items_, fmu_names=names,
+            ctl=np.array(ctl, dtype=np.int64).reshape(-1, len(CTL_COLS)), ii=ii,
+            ff=np.array([eng.tb.start, eng.h_max]), scr=scr, port_items=items_, fmu_names=names,
         )
 
-    # -- the run ---------------------------------------------------------------------------------
-    def run(self, progress=None):
-        """Run from start to stop; returns a :class:`RunResult` (partial if interrupted by Ctrl-C).
-
-        Parameters
-        ----------
-        progress : bool or None
-            Show a tqdm bar on stderr; None: when the run has more than 200,000 instants.
-        """
-        cfg = self.config
-        tb = self.tb
-        _, rec, times, plant, progress = self._start_run(progress)
-        order = list(self.layout.ctrl_order)
-        calls = np.zeros(len(order), dtype=np.int64)
-        st = np.zeros(len(ckernel.ST), dtype=np.int64)
-        st[2] = -1  # synced tick
-        st[3] = 1  # first chunk: send the initial FMU inputs
-        rec_idx = np.ascontiguousarray(self.rec_idx)
-        bar = None
-        interrupted = False
-        wall = 0.0
-        try:
-            tab = self._tables(plant)
-            args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["port"], tab["pgrp"], tab["rsrc"], tab["rdst"],
-                    tab["rgain"], tab["roff"], tab["rgrp"], tab["lvl"], tab["ctl"], tab["ii"], tab["ff"], self.buf,
-                    plant.W, rec, times, rec_idx, calls, tab["scr"], st)
-            c0 = _time.perf_counter()
-            ckernel.run_chunk(*args, 0)  # compile, or load from numba's cache
-            self.compile_s = self._cfunc_s + _time.perf_counter() - c0
-            if progress:
-                bar = self._progress_bar()
-            wall0 = _time.perf_counter()
-            try:
-                while True:
-                    code = ckernel.run_chunk(*args, CHUNK)
-                    if code == ckernel.ERROR:
-                        self._raise(plant, st)
-                    if st[7]:
-                        self._warn_event(plant, st)
-                    if bar is not None:
-                        bar.update(tb.time(int(st[0])) - cfg.run.start - bar.n)
-                    if code == ckernel.DONE:
-                        break
-            except KeyboardInterrupt:
-                interrupted = True
-            finally:
-                wall = _time.perf_counter() - wall0
-        finally:
-            if bar is not None:
-                bar.close()
-            plant.close()
-            self.plant = None
-        row = int(st[1])
-        dtype = [("time", "f8")] + [(name, "f8") for name in self.signals]
-        data = np.zeros(row, dtype=dtype)
-        data["time"] = times[:row]
-        for j, name in enumerate(self.signals):
-            data[name] = rec[:row, j]
-        return RunResult(
-            data=data,
-            units=dict(self.units),
-            calls={name: int(calls[i]) for i, name in enumerate(order)},
-            interrupted=interrupted,
-            wall_s=wall,
-            sim_s=float(times[row - 1] - cfg.run.start) if row else 0.0,
-            signals=dict(self.signals),
-            controller_values={n: dict(c.values) for n, c in self.controllers.items()},
-            engine="compiled",
-            compile_s=self.compile_s,
-        )
-
-    def _raise(self, plant, st):
-        inst = list(plant.instances.values())[int(st[4])]
-        fn = ckernel.FUNCTIONS[int(st[5])]
-        t = self.tb.time(int(st[0]))
+    def _raise(self):
+        st = self.st
+        inst = list(self.plant.instances.values())[int(st[_EF])]
+        fn = FUNCTIONS[int(st[_EFN])]
+        t = self.engine.tb.time(int(st[_K]))
         if fn == "DoStep:terminate":
             raise FmiCallError("DoStep", "terminateSimulation", f"{inst.name} asked to stop after t={t}")
-        check(fn, int(st[6]), f"{inst._last_message()} (in the instant after t={t})")
-        raise FmiCallError(fn, f"status {int(st[6])}", inst.name)  # pragma: no cover - check raised
+        check(fn, int(st[_ES]), f"{inst._last_message()} (in the instant after t={t})")
+        raise FmiCallError(fn, f"status {int(st[_ES])}", inst.name)  # pragma: no cover - check raised
 
-    def _warn_event(self, plant, st):
-        if getattr(self, "_event_warned", False):
+    def _warn_event(self):
+        if self._event_warned:
             return
         self._event_warned = True
-        inst = list(plant.instances.values())[int(st[7]) - 1]
-        warnings.warn(f"{inst.name}: the FMU asked for event mode after t={self.tb.time(int(st[8]))}; events are "
-                      "not handled", stacklevel=3)
+        inst = list(self.plant.instances.values())[int(self.st[_EVF]) - 1]
+        t = self.engine.tb.time(int(self.st[_EVK]))
+        warnings.warn(f"{inst.name}: the FMU asked for event mode after t={t}; events are not handled", stacklevel=4)

@@ -46,7 +46,10 @@ def write_results(result, config, out_dir, csv=False, summary=None):
 
     meta["cosim.version"] = __version__
     schema = pa.schema(fields, metadata=meta)
-    table = pa.table([pa.array(np.ascontiguousarray(result.data[n])) for n in names], schema=schema)
+    # the columns wrap the numpy buffers (pa.array would import pandas, a second of start-up, to check their type)
+    columns = [pa.Array.from_buffers(pa.float64(), len(result.data), [None, pa.py_buffer(np.ascontiguousarray(
+        result.data[n]))]) for n in names]
+    table = pa.Table.from_arrays(columns, schema=schema)
     files = []
     p = out / "results.parquet"
     pq.write_table(table, p)

@@ -15,7 +15,7 @@ import numpy as np
 
 from cosim.errors import ConfigError
 from cosim.fmi import FmuInstance
-from cosim.master import kernels
+from cosim.master.kernels import rk4_begin, rk4_final, rk4_stage, route
 
 __all__ = ["PlantSystem"]
 
@@ -46,10 +46,21 @@ class PlantSystem:
     Parameters
     ----------
     config : cosim.config.Config
-    layout : cosim.master.engine.Layout
+    layout : cosim.master.layout.Layout
         Where each routed/recorded FMU variable lives in the signal buffer.
     buf : numpy.ndarray
         The master's signal buffer.
+
+    Attributes
+    ----------
+    me, cs : list of cosim.fmi.FmuInstance
+        The Model-Exchange FMUs (their states form ``X``, in this order) and the Co-Simulation FMUs.
+    completed : list of cosim.fmi.FmuInstance
+        The ME FMUs that need ``CompletedIntegratorStep`` after each step.
+    program : list of tuple
+        ME-to-ME evaluation by dependency level: (get ports, route arrays, set ports) per level.
+    W : numpy.ndarray
+        The RK4 work array: rows X, X0, dX, K1..K4.
     """
 
     def __init__(self, config, layout, buf):
@@ -73,7 +84,7 @@ class PlantSystem:
                     "not located, discontinuities are stepped over by the fixed step",
                     stacklevel=3,
                 )
-        self._completed = [i for i in self.me if i.info.needs_completed_step]
+        self.completed = [i for i in self.me if i.info.needs_completed_step]
         self._event_warned = False
         # combined state vector
         n = sum(i.n_states for i in self.me)
@@ -94,7 +105,7 @@ class PlantSystem:
             for port in _ports(inst, layout.fmu_instant_inputs.get(name, []), layout, buf):
                 self.instant_in_ports.setdefault(name, []).append((inst, port))
         self.buf = buf
-        self._program = self._stage_program(layout, buf)
+        self.program = self._stage_program(layout, buf)
         self._route_instant = layout.route_fmu_instant  # (src, dst, gain, offset) arrays
 
     # -- ME-to-ME evaluation order --------------------------------------------------------------
@@ -155,10 +166,10 @@ class PlantSystem:
             for inst in self.me:
                 inst.set_time(t)
                 inst.push_states()
-        for gets, (src, dst, gain, off), sets in self._program:
+        for gets, (src, dst, gain, off), sets in self.program:
             for inst, port in gets:
                 inst.get(port)
-            kernels.route(self.buf, src, dst, gain, off)
+            route(self.buf, src, dst, gain, off)
             for inst, port in sets:
                 inst.set(port)
 
@@ -180,7 +191,7 @@ class PlantSystem:
         """Route FMU-to-FMU connections that act at instants (to or from a CS FMU) and set the inputs."""
         src, dst, gain, off = self._route_instant
         if len(src):
-            kernels.route(self.buf, src, dst, gain, off)
+            route(self.buf, src, dst, gain, off)
 
     def push_instant_inputs(self):
         """Send the inputs held over the next interval (from controllers and CS FMUs) to the FMUs."""
@@ -203,12 +214,12 @@ class PlantSystem:
         L = tb - ta
         n = max(1, math.ceil(L / h_max - 1e-9))
         W = self.W
-        stage, final = kernels.rk4_stage, kernels.rk4_final
+        stage, final = rk4_stage, rk4_final
         deriv = self.derivatives
         # the first stage at ta can reuse (ta, X) set by sample(ta): only the inputs changed since
         synced = self._synced == ta
         self._synced = None
-        kernels.rk4_begin(W)
+        rk4_begin(W)
         for j in range(n):
             t = ta + L * j / n
             t1 = ta + L * (j + 1) / n
@@ -222,12 +233,12 @@ class PlantSystem:
             stage(W, 2, h)
             deriv(t1)
             final(W, h)
-            if self._completed:
+            if self.completed:
                 self._complete(t1)
 
     def _complete(self, t):
         self._eval(t)
-        for inst in self._completed:
+        for inst in self.completed:
             if inst.completed_integrator_step() and not self._event_warned:
                 self._event_warned = True
                 warnings.warn(f"{inst.name}: the FMU asked for event mode at t={t}; events are not handled",
@@ -249,7 +260,7 @@ class PlantSystem:
 
             raise CosimError(f"solver {self.solver.method} failed between t={ta} and t={tb}: {sol.message}")
         self.X[:] = sol.y[:, -1]
-        if self._completed:
+        if self.completed:
             self._complete(tb)
 
     def close(self):

@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from cosim.master.compiled import engine_for
+from cosim.master.engine import engine_for
 from cosim.master.output import write_results
 from cosim.master.summary import summarize
 

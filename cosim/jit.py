@@ -1,0 +1,156 @@
+"""numba compilation of controller kernels: ``njit`` for ``Controller.step``, a ``cfunc`` for the compiled engine.
+
+Both the controller interface (:class:`controllers.base.Controller`, whose ``step`` calls the
+compiled kernel) and the master's compiled loop (:mod:`cosim.master.compiled`, which calls the
+``cfunc`` by address) use it, so it lives below both. Each kernel is compiled once per process and
+cached on disk; when numba cannot compile it, the reason is kept as one line naming the construct.
+"""
+
+import linecache
+import re
+import warnings
+from pathlib import Path
+
+import numba
+
+from cosim.fmi.native import KERNEL_SIGNATURE
+
+__all__ = ["compile_kernel", "kernel_problem", "native_kernel", "numba_problem"]
+
+_COMPILED = {}
+_WARNED = set()  # kernels whose fallback was already warned about
+_PROBLEMS = {}  # kernel -> one-line reason numba could not compile it
+_NATIVE = {}  # kernel -> numba cfunc wrapper (for the compiled engine)
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
+_SIGNATURE = "(float64, float64[::1], float64[::1], float64[::1], float64[::1])"
+
+
+def numba_problem(err):
+    """One line naming the construct numba rejected, from a numba compilation error.
+
+    Parameters
+    ----------
+    err : Exception
+        What numba raised.
+
+    Returns
+    -------
+    str
+        E.g. ``Unknown attribute 'append' of type list (ctl.py:12: `l.append(u)`)``.
+    """
+    text = _ANSI.sub("", str(err))
+    lines = [ln.strip() for ln in text.splitlines()]
+    head = next((ln for ln in lines if ln and not ln.startswith("Failed in ")), type(err).__name__)
+    head = head.rstrip(":")
+    where = None
+    m = re.search(r'File "([^"]+)", line (\d+)', text) or re.search(r"Raised from (\S+) \((\d+)\)", text)
+    if m:
+        path, line = m.group(1), int(m.group(2))
+        src = linecache.getline(path, line).strip()
+        if not src:  # numba prints the path relative to the cwd sometimes: take the source line it printed
+            after = text.split(m.group(0), 1)[1].splitlines()
+            src = next((ln.strip() for ln in after[1:] if ln.strip() and not ln.strip().startswith("def ")), "")
+        where = f"{Path(path).name}:{line}" + (f": `{src}`" if src else "")
+    return f"{head} ({where})" if where else head
+
+
+def kernel_problem(fn):
+    """The reason numba could not compile kernel ``fn`` (None when it compiled or was not tried).
+
+    Parameters
+    ----------
+    fn : callable
+        A kernel ``fn(t, u, y, x, p)``.
+
+    Returns
+    -------
+    str or None
+    """
+    return _PROBLEMS.get(fn)
+
+
+def native_kernel(fn):
+    """The kernel ``fn`` compiled as a numba ``cfunc`` the compiled engine calls by address.
+
+    The C signature is ``void(double t, double* u, int64 nu, double* y, int64 ny, double* x, int64 nx,
+    double* p, int64 np)`` (:data:`cosim.fmi.native.KERNEL_SIGNATURE`). Cached per kernel in the
+    process and on disk.
+
+    Parameters
+    ----------
+    fn : callable
+        A kernel ``fn(t, u, y, x, p)``.
+
+    Returns
+    -------
+    numba cfunc
+        Its ``address`` is what the compiled loop calls.
+
+    Raises
+    ------
+    numba.core.errors.NumbaError (or another exception numba raises)
+        numba cannot compile the kernel; :func:`numba_problem` turns it into one line.
+    """
+    if fn in _NATIVE:
+        return _NATIVE[fn]
+    kernel = compile_kernel(fn, warn=False)
+    if kernel is fn:
+        raise TypeError(kernel_problem(fn) or "numba cannot compile the kernel")
+    cf = _cfunc_wrapper(kernel)
+    _NATIVE[fn] = cf
+    return cf
+
+
+def _cfunc_wrapper(kernel):
+    carray = numba.carray
+
+    def wrapper(t, u, nu, y, ny, x, nx, p, np_):
+        kernel(t, carray(u, (nu,)), carray(y, (ny,)), carray(x, (nx,)), carray(p, (np_,)))
+
+    try:  # the on-disk cache keys closures on their captured values (the kernel), so wrappers do not collide
+        return numba.cfunc(KERNEL_SIGNATURE, cache=True)(wrapper)
+    except Exception:  # e.g. a kernel from a file numba cannot cache: compile uncached
+        return numba.cfunc(KERNEL_SIGNATURE)(wrapper)
+
+
+def compile_kernel(fn, label="controller", warn=True):
+    """Return ``numba.njit(fn)`` (cached per function), or ``fn`` with a warning if numba fails.
+
+    Parameters
+    ----------
+    fn : callable
+        A kernel ``fn(t, u, y, x, p)``.
+    label : str
+        Name used in the fallback warning.
+    warn : bool
+        Warn when numba cannot compile the kernel (the reason is kept for :func:`kernel_problem`).
+
+    Returns
+    -------
+    callable
+        The compiled kernel, or ``fn`` itself when numba cannot compile it.
+    """
+    if fn in _COMPILED:
+        jitted = _COMPILED[fn]
+        if jitted is fn and warn and fn in _PROBLEMS and fn not in _WARNED:
+            _WARNED.add(fn)
+            warnings.warn(f"{label}: kernel runs in plain Python, numba cannot compile it: {_PROBLEMS[fn]}",
+                          stacklevel=3)
+        return jitted
+    try:
+        try:
+            # compile for the one signature the master uses, so a failure shows here and not mid-run
+            jitted = numba.njit(cache=True)(fn)
+            jitted.compile(_SIGNATURE)
+        except Exception:  # e.g. no on-disk cache for a kernel loaded from a file: compile uncached
+            jitted = numba.njit(fn)
+            jitted.compile(_SIGNATURE)
+    except Exception as err:  # numba raises many types; any of them means "run it in Python"
+        _PROBLEMS[fn] = numba_problem(err)
+        if warn:
+            _WARNED.add(fn)
+            warnings.warn(f"{label}: kernel runs in plain Python, numba cannot compile it: {_PROBLEMS[fn]}",
+                          stacklevel=3)
+        jitted = fn
+    _COMPILED[fn] = jitted
+    return jitted

@@ -1,0 +1,79 @@
+"""The recorder: the columns a run records and the rows the per-instant loop writes into them.
+
+Both loops feed it at the recorder's instants: the Python loop calls :meth:`Recorder.record`; the
+compiled loop's kernel writes the same arrays (``times``, ``values``, the row count ``rows``) in
+place. After the run :meth:`Recorder.data` is what was recorded, also when the run was interrupted.
+"""
+
+import numpy as np
+
+__all__ = ["Recorder"]
+
+
+class Recorder:
+    """Recorded columns of a config (names, units, signal buffer slots) and the rows of one run.
+
+    A variable recorded from one FMU only is named by itself (``F_g``); otherwise
+    ``instance.variable``; a controller signal always ``instance.variable``.
+
+    Parameters
+    ----------
+    config : cosim.config.Config
+    layout : cosim.master.layout.Layout
+        Where each recorded value lives in ``buf``.
+    buf : numpy.ndarray
+        The master's signal buffer.
+
+    Attributes
+    ----------
+    signals : dict of str to tuple
+        Column name -> (instance, variable).
+    units : dict of str to str
+        Unit of each column, ``time`` first.
+    index : numpy.ndarray of int64
+        The buffer slot of each column.
+    times, values, rows : numpy.ndarray
+        Time (s) and values of each row; ``rows[0]`` rows written (set by :meth:`start`).
+    """
+
+    def __init__(self, config, layout, buf):
+        counts = {}
+        for inst, var in config.record.signals:
+            if inst in config.fmus:
+                counts[var] = counts.get(var, 0) + 1
+        self.signals = {}
+        self.units = {"time": "s"}
+        for inst, var in config.record.signals:
+            if inst in config.fmus:
+                name = var if counts[var] == 1 else f"{inst}.{var}"
+                unit = config.fmus[inst].info.variables[var].unit
+            else:
+                name = f"{inst}.{var}"
+                unit = config.controllers[inst].cls.units.get(var, "")
+            self.signals[name] = (inst, var)
+            self.units[name] = unit
+        self.index = np.array([layout.index[s] for s in self.signals.values()], dtype=np.int64)
+        self.buf = buf
+        self.times = self.values = self.rows = None
+
+    def start(self, n_rows):
+        """Empty rows for a run that records at most ``n_rows`` instants."""
+        self.times = np.zeros(n_rows)
+        self.values = np.full((n_rows, len(self.index)), np.nan)
+        self.rows = np.zeros(1, dtype=np.int64)
+
+    def record(self, t):
+        """Append the row of instant ``t`` (s): the recorded slots of the signal buffer."""
+        row = self.rows[0]
+        self.times[row] = t
+        self.values[row] = self.buf[self.index]
+        self.rows[0] = row + 1
+
+    def data(self):
+        """What was recorded: a structured array, field ``time`` first, then one float64 field per column."""
+        row = int(self.rows[0])
+        data = np.zeros(row, dtype=[("time", "f8")] + [(name, "f8") for name in self.signals])
+        data["time"] = self.times[:row]
+        for j, name in enumerate(self.signals):
+            data[name] = self.values[:row, j]
+        return data

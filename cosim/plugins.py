@@ -1,0 +1,94 @@
+"""Load a user's class from ``"package.module:Class"`` or ``"path/file.py:Class"`` (controllers, summaries).
+
+A config names the classes it runs by such a string; :func:`load_class` imports the module (a
+``.py`` path relative to the config's folder is loaded once per process) and checks that the class
+derives from the base class the caller expects.
+"""
+
+import difflib
+import importlib
+import importlib.util
+import sys
+from pathlib import Path
+
+from controllers.base import Controller
+
+__all__ = ["load_class", "load_controller_class"]
+
+
+def load_class(spec, base_class, base_dir=None, kind="plugin"):
+    """Import the class ``spec`` names and check that it derives from ``base_class``.
+
+    Parameters
+    ----------
+    spec : str
+        ``"module:Class"`` or ``"file.py:Class"``; a ``.py`` path is resolved against ``base_dir``.
+    base_class : type
+        The class the loaded class must derive from.
+    base_dir : path-like, optional
+        Directory relative file paths are resolved against (the config file's directory).
+    kind : str
+        What the class is, for the messages (e.g. ``"controller"``).
+
+    Returns
+    -------
+    type
+
+    Raises
+    ------
+    ImportError
+        The module or class cannot be found, or the class does not derive from ``base_class``.
+    """
+    if ":" not in spec:
+        raise ImportError(f"{kind} class {spec!r} must be written 'module:Class' or 'file.py:Class'")
+    mod_name, _, cls_name = spec.rpartition(":")
+    if mod_name.endswith(".py"):
+        module = _load_file(mod_name, base_dir, kind)
+    else:
+        try:
+            module = importlib.import_module(mod_name)
+        except ModuleNotFoundError as err:
+            raise ImportError(f"{kind} module {mod_name!r} not found: {err}") from err
+    cls = getattr(module, cls_name, None)
+    if cls is None:
+        names = [n for n, v in vars(module).items() if isinstance(v, type) and issubclass(v, base_class)]
+        close = difflib.get_close_matches(cls_name, names, n=3)
+        hint = f"; did you mean {', '.join(close)}?" if close else ""
+        raise ImportError(f"module {mod_name!r} has no class {cls_name!r}{hint}")
+    if not (isinstance(cls, type) and issubclass(cls, base_class)):
+        raise ImportError(f"{spec!r} is not a subclass of {base_class.__module__}.{base_class.__qualname__}")
+    return cls
+
+
+def _load_file(mod_name, base_dir, kind):
+    """The module of a ``.py`` file, loaded once per process under a key derived from its resolved path."""
+    path = Path(mod_name)
+    if not path.is_absolute() and base_dir is not None:
+        path = Path(base_dir) / path
+    if not path.is_file():
+        raise ImportError(f"{kind} file {str(path)!r} does not exist")
+    key = f"_cosim_{kind}_{abs(hash(str(path.resolve())))}"
+    module = sys.modules.get(key)
+    if module is None:
+        s = importlib.util.spec_from_file_location(key, path)
+        module = importlib.util.module_from_spec(s)
+        sys.modules[key] = module
+        s.loader.exec_module(module)
+    return module
+
+
+def load_controller_class(spec, base_dir=None):
+    """Import a :class:`controllers.base.Controller` subclass (see :func:`load_class`).
+
+    Parameters
+    ----------
+    spec : str
+        ``"module:Class"`` or ``"file.py:Class"``.
+    base_dir : path-like, optional
+        Directory relative file paths are resolved against (the config file's directory).
+
+    Returns
+    -------
+    type
+    """
+    return load_class(spec, Controller, base_dir, kind="controller")
