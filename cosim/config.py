@@ -49,7 +49,19 @@ _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 # ----------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class RunSpec:
-    """Run window and options. ``start``/``stop`` in s (``stop`` is required); ``progress`` is True, False or "auto"."""
+    """Run window and options (``[run]``).
+
+    Attributes
+    ----------
+    start, stop : float
+        The run window in s; ``stop`` is required.
+    seed : int
+        Seed of the run's random draws (noise, scatter), default 0.
+    engine : {"compiled", "python"}
+        The per-instant loop: "compiled" (numba; falls back to "python" where a controller needs it).
+    progress : bool or "auto"
+        Show a progress bar ("auto": when the run is long and the terminal is interactive).
+    """
 
     start: float = 0.0
     stop: float = None
@@ -60,11 +72,19 @@ class RunSpec:
 
 @dataclass(frozen=True)
 class SolverSpec:
-    """How Model-Exchange FMUs are integrated between sample instants.
+    """How Model-Exchange FMUs are integrated between sample instants (``[solver]``).
 
-    ``method``: "rk4" (fixed step, ``substeps`` per interval of the fastest clock, or steps of at
-    most ``max_step`` s when given) or a variable-step implicit scipy method ("bdf", "radau",
-    "lsoda") with ``rtol``/``atol``, restarted at every instant (inputs are held between instants).
+    Attributes
+    ----------
+    method : {"rk4", "bdf", "radau", "lsoda"}
+        "rk4": fixed step; otherwise a variable-step implicit scipy method restarted at every instant
+        (inputs are held between instants).
+    substeps : int
+        RK4 steps per interval of the fastest clock (when ``max_step`` is 0).
+    max_step : float
+        Largest RK4 step in s; 0 means "use ``substeps``".
+    rtol, atol : float
+        Tolerances of the scipy methods.
     """
 
     method: str = "rk4"
@@ -76,7 +96,21 @@ class SolverSpec:
 
 @dataclass(frozen=True)
 class FmuSpec:
-    """One FMU instance: ``path`` resolved against the config's folder; ``info`` its model description."""
+    """One FMU instance (``[fmus.NAME]``).
+
+    Attributes
+    ----------
+    name : str
+        The instance name connections and recorded signals use.
+    path : pathlib.Path
+        The FMU file, resolved against the config's folder.
+    kind : {"ME", "CS"}
+        The FMI interface the master uses.
+    parameters, start : dict
+        Parameter values and start values by variable name (SI units).
+    info : cosim.fmi.ModelInfo
+        The FMU's model description, read while validating.
+    """
 
     name: str
     path: Path
@@ -88,7 +122,23 @@ class FmuSpec:
 
 @dataclass(frozen=True)
 class ControllerSpec:
-    """One controller instance: ``cls`` the imported class, ``rate`` in Hz (as written, required)."""
+    """One controller instance (``[controllers.NAME]``).
+
+    Attributes
+    ----------
+    name : str
+        The instance name.
+    class_path : str
+        ``"module:Class"`` or ``"file.py:Class"`` as written in the config.
+    rate : float
+        Sample rate in Hz (required).
+    parameters : dict
+        Values for the class's ``parameters``.
+    jit : bool
+        Compile the kernel with numba.
+    cls : type
+        The imported :class:`controllers.base.Controller` subclass.
+    """
 
     name: str
     class_path: str
@@ -100,7 +150,15 @@ class ControllerSpec:
 
 @dataclass(frozen=True)
 class Connection:
-    """``dst = gain * src + offset``; ``src``/``dst`` are (instance, variable) pairs."""
+    """One connection ``dst = gain * src + offset`` (``[[connections]]``).
+
+    Attributes
+    ----------
+    src, dst : tuple of str
+        ``(instance, variable)`` pairs.
+    gain, offset : float
+        The affine map applied on the way.
+    """
 
     src: tuple
     dst: tuple
@@ -110,7 +168,15 @@ class Connection:
 
 @dataclass(frozen=True)
 class RecordSpec:
-    """Signals ("inst.var") recorded at ``rate`` Hz (instants ``start + k / rate`` up to ``stop``)."""
+    """What a run records (``[record]``).
+
+    Attributes
+    ----------
+    rate : float
+        Recording rate in Hz: instants ``start + k / rate`` up to ``stop``.
+    signals : tuple of tuple
+        ``(instance, variable)`` pairs, written as ``"inst.var"`` columns.
+    """
 
     rate: float = 1000.0
     signals: tuple = ()
@@ -118,7 +184,15 @@ class RecordSpec:
 
 @dataclass(frozen=True)
 class PlotSpec:
-    """PNG plot ``file`` in the output folder; each panel lists recorded column names."""
+    """The PNG a run draws (``[plot]``).
+
+    Attributes
+    ----------
+    file : str
+        File name in the output folder.
+    panels : tuple of tuple of str
+        One tuple of recorded column names per panel.
+    """
 
     file: str = "signals.png"
     panels: tuple = ()
@@ -126,10 +200,19 @@ class PlotSpec:
 
 @dataclass(frozen=True)
 class SummarySpec:
-    """The experiment keys of summary.json: ``plugin`` is ``controller``'s ``cls.summaries[kind]`` (None for "none").
+    """The experiment keys of summary.json (``[summary]``).
 
-    ``columns`` maps each name the plugin reads (its ``signals``, the keys of ``[summary]``, and its
-    ``outputs``, the controller's outputs) to the recorded column.
+    Attributes
+    ----------
+    kind : str
+        A summary the controller's class provides (``cls.summaries``), or "none".
+    controller : str
+        The controller instance whose class provides the summary.
+    columns : dict
+        Maps each name the plugin reads (its ``signals``, the keys of ``[summary]``, and its
+        ``outputs``, the controller's outputs) to the recorded column.
+    plugin : type
+        ``cls.summaries[kind]`` (None for "none").
     """
 
     kind: str = "none"
@@ -140,7 +223,25 @@ class SummarySpec:
 
 @dataclass(frozen=True)
 class Config:
-    """A validated run config (frozen); ``raw`` is the TOML data after overrides."""
+    """A validated run config (frozen), one field per TOML section.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The config file.
+    run : RunSpec
+    solver : SolverSpec
+    fmus : dict of str to FmuSpec
+    controllers : dict of str to ControllerSpec
+    connections : tuple of Connection
+    record : RecordSpec
+    plot : PlotSpec
+    summary : SummarySpec
+    raw : dict
+        The TOML data after overrides.
+    overrides : tuple of str
+        The ``--set key=value`` overrides applied.
+    """
 
     path: Path
     run: RunSpec

@@ -116,6 +116,16 @@ class Problems:
 def parse_overrides(items):
     """Turn ``["a.b=1", ...]`` into a list of (path tuple, value); values are TOML, else plain strings.
 
+    Parameters
+    ----------
+    items : iterable of str
+        ``--set`` arguments, ``"dotted.key=value"``.
+
+    Returns
+    -------
+    list of tuple
+        ``(key path tuple, value)`` pairs in the order given.
+
     Raises
     ------
     ConfigError

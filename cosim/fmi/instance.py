@@ -22,7 +22,17 @@ STATUS_LABELS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
 
 
 def check(function, status, detail=""):
-    """Raise ``FmiCallError(function, label)`` when ``status`` is worse than warning (> 1)."""
+    """Raise ``FmiCallError(function, label)`` when ``status`` is worse than warning (> 1).
+
+    Parameters
+    ----------
+    function : str
+        The FMI function called, e.g. ``fmi3DoStep``.
+    status : int
+        The status it returned (0 OK, 1 warning, 2 discard, 3 error, 4 fatal).
+    detail : str, optional
+        What the caller was doing, appended to the message.
+    """
     if status > 1:
         label = STATUS_LABELS[status] if 0 <= status < len(STATUS_LABELS) else f"illegal status {status}"
         raise FmiCallError(function, label, detail)
@@ -30,6 +40,13 @@ def check(function, status, detail=""):
 
 class Port:
     """A fixed list of real variables of one instance, with a numpy buffer of their values.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The variables, in buffer order.
+    vrs : sequence of int
+        Their value references.
 
     Attributes
     ----------

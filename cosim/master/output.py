@@ -70,7 +70,22 @@ def write_results(result, config, out_dir, csv=False, summary=None):
 
 
 def read_results(path):
-    """Read ``results.parquet`` back: returns (structured array, units dict, metadata dict)."""
+    """Read ``results.parquet`` back, as :func:`write_results` wrote it.
+
+    Parameters
+    ----------
+    path : path-like
+        The Parquet file.
+
+    Returns
+    -------
+    data : numpy.ndarray
+        Structured array, ``time`` first, one float64 field per recorded column.
+    units : dict
+        Column name -> unit string.
+    meta : dict
+        The file's metadata (str -> str).
+    """
     import pyarrow.parquet as pq
 
     table = pq.read_table(path)
@@ -93,6 +108,8 @@ def plot_results(result, path, panels=(), title=""):
         PNG file.
     panels : sequence of sequence of str
         Column names per panel; default one panel per recorded column.
+    title : str, optional
+        The figure's title.
     """
     import matplotlib
 
