@@ -13,11 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.calibrate import Calibrator, Experiment
+from cosim.calibrate import Calibrator
 from cosim.calibrate.fmu_fit import FmuCalibrator
-from cosim.calibrate.job import _steady
 from cosim.calibrate.problem import Transcription
 from cosim.compile import build_fmu, lower
+from cosim.experiment import Experiment, steady_mask
 
 ROOT = Path(__file__).resolve().parent.parent
 SOURCE = ROOT / "modelica" / "Gripper" / "package.mo"
@@ -40,7 +40,7 @@ def main(argv):
     force = Transcription(model, shape, ["F_g"], list(TRUTH), fixed=FIXED, substeps=200).evaluate(
         np.array(list(TRUTH.values())))[3][0]
     measured = force + NOISE * np.random.default_rng(4).standard_normal(len(t))
-    data = Experiment(t, current, measured[:, None], np.array([1 / NOISE]), _steady(t, current, 0.2))
+    data = Experiment(t, current, measured[:, None], np.array([1 / NOISE]), steady_mask(t, current, 0.2, min_hold_s=0.0))
     print(f"synthetic static staircase: {len(levels)} steps of {opts.step} s up to {opts.top} A, "
           f"{len(t)} samples at 100 Hz, noise {NOISE} N; truth {TRUTH}")
     print(f"{'method':<58}{'wall [s]':>9}{'iter':>6}{'eta_g':>9}{'T_c0 [N.m]':>12}{'cost':>10}")

@@ -21,7 +21,7 @@ Example config::
 import numpy as np
 
 from controllers.base import Controller
-from cosim.calibrate.data import load_measurements
+from cosim.experiment import load_measurements
 
 __all__ = ["Playback"]
 

@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from cosim.calibrate import Calibrator, Experiment
+from cosim.calibrate import Calibrator
 from cosim.calibrate.job import run_job
 from cosim.compile import lower
 from cosim.errors import ConfigError
+from cosim.experiment import Experiment
 
 from conftest import COMPILER_MODELS
 

@@ -7,10 +7,10 @@ paper's load cell, plus 0.3 N sensor noise. The fit must recover the truth withi
 import numpy as np
 import pytest
 
-from cosim.calibrate import Calibrator, Experiment
-from cosim.calibrate.job import _steady
+from cosim.calibrate import Calibrator
 from cosim.calibrate.problem import Transcription
 from cosim.compile import lower
+from cosim.experiment import Experiment, steady_mask
 
 from conftest import ROOT
 
@@ -36,7 +36,7 @@ def test_static_staircase_recovers_efficiency_and_friction(gripper):
     truth = Transcription(gripper, shape, ["F_g"], list(TRUTH), fixed=FIXED, substeps=200)  # RK4, h = 50 us
     force = truth.evaluate(np.array(list(TRUTH.values())))[3][0]
     measured = force + NOISE * np.random.default_rng(4).standard_normal(len(t))
-    mask = _steady(t, current[:, None], 0.2)
+    mask = steady_mask(t, current[:, None], 0.2, min_hold_s=0.0)
     data = Experiment(t, current[:, None], measured[:, None], np.array([1 / NOISE]), mask)
     # T_c0 starts between two staircase levels (k_t x 0.25 A): the cost has kinks where T_c0 = k_t x level.
     fit = Calibrator(gripper, ["F_g"], {"eta_g": (0.75, 0.3, 1.0), "T_c0": (0.0098, 1e-4, 0.05)}, fixed=FIXED,

@@ -13,10 +13,11 @@ import pandas as pd
 import pytest
 
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis
-from cosim.diagnose.analysis import _best_lag, cut_segments, noise_level, steady_mask, whiteness
+from cosim.diagnose.analysis import _best_lag, cut_segments, noise_level, whiteness
 from cosim.diagnose.effects import applicable, variant_text
 from cosim.diagnose.workflow import rivals_of
 from cosim.errors import ConfigError
+from cosim.experiment import steady_mask
 from diagnose_truth import SOURCE, make_case, write_job
 
 CANDIDATES = ("backdrive_efficiency", "loadcell_filter")
@@ -52,7 +53,7 @@ def test_every_effect_variant_lowers_with_its_parameters(name, tmp_path):
 def test_variant_without_effect_parameters_reproduces_the_baseline(tmp_path):
     """backdrive_efficiency with eta_b = eta_g is the baseline: same outputs along a staircase (the variant's
     extra branch is the same expression; tolerance: CVODES rtol 1e-8 on forces of ~40 N)."""
-    from cosim.calibrate import Experiment
+    from cosim.experiment import Experiment
     from cosim.compile import lower
     from cosim.diagnose import write_variant
     from cosim.diagnose.fitting import Replay

@@ -14,11 +14,11 @@ import tempfile
 import numpy as np
 import pytest
 
-from cosim.calibrate import Experiment
 from cosim.compile import lower
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis, write_variant
 from cosim.diagnose.analysis import noise_level, quiet_phases
 from cosim.diagnose.fitting import Replay
+from cosim.experiment import Experiment
 from diagnose_truth_impact import (CONDITION, COUNTS, CURRENT_NOISE, DURATION, F_GUIDE, FORCE_NOISE, I_STEP,
                                    PLAY_NOMINAL, RATE_HZ, SLIDE_GAP0, SLIDE_PROFILE, T_STEP, make_case, simulate,
                                    write_job)

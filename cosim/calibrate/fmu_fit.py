@@ -6,7 +6,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from cosim.calibrate.estimator import gauss_newton_uncertainty
-from cosim.fmi import FmuInstance
+from cosim.fmi import FmuInstance, rk4_steps
 
 __all__ = ["simulate_fmu_experiment", "FmuCalibrator"]
 
@@ -32,14 +32,6 @@ def simulate_fmu_experiment(fmu, experiment, inputs, outputs, parameters, subste
         u_port, y_port = inst.port(inputs), inst.port(outputs)
         result = np.empty((len(outputs), len(experiment.time)))
         x = inst.x.copy()
-
-        def derivative(t, state):
-            inst.set_time(t)
-            inst.x[:] = state
-            inst.push_states()
-            inst.pull_derivatives()
-            return inst.dx.copy()
-
         for k, t in enumerate(experiment.time):
             u_port.values[:] = experiment.inputs[k]
             inst.set(u_port)
@@ -50,14 +42,7 @@ def simulate_fmu_experiment(fmu, experiment, inputs, outputs, parameters, subste
             result[:, k] = y_port.values
             if k + 1 == len(experiment.time):
                 break
-            h = (experiment.time[k + 1] - t) / substeps
-            for j in range(substeps):
-                s = t + j * h
-                k1 = derivative(s, x)
-                k2 = derivative(s + h / 2, x + h / 2 * k1)
-                k3 = derivative(s + h / 2, x + h / 2 * k2)
-                k4 = derivative(s + h, x + h * k3)
-                x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            x = rk4_steps(inst, t, x, (experiment.time[k + 1] - t) / substeps, substeps)
     return result
 
 

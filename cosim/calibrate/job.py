@@ -19,11 +19,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
-from cosim.calibrate.data import load_measurements
-from cosim.calibrate.problem import METHODS, Experiment
-from cosim.errors import ConfigError
+from cosim.calibrate.problem import METHODS
 from cosim.tomldoc import bounded_parameters, number, read_toml, sections
 
 __all__ = ["CalibrationJob", "load_job", "run_job"]
@@ -124,47 +120,6 @@ def load_job(path, overrides=()):
         data_path=base / data_t["path"], inputs=dict(inputs), window=(start, stop), decimate=decimate,
         signals=tuple(signals), segments=tuple(tuple(s) for s in segments), steady_s=steady_s, method=method, substeps=substeps,
         max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler)
-
-
-def experiment_for(job, inputs, outputs):
-    """Load the job's data and align it with the model's ``inputs`` and ``outputs`` (names, in model order):
-    inputs in model order, measured outputs, cost mask."""
-    missing = [u for u in inputs if u not in job.inputs]
-    if missing:
-        raise ConfigError(f"{job.path}: data.inputs must give a column for every model input; missing "
-                          f"{', '.join(missing)}")
-    for output, _, _ in job.signals:
-        if output not in outputs:
-            raise ConfigError(f"{job.path}: fit.signals: {job.model} has no output {output!r}; it has "
-                              f"{', '.join(outputs)}")
-    measured = [c for _, c, _ in job.signals]
-    frame = load_measurements(job.data_path, [*job.inputs.values(), *measured], sparse=measured)
-    t0, t1 = job.window
-    frame = frame[(frame["time"] >= t0) & (frame["time"] <= t1)].iloc[::job.decimate].reset_index(drop=True)
-    if len(frame) < 3:
-        raise ConfigError(f"{job.path}: data window [{t0}, {t1}] s holds fewer than 3 samples")
-    time = frame["time"].to_numpy()
-    mask = np.zeros(len(time), bool)
-    for a, b in job.segments:
-        mask |= (time >= a) & (time <= b)
-    inputs = frame[[job.inputs[u] for u in inputs]].to_numpy()
-    if job.steady_s:
-        mask &= _steady(time, inputs, job.steady_s)
-    return Experiment(
-        time=time,
-        inputs=inputs,
-        measured=frame[[c for _, c, _ in job.signals]].to_numpy(),
-        weights=np.array([1.0 / noise for _, _, noise in job.signals]),
-        mask=mask,
-    )
-
-
-def _steady(time, inputs, seconds):
-    """Samples in the last ``seconds`` of each run of constant inputs (the settled part of a staircase)."""
-    changes = np.flatnonzero(np.any(np.diff(inputs, axis=0) != 0, axis=1)) + 1
-    ends = np.concatenate([changes, [len(time)]])
-    run_end = np.repeat([time[e - 1] for e in ends], np.diff(np.concatenate([[0], ends])))
-    return time >= run_end - seconds + 1e-9
 
 
 def run_job(path, out="out/calibration", overrides=(), progress=True):

@@ -2,16 +2,14 @@
 one by default, an existing scheduler when the job names its address), with a progress bar."""
 
 import functools
-import logging
-import os
-import sys
 
 import numpy as np
-from tqdm import tqdm
 
 from cosim.calibrate.estimator import Calibrator
+from cosim.experiment import align_experiment
+from cosim.parallel import map_on_dask
 
-__all__ = ["fit_multistart", "start_points", "map_on_dask"]
+__all__ = ["fit_multistart", "start_points"]
 
 
 def start_points(free, count, seed):
@@ -30,15 +28,20 @@ def start_points(free, count, seed):
     return points
 
 
+def _experiment(job, inputs, outputs):
+    """The job's data aligned with the model's ``inputs`` and ``outputs``: the cost takes the samples in
+    ``fit.segments`` and, with ``fit.steady_s``, only the steady end of each run of constant inputs."""
+    return align_experiment(job, inputs, outputs, segments=job.segments, steady_s=job.steady_s)
+
+
 def _fit_one(job, start):
     """One fit in a worker: rebuilds the model from its source (CasADi objects do not cross processes)."""
     if job.fmu is not None:
         return _fit_one_fmu(job, start)
-    from cosim.calibrate.job import experiment_for
     from cosim.compile import lower
 
     model = lower(job.source, job.model)
-    experiment = experiment_for(job, [u.name for u in model.inputs], [o.name for o in model.outputs])
+    experiment = _experiment(job, [u.name for u in model.inputs], [o.name for o in model.outputs])
     outputs = [o for o, _, _ in job.signals]
     fit = Calibrator(model, outputs, job.free, fixed=job.fixed, substeps=job.substeps, method=job.method,
                      max_iter=job.max_iter).fit(experiment, start=start)
@@ -64,12 +67,11 @@ def _fit_one(job, start):
 def _fit_one_fmu(job, start):
     """The finite-difference fallback for a model known only as an FMU (no CasADi form)."""
     from cosim.calibrate.fmu_fit import FmuCalibrator, simulate_fmu_experiment
-    from cosim.calibrate.job import experiment_for
     from cosim.fmi import read_model_info
 
     info = read_model_info(job.fmu)
     inputs, outputs = info.names("input"), info.names("output")
-    experiment = experiment_for(job, inputs, outputs)
+    experiment = _experiment(job, inputs, outputs)
     fitted = [o for o, _, _ in job.signals]
     free = {n: (float(s), lo, hi) for (n, (_, lo, hi)), s in zip(job.free.items(), start)}
     fit = FmuCalibrator(job.fmu, inputs, fitted, free, fixed=job.fixed, substeps=job.substeps).fit(experiment)
@@ -106,40 +108,3 @@ def fit_multistart(job, progress=True):
     best = min(runs, key=lambda r: (not r["success"], r["cost_after"]))
     return dict(best, runs=[{k: r[k] for k in ("start", "parameters", "cost_after", "iterations", "success")}
                             for r in runs])
-
-
-def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", progress=True):
-    """``[function(item) for item in items]`` on a Dask cluster with a progress bar, results in item order.
-
-    Parameters
-    ----------
-    scheduler : str
-        Address of an existing Dask scheduler; empty: a local cluster of processes (one per item, at most
-        ``max_workers`` and the number of cores), closed afterwards.
-    """
-    from distributed import Client, LocalCluster, as_completed
-
-    cluster = None
-    if scheduler:
-        client = Client(scheduler)
-    else:
-        workers = max(1, min(len(items), max_workers or len(items), os.cpu_count() or 1))
-        # CRITICAL: a worker's heartbeat racing the close logs a harmless CommClosedError traceback at ERROR
-        # (dask/distributed#7105); a task's own error still reaches the caller through future.result()
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                               silence_logs=logging.CRITICAL)
-        client = Client(cluster)
-    try:
-        futures = [client.submit(function, item, pure=False) for item in items]
-        index = {f.key: k for k, f in enumerate(futures)}
-        results = [None] * len(futures)
-        bar = tqdm(total=len(futures), desc=desc, unit="fit", file=sys.stderr, disable=not progress)
-        for future in as_completed(futures):
-            results[index[future.key]] = future.result()
-            bar.update()
-        bar.close()
-        return results
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()

@@ -7,55 +7,14 @@ stiff experiments use ``method = "single_shooting"`` (:mod:`cosim.calibrate.shoo
 squared output errors at the measured samples inside the chosen segments.
 """
 
-from dataclasses import dataclass
-
 import casadi as ca
 import numpy as np
 
 from cosim.errors import ConfigError
 
-__all__ = ["Experiment", "Transcription", "METHODS"]
+__all__ = ["Transcription", "METHODS"]
 
 METHODS = ("rk4", "implicit_euler", "single_shooting")
-
-
-@dataclass(frozen=True)
-class Experiment:
-    """What was measured, aligned for fitting.
-
-    Attributes
-    ----------
-    time : ndarray, shape (N,)
-        Sample instants in s, strictly increasing.
-    inputs : ndarray, shape (N, n_inputs)
-        Model inputs in the model's input order, held from each sample to the next.
-    measured : ndarray, shape (N, n_signals)
-        Measured values of the fitted outputs; NaN where a channel was not sampled (multi-rate data: a
-        100 Hz load cell beside a current logged at the controller rate).
-    weights : ndarray, shape (n_signals,)
-        Residual weights (1/noise standard deviation gives a cost in units of noise variance).
-    mask : ndarray of bool, shape (N,)
-        Samples that enter the cost (the chosen segments).
-    """
-
-    time: np.ndarray
-    inputs: np.ndarray
-    measured: np.ndarray
-    weights: np.ndarray
-    mask: np.ndarray
-
-    def residual_weights(self):
-        """Weight of each (signal, sample): the signal's weight where it was measured, 0 where NaN or masked."""
-        sampled = np.isfinite(self.measured.T) & self.mask[None, :]
-        return self.weights[:, None] * sampled
-
-    def measured_or_zero(self):
-        """Measured values with the unsampled entries (NaN) set to 0; their weight is 0."""
-        return np.nan_to_num(self.measured.T, nan=0.0)
-
-    def fitted_entries(self):
-        """Number of (signal, sample) pairs that enter the cost."""
-        return int(np.count_nonzero(self.residual_weights()))
 
 
 class Transcription:
@@ -64,7 +23,7 @@ class Transcription:
     Parameters
     ----------
     model : cosim.compile.LoweredModel
-    experiment : Experiment
+    experiment : cosim.experiment.Experiment
     outputs : list of str
         Model outputs compared with ``experiment.measured`` columns, in order.
     free : list of str

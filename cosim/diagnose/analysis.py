@@ -6,7 +6,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-__all__ = ["Segment", "in_segment", "noise_level", "steady_mask", "cut_segments", "frequency_bands",
+from cosim.experiment import constant_runs
+
+__all__ = ["Segment", "in_segment", "noise_level", "cut_segments", "frequency_bands",
            "segment_table", "band_shape", "whiteness", "cross_correlation", "branch_shapes"]
 
 
@@ -56,25 +58,6 @@ def noise_level(time, measured, mask):
     return np.array(out)
 
 
-def _runs(inputs):
-    """(start, end) sample indices of the runs of constant input."""
-    changes = np.flatnonzero(np.any(np.diff(inputs, axis=0) != 0, axis=1)) + 1
-    starts = np.concatenate([[0], changes])
-    ends = np.concatenate([changes, [len(inputs)]])
-    return list(zip(starts, ends))
-
-
-def steady_mask(time, inputs, seconds, min_hold_s=None):
-    """Samples in the last ``seconds`` of each hold (a run of constant input lasting at least ``min_hold_s``,
-    default ``seconds``): the settled part of a staircase."""
-    min_hold_s = seconds if min_hold_s is None else min_hold_s
-    mask = np.zeros(len(time), bool)
-    for a, b in _runs(inputs):
-        if time[b - 1] - time[a] + 1e-9 >= min_hold_s * 0.999:
-            mask[a:b] = time[a:b] >= time[b - 1] - seconds + 1e-9
-    return mask
-
-
 def cut_segments(time, inputs, kind, measured=None, noise=None, min_hold_s=0.1):
     """The natural segments: each hold of a staircase (with the ramp before it), or approach / impact /
     tightening / steady of an impact (from the measured force: first sample above 5 noise levels, the peak,
@@ -83,7 +66,7 @@ def cut_segments(time, inputs, kind, measured=None, noise=None, min_hold_s=0.1):
     Returns list of Segment."""
     if kind == "staircase":
         segments = []
-        holds = [(a, b) for a, b in _runs(inputs) if time[b - 1] - time[a] + 1e-9 >= min_hold_s]
+        holds = [(a, b) for a, b in constant_runs(inputs) if time[b - 1] - time[a] + 1e-9 >= min_hold_s]
         previous, start = None, 0
         for k, (a, b) in enumerate(holds):
             level = float(inputs[a, 0])

@@ -9,9 +9,9 @@ forward-sensitivity Jacobian on the stiff gripper (measured: 1 s against 4 s on 
 import numpy as np
 from scipy.optimize import least_squares
 
-from cosim.calibrate.problem import Experiment
 from cosim.calibrate.shooting import SingleShooting
 from cosim.errors import ConfigError
+from cosim.experiment import Experiment
 
 __all__ = ["Replay", "Trials", "fit_samples", "check_parameters", "weighted"]
 

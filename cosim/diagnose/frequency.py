@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from cosim.freqresp import model_response, zoh_freq_response
-from cosim.calibrate.data import load_measurements
 from cosim.diagnose.fitting import check_parameters
 from cosim.errors import ConfigError
+from cosim.experiment import load_measurements
 
 __all__ = ["COLUMNS", "DEG_PER_DB", "FrequencyExperiment", "FrequencyReplay", "load_frequency_experiment",
            "frequency_noise", "response"]

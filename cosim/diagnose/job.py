@@ -22,13 +22,10 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
-from cosim.calibrate.data import load_measurements
-from cosim.tomldoc import bounded_parameters, number, read_toml, sections
-from cosim.calibrate.problem import Experiment
 from cosim.diagnose.effects import EFFECTS, applicable, variant_text
 from cosim.errors import ConfigError
+from cosim.experiment import align_experiment
+from cosim.tomldoc import bounded_parameters, number, read_toml, sections
 
 __all__ = ["DiagnoseJob", "load_diagnose_job", "load_experiment", "load_records"]
 
@@ -216,39 +213,13 @@ def load_records(job, model):
 
 def load_experiment(job, model, path=None):
     """The data of ``path`` (default: the job's first record) aligned with ``model`` (a LoweredModel): an
-    :class:`Experiment` (mask: every sample) and the checks a diagnosis needs (channels, a uniform time base, data
-    covering the experiment); for a frequency response, a :class:`~cosim.diagnose.frequency.FrequencyExperiment`."""
-    path = job.data_path if path is None else path
+    :class:`~cosim.experiment.Experiment` (mask: every sample, time from 0) with the checks a diagnosis needs
+    (channels, at least 10 samples, a uniform time base, data covering the experiment); for a frequency response,
+    a :class:`~cosim.diagnose.frequency.FrequencyExperiment`."""
     if job.kind == "frequency":
         from cosim.diagnose.frequency import load_frequency_experiment
 
         return load_frequency_experiment(job, model)
-    inputs = [u.name for u in model.inputs]
-    outputs = [o.name for o in model.outputs]
-    missing = [u for u in inputs if u not in job.inputs]
-    if missing:
-        raise ConfigError(f"{job.path}: data.inputs must give a column for every input of {job.model}; missing "
-                          f"{', '.join(missing)}")
-    for output, _, _ in job.signals:
-        if output not in outputs:
-            raise ConfigError(f"{job.path}: compare.signals: {job.model} has no output {output!r}; it has "
-                              f"{', '.join(outputs)}")
-    measured = [c for _, c, _ in job.signals]  # may be NaN where not sampled (a 100 Hz load cell, a 1 kHz log)
-    frame = load_measurements(path, [*job.inputs.values(), *measured], sparse=measured)
-    t0, t1 = job.window
-    frame = frame[(frame["time"] >= t0) & (frame["time"] <= t1)].iloc[::job.decimate].reset_index(drop=True)
-    if len(frame) < 10:
-        raise ConfigError(f"{path}: the data window [{t0}, {t1}] s holds {len(frame)} samples; need >= 10")
-    time = frame["time"].to_numpy()
-    dt = np.diff(time)
-    if np.max(np.abs(dt - np.median(dt))) > 0.25 * np.median(dt):
-        k = int(np.argmax(np.abs(dt - np.median(dt))))
-        raise ConfigError(f"{path}: the time base is not uniform (sample interval {np.median(dt):g} s, "
-                          f"but {dt[k]:g} s between t = {time[k]:g} and {time[k + 1]:g} s): channels sampled on "
-                          f"different clocks must be resampled onto one time base first")
-    if job.duration is not None and time[-1] - time[0] < job.duration - 1.5 * np.median(dt):
-        raise ConfigError(f"{path}: the data cover {time[-1] - time[0]:g} s but the experiment "
-                          f"(experiment.duration) lasts {job.duration:g} s")
-    return Experiment(time=time - time[0], inputs=frame[[job.inputs[u] for u in inputs]].to_numpy(),
-                      measured=frame[measured].to_numpy(),
-                      weights=np.array([1.0 / n for _, _, n in job.signals]), mask=np.ones(len(time), bool))
+    return align_experiment(job, [u.name for u in model.inputs], [o.name for o in model.outputs], path,
+                            signals_key="compare.signals", min_samples=10, uniform=True, duration=job.duration,
+                            from_zero=True)

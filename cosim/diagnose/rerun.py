@@ -39,7 +39,7 @@ def rerun_config_text(fmu, parameters, inputs_csv, input_names, outputs, rate, s
 
 def rerun(runs, experiment, input_names, outputs, folder, rtol):
     """Run each FMU of ``runs`` (label -> (FMU path, parameters)) through the master along ``experiment`` (a
-    :class:`cosim.calibrate.Experiment`: its time base and inputs); returns label -> the recorded ``outputs`` at
+    :class:`cosim.experiment.Experiment`: its time base and inputs); returns label -> the recorded ``outputs`` at
     the experiment's instants, shape (len(outputs), N).
 
     Writes ``folder/inputs.csv`` and ``folder/<label>.toml`` for each run."""

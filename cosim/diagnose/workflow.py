@@ -35,9 +35,9 @@ import numpy as np
 from scipy import stats
 
 from cosim.diagnose.analysis import (band_shape, branch_shapes, cross_correlation, cut_segments, frequency_bands,
-                                     in_segment, noise_level, quiet_phases, segment_table, steady_mask, whiteness)
-from cosim.calibrate.multistart import map_on_dask
-from cosim.calibrate.problem import Experiment
+                                     in_segment, noise_level, quiet_phases, segment_table, whiteness)
+from cosim.experiment import Experiment, steady_mask
+from cosim.parallel import map_on_dask
 from cosim.diagnose.effects import EFFECTS, write_variant
 from cosim.diagnose.fitting import Replay, Trials, fit_samples, weighted
 from cosim.diagnose.frequency import DEG_PER_DB, FrequencyReplay, frequency_noise

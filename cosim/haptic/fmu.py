@@ -69,7 +69,7 @@ def linearize_fmu(path, parameters=None, inputs=("tau",), output="phi", x0=None,
     (A, B, C, D) : numpy.ndarray
         Shapes (n, n), (n, m), (1, n), (1, m).
     """
-    from cosim.fmi import FmuInstance
+    from cosim.fmi import FmuInstance, derivatives
 
     with FmuInstance(path, name=Path(path).stem) as fmu:
         fmu.setup(parameters=parameters or {})
@@ -80,14 +80,11 @@ def linearize_fmu(path, parameters=None, inputs=("tau",), output="phi", x0=None,
         ubase = np.zeros(len(inputs)) if u0 is None else np.asarray(u0, dtype=float)
 
         def evaluate(x, u):
-            fmu.set_time(0.0)
             uport.values[:] = u
             fmu.set(uport)
-            fmu.x[:] = x
-            fmu.push_states()
-            fmu.pull_derivatives()
+            dx = derivatives(fmu, 0.0, x)
             fmu.get(yport)
-            return fmu.dx.copy(), float(yport.values[0])
+            return dx, float(yport.values[0])
 
         m = len(inputs)
         A = np.zeros((n, n))
@@ -134,7 +131,7 @@ def simulate_fmu(path, u, fs, parameters=None, input="tau", output="phi", subste
     numpy.ndarray, shape (n,)
         ``y[k]`` at t = k/fs, before ``u[k]`` acts (as a sampled encoder read at the start of the period).
     """
-    from cosim.fmi import FmuInstance
+    from cosim.fmi import FmuInstance, rk4_steps
 
     u = np.asarray(u, dtype=float)
     h = 1.0 / fs / substeps
@@ -144,14 +141,6 @@ def simulate_fmu(path, u, fs, parameters=None, input="tau", output="phi", subste
         uport = fmu.port([input])
         yport = fmu.port([output])
         x = fmu.x.copy()
-
-        def f(t, xs):
-            fmu.set_time(t)
-            fmu.x[:] = xs
-            fmu.push_states()
-            fmu.pull_derivatives()
-            return fmu.dx.copy()
-
         for k in range(len(u)):
             t0 = k / fs
             fmu.set_time(t0)
@@ -161,11 +150,5 @@ def simulate_fmu(path, u, fs, parameters=None, input="tau", output="phi", subste
             y[k] = yport.values[0]
             uport.values[0] = u[k]
             fmu.set(uport)
-            for j in range(substeps):
-                t = t0 + j * h
-                k1 = f(t, x)
-                k2 = f(t + h / 2, x + h / 2 * k1)
-                k3 = f(t + h / 2, x + h / 2 * k2)
-                k4 = f(t + h, x + h * k3)
-                x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            x = rk4_steps(fmu, t0, x, h, substeps)
     return y

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.calibrate import Experiment
 from cosim.compile import lower
 from cosim.diagnose.fitting import Replay
+from cosim.experiment import Experiment
 
 HERE = Path(__file__).resolve().parent
 FIXED = {"gap0": 0.002, "k_obj": 3.53e7, "t_coat": 0.0, "k_P": 1e12, "C_p": 2000.0, "C_h": 2000.0}

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.calibrate import Experiment
 from cosim.compile import lower
 from cosim.diagnose import EFFECTS, write_variant
 from cosim.diagnose.fitting import Replay
+from cosim.experiment import Experiment
 
 HERE = Path(__file__).resolve().parent
 FIXED = {"gap0": 0.015}
