@@ -65,7 +65,24 @@ def staircase_current(t, t0, step_a, step_s, top_a):
 
 
 def staircase_steps(t0, step_a, step_s, top_a):
-    """List of ``(current_A, t_begin, t_end, branch)`` of every staircase step; branch 'up' or 'down'."""
+    """Every step of the staircase of :func:`staircase_current`, for summaries and measured-data alignment.
+
+    Parameters
+    ----------
+    t0 : float
+        Start of the first step, s.
+    step_a : float
+        Current increment per step, A.
+    step_s : float
+        Duration of each step, s.
+    top_a : float
+        Highest current, A.
+
+    Returns
+    -------
+    list of tuple
+        ``(current_A, t_begin, t_end, branch)`` per step, branch "up" or "down".
+    """
     n_up = int(math.floor(top_a / step_a + 0.5))
     out = []
     for k in range(2 * n_up):

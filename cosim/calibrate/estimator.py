@@ -44,10 +44,10 @@ class Calibrator:
     max_iter : int, default 200
         IPOPT iteration limit.
 
-    Attributes (after ``fit``)
-    --------------------------
+    Attributes
+    ----------
     parameters_ : dict
-        Fitted values.
+        Fitted values (this and the attributes below are set by ``fit``).
     std_errors_ : dict
         Standard errors from the Gauss-Newton covariance s^2 (J^T J)^-1, J = d(residual)/d(parameters) along the
         trajectory, s^2 = residual sum of squares / (samples - parameters).
