@@ -16,6 +16,7 @@ import pytest
 
 from cosim.compile import lower
 from cosim.diagnose.effects import EFFECTS, applicable, write_variant
+from cosim.errors import UnsupportedConstructError
 
 ROOT = Path(__file__).resolve().parent.parent
 BEFORE = ROOT / "tests" / "models" / "effects" / "before"
@@ -89,6 +90,33 @@ def test_redeclare_in_extends_replaces_the_component(tmp_path):
     np.testing.assert_allclose(variant.derivatives([0.1, 0.2, 0.3], [1.0]),
                                [0.2, 1 - (0.5 * np.tanh(200.0) + 2.5 * 0.3), 0.2 - 0.3], rtol=1e-14)
     np.testing.assert_allclose(base.derivatives([0.1, 0.2], [1.0]), [0.2, 1 - 0.5 * np.tanh(200.0)], rtol=1e-14)
+
+
+IGNORED_BY_RUMOCA = {  # each lowered without an error to the model without the redeclare
+    "nested": ("  model Outer\n    input Real u;\n    replaceable T.Base b(u = u) constrainedby T.Base;\n  end Outer;\n"
+               "  model W\n    extends Outer(b(redeclare T.Bristle guide));\n  end W;\n",
+               "a redeclare nested in a component modification"),
+    "inherited": ("  model Mid\n    extends Base;\n  end Mid;\n"
+                  "  model W\n    extends Mid(redeclare T.Bristle guide);\n  end W;\n",
+                  "T.Mid does not itself declare a replaceable guide"),
+    "class modifiers": ("  model BaseC\n    input Real v;\n"
+                        "    replaceable model G = T.Coulomb constrainedby T.FrictionSlot;\n"
+                        "    G guide(v = v);\n  end BaseC;\n"
+                        "  model W\n    extends BaseC(redeclare model G = T.Bristle(F_s = 4));\n  end W;\n",
+                        "the modifiers of the redeclared class G"),
+}
+
+
+@pytest.mark.parametrize("case", IGNORED_BY_RUMOCA)
+def test_redeclare_rumoca_would_ignore_is_rejected_with_file_and_line(tmp_path, case):
+    extra, message = IGNORED_BY_RUMOCA[case]
+    (tmp_path / "T").mkdir()
+    path = tmp_path / "T" / "package.mo"
+    path.write_text(TINY.replace("end T;\n", extra + "end T;\n"))
+    line = path.read_text().splitlines().index(next(s for s in extra.splitlines() if "redeclare" in s)) + 1
+    with pytest.raises(UnsupportedConstructError, match=message) as err:
+        _lower(path, "T.W")
+    assert f"package.mo:{line}:" in str(err.value)
 
 
 def _names(variables):

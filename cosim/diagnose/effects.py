@@ -21,6 +21,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from cosim.modelica_text import class_chain, replaceables
 from cosim.errors import ConfigError, EffectSlotError
 
 __all__ = ["EffectParameter", "Effect", "Slot", "EFFECTS", "effect_names", "applicable", "get_effect", "slots",
@@ -79,9 +80,8 @@ class Effect:
 
 @dataclass(frozen=True)
 class Slot:
-    """A replaceable component of a model: its path, default class, constraining class and modifiers."""
+    """A replaceable component of a model: its default class, constraining class and modifiers."""
 
-    path: str
     default: str
     constraint: str
     modifiers: tuple  # (name, expression) of the declaration's modification
@@ -207,68 +207,7 @@ def get_effect(name):
     raise ConfigError(f"unknown effect {name!r}; implemented: {', '.join(EFFECTS)}")
 
 
-# -- the structural query: classes, their bases, their replaceable components -----------------------------------
-_KINDS = "(?:partial +)?(?:model|block|package|record|function)"
-_REPLACEABLE = re.compile(r"\breplaceable\s+([\w.]+)\s+(\w+)\s*(\((?:[^()]|\([^()]*\))*\))?\s*"
-                          r"(?:constrainedby\s+([\w.]+))?")
-_EXTENDS = re.compile(r"^\s*extends\s+([\w.]+)", re.M)
-
-
-def _class(text, name):
-    """The text of class ``name`` (full name, e.g. ``Gripper.Components.PMSM``) or None."""
-    body = text
-    for part in name.split("."):
-        match = re.search(rf"^( *){_KINDS} {re.escape(part)}\b.*?^\1end {re.escape(part)};", body, re.S | re.M)
-        if match is None:
-            return None
-        text = match.group(0)
-        body = text.partition("\n")[2]  # a member is declared inside, not on the class's own first line
-    return text
-
-
-def _own(body):
-    """A class's text without the classes nested in it (a package's members are not its declarations)."""
-    head, _, rest = body.partition("\n")
-    return head + "\n" + re.sub(rf"^( *){_KINDS} (\w+)\b.*?^\1end \2;\n", "", rest, flags=re.S | re.M)
-
-
-def _resolve(text, name, scope):
-    """Full name of class ``name`` referenced in class ``scope``: Modelica's lookup through the enclosing
-    packages."""
-    parts = scope.split(".")[:-1]
-    for k in range(len(parts), -1, -1):
-        full = ".".join(parts[:k] + [name])
-        if _class(text, full) is not None:
-            return full
-    raise EffectSlotError(f"class {name!r} used in {scope} is not in the Modelica source")
-
-
-def _chain(text, name):
-    """``[(class name, own text)]`` of class ``name`` and every class it extends, the class first."""
-    body = _class(text, name)
-    if body is None:
-        raise ConfigError(f"no class {name!r} in the Modelica source")
-    own = _own(body)
-    chain = [(name, own)]
-    for base in _EXTENDS.findall(own):
-        chain += _chain(text, _resolve(text, base, name))
-    return chain
-
-
-def _modifiers(modification):
-    """``(name, expression)`` pairs of a modification ``(a = 1, b = f(x, y))``."""
-    inner, parts, depth, start = (modification or "()")[1:-1], [], 0, 0
-    for i, ch in enumerate(inner + ","):
-        depth += ch == "("
-        depth -= ch == ")"
-        if ch == "," and depth == 0:
-            if inner[start:i].strip():
-                name, _, expr = inner[start:i].partition("=")
-                parts.append((name.strip(), expr.strip()))
-            start = i + 1
-    return tuple(parts)
-
-
+# -- the structural query: the model's replaceable components -----------------------------------------------
 def slots(source_text, model):
     """The effect slots of ``model``: path -> :class:`Slot`, the replaceable components declared in the model's
     own class and in the classes of those components (``drive.guide``).
@@ -282,10 +221,8 @@ def slots(source_text, model):
         ``model`` is not a class of the source.
     """
     found = {}
-    for default, name, modification, constraint in _REPLACEABLE.findall(_chain(source_text, model)[0][1]):
-        default = _resolve(source_text, default, model)
-        constraint = _resolve(source_text, constraint, model) if constraint else default
-        found[name] = Slot(name, default, constraint, _modifiers(modification))
+    for name, default, constraint, mods in replaceables(source_text, model):
+        found[name] = Slot(default, constraint, mods)
         for path, inner in slots(source_text, default).items():
             found[f"{name}.{path}"] = inner
     return found
@@ -294,7 +231,7 @@ def slots(source_text, model):
 def _parameter(source_text, model, name):
     """The declaration default of parameter ``name`` of ``model`` (or of a class it extends): a float, the text of
     a non-numeric default, "" when it has none; None when the model does not declare it."""
-    for _, own in _chain(source_text, model):
+    for _, own in class_chain(source_text, model):
         match = re.search(rf"\bparameter\s+(?:Real|Integer|Boolean)\s+{re.escape(name)}\b(?:\([^)]*\))?"
                           rf"\s*(?:=\s*([^\"\n;]+?))?\s*(?:\"|;)", own)
         if match:
@@ -313,7 +250,7 @@ def _fits(source_text, model, effect, model_slots):
     slot = model_slots.get(effect.slot)
     if slot is None:
         return False
-    bases = [name for name, _ in _chain(source_text, effect.replacement)]
+    bases = [name for name, _ in class_chain(source_text, effect.replacement)]
     if slot.constraint not in bases:
         raise EffectSlotError(f"effect {effect.name!r}: slot {effect.slot} of {model} is constrained by "
                               f"{slot.constraint}; the effect's block {effect.replacement} extends "
