@@ -12,6 +12,7 @@ __all__ = [
     "NotFittedError",
     "HapticDataError",
     "EngineFallbackWarning",
+    "EffectSlotError",
 ]
 
 
@@ -88,3 +89,8 @@ class HapticDataError(CosimError, ValueError):
 
 class EngineFallbackWarning(UserWarning):
     """The compiled engine was asked for but the run uses the Python engine (the message says why)."""
+
+
+class EffectSlotError(ConfigError):
+    """A candidate effect does not fit a model: the model has no replaceable slot (or parameter) the effect fills,
+    or the effect's block does not extend the slot's constraining interface."""

@@ -57,7 +57,8 @@ def build_fmu(path, model, out_dir="fmus", name=None, description=""):
 
 def _compiler_fingerprint():
     digest = hashlib.sha256(__version__.encode())
-    for source in sorted(Path(__file__).parent.glob("*.py")):
+    here = Path(__file__).parent
+    for source in sorted(here.glob("*.py")) + [here.parent / "modelica_text.py"]:  # the front end's redeclare check
         digest.update(source.read_bytes())
     return digest.hexdigest()
 

@@ -8,6 +8,7 @@ from pathlib import Path
 import rumoca
 
 from cosim.errors import ModelicaError, StructureError
+from cosim.modelica_text import check_redeclares
 
 __all__ = ["FlatModel", "load_flat_model"]
 
@@ -82,6 +83,8 @@ def load_flat_model(path, model):
         Missing file, syntax error (with file:line), unknown model name.
     StructureError
         rumoca found the model unbalanced (more or fewer equations than unknowns).
+    UnsupportedConstructError
+        A ``redeclare`` form that rumoca would ignore without a word (:func:`~cosim.modelica_text.check_redeclares`).
     """
     path = Path(path)
     if not path.is_file():
@@ -91,6 +94,7 @@ def load_flat_model(path, model):
         if found:
             message, file, line = found
             raise ModelicaError(message, file=file, line=line)
+    check_redeclares(path.read_text(encoding="utf-8"), str(path))
     try:
         # No local names rumoca's Session or Model: they are unsendable PyO3 objects, and a frame a Dask worker's
         # profiler still holds when this returns would drop them on the profiler's thread (a RuntimeError printed

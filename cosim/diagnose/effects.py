@@ -1,26 +1,31 @@
 """The library of candidate missing effects and the Modelica variants that add them to a baseline model.
 
-Each effect is a documented Modelica addition: its physics lives in a block of ``Gripper.Effects``
-(``modelica/Gripper/package.mo``) or ``Haptic.Effects`` (``modelica/Haptic/package.mo``: hand mass, second
-vibration mode, loop delay, wired into ``Haptic.Device7``); what this module adds is the *wiring*. For a baseline such as
-``Gripper.GripperCurrentDriven`` it writes a variant model ``Gripper.Diagnosis.<Model>_<effect>`` (and, when the
-effect sits inside the drivetrain, a copy ``Gripper.Diagnosis.DrivetrainMechanics_<effect>``) by a few textual
-edits of the baseline's own source: new parameter declarations, a component swapped or added, one equation
-changed. The variant is appended to a copy of the package in a build folder, so the baseline source is untouched
-and ``diff`` of the two files is the readable change (``OUT/variant.diff``).
+Each effect fills an *effect slot* of the baseline: a ``replaceable`` component whose default is today's law or a
+block that does nothing (``modelica/Gripper/package.mo``: mesh, guide, lfric, contact inside
+``Gripper.DrivetrainMechanics``, cog and lc in the current- and speed-driven models; ``modelica/Haptic/package.mo``:
+delay, mode in every device, hand in ``Haptic.Device7``). An effect is data: the slot, the block of
+``Gripper.Effects``/``Haptic.Effects`` that replaces its default, how that block's parameters bind to the effect's
+parameters. Its variant of ``Pkg.Model`` is a model ``Pkg.Diagnosis.<Model>_<effect>`` that extends the baseline
+with a ``redeclare`` of the slot (and declares the effect's parameters at its top level, where the fit tunes them).
+A slot inside a component (``drive.guide``) is redeclared in a subclass of the component's class,
+``Pkg.Diagnosis.<Class>_<effect>``, which the variant puts in place of the (replaceable) component: rumoca ignores
+a ``redeclare`` nested in a component's modifier of an ``extends`` clause (docs/compiler.md). The variants are
+appended to a copy of the package in a build folder, so the baseline source is untouched and ``diff`` of the two
+files is the readable change (``OUT/variant.diff``).
 
-An edit that does not find its anchor in the baseline means the effect does not apply to that model: a
-:class:`~cosim.errors.ConfigError` names the effect, the model and the missing text.
+Whether an effect applies is a structural query on the model: does it have the slot (or, for an effect that only
+frees parameters, those parameters). :class:`~cosim.errors.EffectSlotError` says why an effect does not fit.
 """
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
-from cosim.errors import ConfigError
+from cosim.modelica_text import class_chain, replaceables
+from cosim.errors import ConfigError, EffectSlotError
 
-__all__ = ["Effect", "EFFECTS", "effect_names", "applicable", "get_effect", "write_variant",
-           "variant_text"]
+__all__ = ["EffectParameter", "Effect", "Slot", "EFFECTS", "effect_names", "applicable", "get_effect", "slots",
+           "write_variant", "variant_text"]
 
 
 @dataclass(frozen=True)
@@ -50,27 +55,41 @@ class Effect:
         One line: what physics the effect adds.
     parameters : tuple of EffectParameter
         Declared at the variant's top level (tunable FMU parameters) and fitted.
-    drive : tuple of (str, str)
-        Text replacements inside the copy of ``Gripper.DrivetrainMechanics`` (empty: the drivetrain is reused).
-    drive_parameters : tuple of str
-        Parameters passed down to the drivetrain copy (``drive(name = name, ...)``).
-    top : tuple of (str, str)
-        Text replacements inside the copy of the baseline model.
+    slot : str
+        Path of the replaceable component the effect redeclares (``"cog"``, ``"drive.guide"``); empty for an effect
+        that only frees existing parameters.
+    replacement : str
+        Full name of the block that takes the slot's place; it extends the slot's constraining interface.
+    bindings : tuple of (str, str)
+        Modifiers of the replacement on top of the slot's own: (block parameter, effect parameter).
     signature : str
         Where and how it shows in a residual (for the report).
+    frees : tuple of (str, float, float)
+        Existing baseline parameters the effect frees, with bounds (parameter-only effects).
     """
 
     name: str
     title: str
     parameters: tuple
-    drive: tuple = ()
-    drive_parameters: tuple = ()
-    top: tuple = ()
+    slot: str = ""
+    replacement: str = ""
+    bindings: tuple = ()
     signature: str = ""
-    frees: tuple = field(default=())  # existing baseline parameters the effect frees (parameter-only effects)
+    frees: tuple = ()
 
 
-_DRIVE_ANCHOR = "Gripper.DrivetrainMechanics drive("
+@dataclass(frozen=True)
+class Slot:
+    """A replaceable component of a model: its default class, constraining class and modifiers."""
+
+    default: str
+    constraint: str
+    modifiers: tuple  # (name, expression) of the declaration's modification
+
+
+def _same(*names):
+    return tuple((n, n) for n in names)
+
 
 EFFECTS = {
     "backdrive_efficiency": Effect(
@@ -78,34 +97,24 @@ EFFECTS = {
         title="gear efficiency by direction of power flow: eta_g driving, eta_b back-driven",
         parameters=(EffectParameter("eta_b", "eta_g", 0.2, 1.0, "1",
                                     "Gear mesh efficiency when the load back-drives the motor"),),
-        drive=(("Gripper.Components.MeshEfficiency mesh(eta = eta_g,",
-                "Gripper.Effects.DirectionalMeshEfficiency mesh(eta = eta_g, eta_b = eta_b,"),),
-        drive_parameters=("eta_b",),
+        slot="drive.mesh", replacement="Gripper.Effects.DirectionalMeshEfficiency", bindings=_same("eta_b"),
         signature="release branch: the force held on the way down differs, the rising branch fits",
     ),
     "load_dependent_friction": Effect(
         name="load_dependent_friction",
         title="jaw-guide friction proportional to the gripping force, held at rest",
         parameters=(EffectParameter("mu_F", 0.02, 0.0, 0.5, "1", "Guide friction force per unit gripping force"),),
-        drive=(("Gripper.Components.RegularisedCoulomb guide(F_c = F_cj, v_s = v_s) \"Guide Coulomb friction\";",
-                "Gripper.Components.RegularisedCoulomb guide(F_c = F_cj, v_s = v_s) \"Guide Coulomb friction\";\n"
-                "    Gripper.Effects.LoadDependentFriction lfric(mu_F = mu_F) \"Guide friction proportional to the "
-                "gripping force\";"),
-               ("jaw.F = rack.F - grease.F - guide.F - contact.F;",
-                "lfric.v = jaw.v;\n    lfric.F_n = contact.F;\n"
-                "    jaw.F = rack.F - grease.F - guide.F - contact.F - lfric.F;")),
-        drive_parameters=("mu_F",),
+        slot="drive.lfric", replacement="Gripper.Effects.LoadDependentFriction", bindings=_same("mu_F"),
         signature="hysteresis that scales with the force: both branches' slopes change",
     ),
     "stiction": Effect(
         name="stiction",
-        title="stiction with a Stribeck drop in the jaw guides (elasto-plastic bristle), replacing the creeping Coulomb guide",
+        title="stiction with a Stribeck drop in the jaw guides (elasto-plastic bristle), replacing the creeping "
+              "Coulomb guide",
         parameters=(EffectParameter("F_sj", 1.0, 0.01, 20.0, "N", "Static (breakaway) guide friction per jaw",
                                     starts=(4.0, 10.0)),  # below the rack force at a restart the cost is flat
                     EffectParameter("F_cj", "F_cj", 0.0, 10.0, "N", "Sliding guide friction per jaw")),
-        drive=(("Gripper.Components.RegularisedCoulomb guide(F_c = F_cj, v_s = v_s)",
-                "Gripper.Effects.StribeckGuide guide(F_c = F_cj, F_s = F_sj)"),),
-        drive_parameters=("F_sj",),
+        slot="drive.guide", replacement="Gripper.Effects.StribeckGuide", bindings=(("F_s", "F_sj"),),
         signature="held force offsets after stops, first motion delayed (breakaway), plateaus",
     ),
     "cogging": Effect(
@@ -114,11 +123,8 @@ EFFECTS = {
         parameters=(EffectParameter("T_cog", 2e-3, 0.0, 0.05, "N.m", "Cogging torque amplitude"),
                     EffectParameter("phase_cog", 0.0, -3.1416, 3.1416, "rad", "Cogging phase at theta = 0",
                                     starts=(-2.0944, 2.0944))),
-        top=(("(J_r + J_g)*der(w) = k_t*i_ref - B_r*w - drive.tau_load;",
-              "cog.theta = phi;\n    (J_r + J_g)*der(w) = k_t*i_ref - B_r*w - drive.tau_load - cog.tau;"),
-             ("  equation\n    der(phi) = w;",
-              "  Gripper.Effects.CoggingTorque cog(T_cog = T_cog, phase = phase_cog) \"Motor cogging\";\n"
-              "  equation\n    der(phi) = w;")),
+        slot="cog", replacement="Gripper.Effects.CoggingTorque",
+        bindings=(("T_cog", "T_cog"), ("phase", "phase_cog")),
         signature="force errors that vary from step to step with the rotor's rest angle",
     ),
     "loadcell_filter": Effect(
@@ -126,11 +132,7 @@ EFFECTS = {
         title="load-cell first-order low-pass and offset",
         parameters=(EffectParameter("tau_lc", 0.01, 1e-4, 1.0, "s", "Load-cell low-pass time constant"),
                     EffectParameter("F_off", 0.0, -20.0, 20.0, "N", "Load-cell offset")),
-        top=(("    F_g = drive.F_g;",
-              "    lc.F = drive.F_g;\n    F_g = lc.F_meas;"),
-             ("  equation\n    der(phi) = w;",
-              "  Gripper.Effects.LoadCell lc(tau_lc = tau_lc, F_off = F_off) \"Load-cell dynamics and offset\";\n"
-              "  equation\n    der(phi) = w;")),
+        slot="lc", replacement="Gripper.Effects.LoadCell", bindings=_same("tau_lc", "F_off"),
         signature="a bias where the true force is zero, a lag after each step",
     ),
     "contact_damping": Effect(
@@ -138,9 +140,7 @@ EFFECTS = {
         title="Hunt-Crossley contact damping: a damping force lambda_hc*F_s*v proportional to the elastic force",
         parameters=(EffectParameter("lambda_hc", 0.05, 0.0, 5.0, "s/m",
                                     "Hunt-Crossley damping per unit elastic contact force", starts=(1.0,)),),
-        drive=(("Gripper.Components.FingerContact contact(gap0 = gap0,",
-                "Gripper.Effects.HuntCrossleyContact contact(lambda_hc = lambda_hc, gap0 = gap0,"),),
-        drive_parameters=("lambda_hc",),
+        slot="drive.contact", replacement="Gripper.Effects.HuntCrossleyContact", bindings=_same("lambda_hc"),
         signature="impact peak and rebound: dissipation that grows with penetration",
     ),
     "gear_play": Effect(
@@ -158,18 +158,11 @@ EFFECTS = {
                                     "Maxwell branch stiffness per unit coating first-region stiffness"),
                     EffectParameter("tau_rel", 0.1, 0.02, 2.0, "s",
                                     "Coating relaxation time constant (slower than the impact, else it is damping)")),
-        drive=(("Gripper.Components.FingerContact contact(gap0 = gap0,",
-                "Gripper.Effects.RelaxingCoatingContact contact(k_rel = k_rel, tau_rel = tau_rel, gap0 = gap0,"),),
-        drive_parameters=("k_rel", "tau_rel"),
+        slot="drive.contact", replacement="Gripper.Effects.RelaxingCoatingContact",
+        bindings=_same("k_rel", "tau_rel"),
         signature="coated fingers: the force held after the impact decays with tau_rel (bare fingers: no change)",
     ),
-}
-
-
-# The haptic device + user (Haptic.Device7 and the other Haptic.Device* models): blocks of Haptic.Effects wired in
-# through the drive torque tau_1 on m1 and the user's torque tau_user on m2 (modelica/Haptic/package.mo).
-_TAU_1 = "  equation\n    tau_1 = tau;"
-EFFECTS.update({
+    # The haptic device + user (Haptic.Device7 and the other Haptic.Device* models).
     "hand_mass": Effect(
         name="hand_mass",
         title="the user's hand mass mh held by kh, bh behind the skin ks, bs (7 -> 11-parameter user, seed 000)",
@@ -178,12 +171,7 @@ EFFECTS.update({
                                     starts=(1.0, 10.0)),
                     EffectParameter("bh", 0.2, 1e-3, 3.0, "N.m.s/rad", "Damping of the hand to the user's reference"),
                     EffectParameter("b2", 0.02, 0.0, 0.5, "N.m.s/rad", "Viscous friction of m2 to ground")),
-        top=((_TAU_1,
-              "    Haptic.Effects.HandMass hand(mh = mh, kh = kh, bh = bh, ks = ks, bs = bs) \"Hand mass behind the "
-              "skin\";\n" + _TAU_1),
-             ("    tau_b2 = 0;\n    tau_user = -ks*(phi2 - phi_ref) - bs*w2 + tau_h;",
-              "    tau_b2 = b2*w2;\n    hand.phi_s = phi2;\n    hand.w_s = w2;\n    hand.phi_ref = phi_ref;\n"
-              "    hand.tau_h = tau_h;\n    tau_user = hand.tau;")),
+        slot="hand", replacement="Haptic.Effects.HandMass", bindings=_same("mh", "kh", "bh", "b2"),
         signature="below ~20 Hz: a second pole/zero pair (the hand's mode) the lumped m2 on ks, bs cannot shape",
     ),
     "vibration_mode": Effect(
@@ -193,9 +181,7 @@ EFFECTS.update({
                     EffectParameter("k3", 70.0, 1.0, 2000.0, "N.m/rad", "Modal stiffness of the second mode",
                                     starts=(12.0, 30.0, 160.0)),
                     EffectParameter("b3", 0.01, 1e-5, 0.5, "N.m.s/rad", "Modal damping of the second mode")),
-        top=((_TAU_1,
-              "    Haptic.Effects.SideMode mode(m3 = m3, k3 = k3, b3 = b3) \"Second vibration mode, hung on m1\";\n"
-              "  equation\n    mode.phi = phi1;\n    mode.w = w1;\n    tau_1 = tau + mode.tau;"),),
+        slot="mode", replacement="Haptic.Effects.SideMode", bindings=_same("m3", "k3", "b3"),
         signature="a narrow antiresonance/resonance pair near sqrt(k3/m3), a phase wiggle there",
     ),
     "loop_delay": Effect(
@@ -203,30 +189,15 @@ EFFECTS.update({
         title="a pure delay T_d of the torque command (computation and amplifier), third-order Pade approximation",
         parameters=(EffectParameter("T_d", 1e-3, 1e-5, 5e-3, "s", "Delay of the torque command",
                                     starts=(0.3e-3, 3e-3)),),
-        top=((_TAU_1,
-              "    Haptic.Effects.PadeDelay delay(T = T_d) \"Loop delay of the torque command\";\n"
-              "  equation\n    delay.u = tau;\n    tau_1 = delay.y;"),),
+        slot="delay", replacement="Haptic.Effects.PadeDelay", bindings=(("T", "T_d"),),
         signature="phase lag growing linearly with frequency (360 T_d deg/Hz), magnitude unchanged",
     ),
-})
+}
 
 
 def effect_names():
     """Identifiers of the implemented effects, in library order."""
     return list(EFFECTS)
-
-
-def applicable(source_text, model):
-    """Identifiers of the implemented effects that apply to ``model`` of the Modelica ``source_text`` (their
-    variant can be written), in library order."""
-    names = []
-    for name, effect in EFFECTS.items():
-        try:
-            variant_text(source_text, model, effect)
-        except ConfigError:
-            continue
-        names.append(name)
-    return names
 
 
 def get_effect(name):
@@ -236,100 +207,149 @@ def get_effect(name):
     raise ConfigError(f"unknown effect {name!r}; implemented: {', '.join(EFFECTS)}")
 
 
-def _block(text, kind, name):
-    match = re.search(rf"^( *){kind} {re.escape(name)}\b.*?^\1end {re.escape(name)};\n", text, re.S | re.M)
-    if match is None:
-        raise ConfigError(f"no `{kind} {name}` in the Modelica source")
-    return match.group(0)
+# -- the structural query: the model's replaceable components -----------------------------------------------
+def slots(source_text, model):
+    """The effect slots of ``model``: path -> :class:`Slot`, the replaceable components declared in the model's
+    own class and in the classes of those components (``drive.guide``).
+
+    Only the class's own declarations count: rumoca 0.10.2 ignores a ``redeclare`` of an element that the
+    extended class inherits (docs/compiler.md), so a slot of a base class cannot be filled by a variant.
+
+    Raises
+    ------
+    ConfigError
+        ``model`` is not a class of the source.
+    """
+    found = {}
+    for name, default, constraint, mods in replaceables(source_text, model):
+        found[name] = Slot(default, constraint, mods)
+        for path, inner in slots(source_text, default).items():
+            found[f"{name}.{path}"] = inner
+    return found
 
 
-def _replace(text, old, new, effect, model):
-    if old not in text:
-        raise ConfigError(f"effect {effect.name!r} does not apply to {model}: its source has no `{old.strip()}`")
-    return text.replace(old, new, 1)
+def _parameter(source_text, model, name):
+    """The declaration default of parameter ``name`` of ``model`` (or of a class it extends): a float, the text of
+    a non-numeric default, "" when it has none; None when the model does not declare it."""
+    for _, own in class_chain(source_text, model):
+        match = re.search(rf"\bparameter\s+(?:Real|Integer|Boolean)\s+{re.escape(name)}\b(?:\([^)]*\))?"
+                          rf"\s*(?:=\s*([^\"\n;]+?))?\s*(?:\"|;)", own)
+        if match:
+            value = (match.group(1) or "").strip()
+            try:
+                return float(value)
+            except ValueError:
+                return value
+    return None
+
+
+def _fits(source_text, model, effect, model_slots):
+    """Whether ``effect`` applies to ``model``; EffectSlotError when its slot exists but does not take it."""
+    if not effect.slot:
+        return all(_parameter(source_text, model, name) is not None for name, _, _ in effect.frees)
+    slot = model_slots.get(effect.slot)
+    if slot is None:
+        return False
+    bases = [name for name, _ in class_chain(source_text, effect.replacement)]
+    if slot.constraint not in bases:
+        raise EffectSlotError(f"effect {effect.name!r}: slot {effect.slot} of {model} is constrained by "
+                              f"{slot.constraint}; the effect's block {effect.replacement} extends "
+                              f"{', '.join(bases[1:]) or 'nothing'}")
+    return True
+
+
+def applicable(source_text, model):
+    """Identifiers of the implemented effects that apply to ``model`` of the Modelica ``source_text`` (it has
+    their slot), in library order.
+
+    Raises
+    ------
+    ConfigError
+        ``model`` is not in the source.
+    EffectSlotError
+        A slot of the model does not take the block of the effect that names it.
+    """
+    model_slots = slots(source_text, model)
+    return [name for name, effect in EFFECTS.items() if _fits(source_text, model, effect, model_slots)]
+
+
+# -- the variant's text -----------------------------------------------------------------------------------------
+def _declarations(source_text, owner, effect, known_in):
+    """Declarations of the effect's parameters that class ``known_in`` does not declare, and their names."""
+    lines, names = [], []
+    for p in effect.parameters:
+        if _parameter(source_text, known_in, p.name) is not None:
+            continue
+        default = p.start
+        if not isinstance(default, (int, float)):
+            default = _parameter(source_text, owner, p.start)
+            if not isinstance(default, float):
+                raise EffectSlotError(f"effect parameter {p.name} starts from {p.start!r}, which {owner} does not "
+                                      f"declare with a numeric default")
+        lines.append(f'    parameter Real {p.name}(unit = "{p.unit}") = {default} "{p.description} '
+                     f'(effect {effect.name})";\n')
+        names.append(p.name)
+    return lines, names
+
+
+def _model(name, description, base, modification, declarations):
+    args = ", ".join(f"{k} = {v}" for k, v in modification[1]) if modification else ""
+    head = f"redeclare {modification[0]}({args})" if modification else ""
+    extends = f"    extends {base}({head});\n" if head else f"    extends {base};\n"
+    return f'  model {name} "{description}"\n{extends}{"".join(declarations)}  end {name};\n'
+
+
+def _merge(modifiers, bindings):
+    bound = dict(bindings)
+    return tuple((k, v) for k, v in modifiers if k not in bound) + tuple(bindings)
 
 
 def variant_text(source_text, model, effect):
     """The Modelica source of ``Pkg.Model`` with ``effect`` added: (variant model name, full package text).
 
-    The variant (and the drivetrain copy it needs) go into a sub-package ``Diagnosis`` appended to the package."""
+    The variant (and the subclass of the component class it needs) go into a sub-package ``Diagnosis`` appended
+    to the package.
+
+    Raises
+    ------
+    ConfigError
+        ``model`` is not a top-level model ``Pkg.Model`` of the source.
+    EffectSlotError
+        The effect does not apply to ``model`` (no such slot or parameter), with the reason.
+    """
     package, _, short = model.rpartition(".")
     if not package or "." in package:
         raise ConfigError(f"model {model!r}: the diagnosis writes variants of top-level models Pkg.Model")
-    base = _block(source_text, "model", short)
+    model_slots = slots(source_text, model)
+    if not _fits(source_text, model, effect, model_slots):
+        what = f"slot {effect.slot}" if effect.slot else "parameter " + ", ".join(n for n, _, _ in effect.frees)
+        raise EffectSlotError(f"effect {effect.name!r} does not apply to {model}: it has no {what} "
+                              f"(its slots: {', '.join(model_slots) or 'none'})")
     tag = effect.name
-    new_name = f"{short}_{tag}"
-    top = base.replace(f"model {short} ", f"model {new_name} ", 1).replace(f"end {short};", f"end {new_name};")
-    known = _known(source_text, base)
     blocks = []
-    decls = "".join(
-        f'    parameter Real {p.name}(unit = "{p.unit}") = {_default(p, known)} "{p.description} (effect {tag})";\n'
-        for p in effect.parameters if not _exists(known, p.name))
-    if effect.drive:
-        drive = _block(source_text, "model", "DrivetrainMechanics")
-        drive_name = f"DrivetrainMechanics_{tag}"
-        drive = drive.replace("model DrivetrainMechanics ", f"model {drive_name} ", 1).replace(
-            "end DrivetrainMechanics;", f"end {drive_name};")
-        for old, new in effect.drive:
-            drive = _replace(drive, old, new, effect, "Gripper.DrivetrainMechanics")
-        drive_decls = "".join(
-            f'    parameter Real {p.name}(unit = "{p.unit}") = {_default(p, known)} "{p.description} (effect {tag})";\n'
-            for p in effect.parameters if p.name in effect.drive_parameters)
-        drive = drive.replace("    extends Gripper.Parameters.DrivetrainParameters;\n",
-                              "    extends Gripper.Parameters.DrivetrainParameters;\n" + drive_decls, 1)
-        blocks.append(drive)
-        passed = "".join(f"{n} = {n}, " for n in effect.drive_parameters)
-        top = _replace(top, _DRIVE_ANCHOR, f"{package}.Diagnosis.{drive_name} drive({passed}", effect, model)
-    for old, new in effect.top:
-        top = _replace(top, old, new, effect, model)
-    if decls:  # declared after the model's last `extends` line
-        bases = re.findall(r"^    extends [^\n]*;\n", top, re.M)
-        if not bases:
-            raise ConfigError(f"effect {effect.name!r} does not apply to {model}: it has no `extends` line to "
-                              f"declare the effect's parameters after")
-        top = top.replace(bases[-1], bases[-1] + decls, 1)
-    for name, _, _ in effect.frees:
-        if not _exists(known, name):
-            raise ConfigError(f"effect {effect.name!r} does not apply to {model}: it has no parameter {name!r}")
-    blocks.append(top)
-    body = "".join(_indent(b) for b in blocks)
+    if not effect.slot:
+        blocks.append(_model(f"{short}_{tag}", f"{model} with effect {tag}", model, None, []))
+    else:
+        outer, _, leaf = effect.slot.rpartition(".")
+        slot = model_slots[effect.slot]
+        redeclare = (f"{effect.replacement} {leaf}", _merge(slot.modifiers, effect.bindings))
+        top_decls, _ = _declarations(source_text, model, effect, model)
+        if outer:  # the slot sits in a component: redeclare it in a subclass of the component's class
+            parent = model_slots[outer]
+            inner = f"{parent.default.rpartition('.')[2]}_{tag}"
+            decls, passed = _declarations(source_text, model, effect, parent.default)
+            blocks.append(_model(inner, f"{parent.default} with effect {tag}", parent.default, redeclare, decls))
+            redeclare = (f"{package}.Diagnosis.{inner} {outer}", _merge(parent.modifiers, _same(*passed)))
+        blocks.append(_model(f"{short}_{tag}", f"{model} with effect {tag}", model, redeclare, top_decls))
+    body = "".join("".join("  " + line if line.strip() else line for line in b.splitlines(keepends=True))
+                   for b in blocks)
     sub = (f'  package Diagnosis "Model variants written by cosim diagnose: the baseline plus one effect '
            f'(docs/diagnose.md)"\n{body}  end Diagnosis;\n')
     end = f"end {package};"
     if end not in source_text:
         raise ConfigError(f"the Modelica source does not end with `{end}`")
     head, _, tail = source_text.rpartition(end)
-    return f"{package}.Diagnosis.{new_name}", head + sub + end + tail
-
-
-def _known(source_text, base):
-    """Where the baseline's parameters are declared: the model itself, the local models it extends (e.g.
-    ``extends Device(...)``) and the package's shared ``package Parameters`` when it has one."""
-    blocks = [base]
-    for name in re.findall(r"^    extends (\w+)[ (;]", base, re.M):
-        blocks.append(_block(source_text, "(?:partial )?model", name))
-    if re.search(r"^  package Parameters\b", source_text, re.M):
-        blocks.append(_block(source_text, "package", "Parameters"))
-    return "".join(blocks)
-
-
-def _exists(text, name):
-    return re.search(rf"parameter Real {re.escape(name)}\(", text) is not None
-
-
-def _default(p, known):
-    """The declared default: the effect's start value, or the baseline default of the parameter it starts from."""
-    if isinstance(p.start, (int, float)):
-        return p.start
-    match = re.search(rf"parameter Real {re.escape(p.start)}\([^)]*\) = ([-+0-9.eE]+)", known)
-    if match is None:
-        raise ConfigError(f"effect parameter {p.name} starts from {p.start!r}, which the baseline does not declare "
-                          f"with a numeric default")
-    return float(match.group(1))
-
-
-def _indent(block):
-    return "".join("  " + line if line.strip() else line for line in block.splitlines(keepends=True))
+    return f"{package}.Diagnosis.{short}_{tag}", head + sub + end + tail
 
 
 def write_variant(source, model, effect, folder):

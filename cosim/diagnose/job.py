@@ -143,7 +143,11 @@ def load_diagnose_job(path, overrides=()):
     effects = t["candidates"].get("effects")
     model = t["model"].get("name", "")
     if effects is None:
-        effects = applicable(source_text, model) if source_text else []
+        try:
+            effects = applicable(source_text, model) if source_text else []
+        except ConfigError as err:  # no such model, or a slot that does not take its effect's block
+            problems.add(("candidates", "effects"), str(err))
+            effects = []
     elif not isinstance(effects, list) or not all(isinstance(x, str) for x in effects):
         problems.add(("candidates", "effects"), "must be a list of effect identifiers")
         effects = []

@@ -9,6 +9,44 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
   // - d-q quantities use the power-invariant Park transform: T = P*(Psi_m*i_q + (L_d - L_q)*i_d*i_q),
   //   k_t = P*Psi_m, electrical power v_d*i_d + v_q*i_q.
 
+  package Interfaces "Effect slots: what a block must take and give to fill a replaceable component of the models (docs/models/gripper.md); the default of each slot is today's law or a block that does nothing, cosim diagnose redeclares it with a block of Effects"
+    partial model MeshSlot "Gear mesh loss at the gear input"
+      input Real w(unit = "rad/s") "Input shaft speed";
+      input Real tau_out(unit = "N.m") "Torque passed on towards the load, in input-side units";
+      output Real tau_f(unit = "N.m") "Loss torque against the motion (added to the input torque)";
+    end MeshSlot;
+
+    partial model GuideSlot "Jaw-guide friction"
+      parameter Real F_c(unit = "N") = 0.0785 "Coulomb (sliding) friction level";
+      parameter Real v_s(unit = "m/s") = 1e-4 "Regularisation velocity at rest (a law that holds its friction by a bristle ignores it)";
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      output Real F(unit = "N") "Friction force against the motion";
+    end GuideSlot;
+
+    partial model LoadFrictionSlot "Jaw-guide friction that depends on the gripping force, on top of the guide friction"
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      input Real F_n(unit = "N") "Gripping (normal) force";
+      output Real F(unit = "N") "Friction force against the motion";
+    end LoadFrictionSlot;
+
+    partial model ContactSlot "Finger contact on the object"
+      input Real x(unit = "m") "Jaw displacement, positive closing";
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      output Real F(unit = "N") "Contact (gripping) force, >= 0";
+      output Real delta_c(unit = "m") "Coating deflection";
+    end ContactSlot;
+
+    partial model CoggingSlot "Torque on the rotor periodic in its angle"
+      input Real theta(unit = "rad") "Rotor angle";
+      output Real tau(unit = "N.m") "Cogging torque against positive rotation";
+    end CoggingSlot;
+
+    partial model LoadCellSlot "Load cell between the gripping force and the measured force"
+      input Real F(unit = "N") "True force";
+      output Real F_meas(unit = "N") "Force the load cell reports";
+    end LoadCellSlot;
+  end Interfaces;
+
   package Components "One physical effect per block; blocks are wired by explicit equations (see the header note)"
     model PMSM "Permanent magnet synchronous motor in the rotor d-q frame with its rotor, eqs. (3)-(7), power-invariant Park transform"
       parameter Real R_s(unit = "Ohm") = 0.45 "Stator phase resistance";
@@ -72,13 +110,11 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // N = max(|tau_in|, |tau_out|): driving gives tau_out = eta*tau_in, back-driving gives
       // tau_in = eta*tau_out, and at standstill any tau_in between eta*tau_out and tau_out/eta is held
       // (the stuck mode of Modelica's LossyGear). tau_in = tau_out + tau_f.
+      extends Gripper.Interfaces.MeshSlot;
       parameter Real eta(unit = "1") = 0.68 "Mesh efficiency";
       parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the mesh bristle (input side)";
       parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
       parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
-      input Real w(unit = "rad/s") "Input shaft speed";
-      input Real tau_out(unit = "N.m") "Torque passed on towards the load, in input-side units";
-      output Real tau_f(unit = "N.m") "Loss torque against the motion (added to the input torque)";
       Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
       Real N(unit = "N.m") "Transmitted load max(|tau_in|, |tau_out|)";
     equation
@@ -161,15 +197,13 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end GreaseViscous;
 
     model RegularisedCoulomb "Coulomb friction on the guide surfaces, eq. (11), regularised by tanh (creeps at rest)"
-      parameter Real F_c(unit = "N") = 0.0785 "Coulomb friction force level, sum of mu_i*R_i";
-      parameter Real v_s(unit = "m/s") = 1e-4 "Regularisation velocity";
-      input Real v(unit = "m/s") "Jaw velocity";
-      output Real F(unit = "N") "Friction force against the motion";
+      extends Gripper.Interfaces.GuideSlot;
     equation
       F = F_c*tanh(v/v_s);
     end RegularisedCoulomb;
 
     model FingerContact "Finger (cantilever) in series with an optional two-region coating and the object; opens when the gap opens"
+      extends Gripper.Interfaces.ContactSlot;
       // Elastic part: springs in series, k_f (finger), k_P/k_H (coating regions), k_obj (object), solved
       // explicitly (massless intermediate nodes). Damping acts on the total penetration rate with a coefficient
       // that blends from C_p to C_h across the coating's region boundary, limited as in ElastoBacklash so that
@@ -189,10 +223,6 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       parameter Real c_2(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_H "Series compliance, coating second region";
       parameter Real F_lim(unit = "N") = k_P*d_lim "Force at the coating region boundary";
       parameter Real p_lim(unit = "m") = F_lim*c_1 "Penetration at the coating region boundary";
-      input Real x(unit = "m") "Jaw displacement, positive closing";
-      input Real v(unit = "m/s") "Jaw velocity, positive closing";
-      output Real F(unit = "N") "Contact (gripping) force, >= 0";
-      output Real delta_c(unit = "m") "Coating deflection";
       Real pen(unit = "m") "Penetration of the (coated) finger into the object";
       Real F_s(unit = "N") "Elastic contact force";
       Real C(unit = "N.s/m") "Current damping coefficient";
@@ -217,21 +247,37 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     equation
       der(theta) = w_in + k_c*(theta_in - theta);
     end AngleReconstruction;
+
+    model NoLoadFriction "No guide friction that depends on the gripping force (default of the slot lfric)"
+      extends Gripper.Interfaces.LoadFrictionSlot;
+    equation
+      F = 0;
+    end NoLoadFriction;
+
+    model NoCogging "No cogging torque (default of the slot cog)"
+      extends Gripper.Interfaces.CoggingSlot;
+    equation
+      tau = 0;
+    end NoCogging;
+
+    model IdealLoadCell "A load cell that reports the force as it is (default of the slot lc)"
+      extends Gripper.Interfaces.LoadCellSlot;
+    equation
+      F_meas = F;
+    end IdealLoadCell;
   end Components;
 
-  package Effects "Candidate missing effects of the discrepancy workflow (cosim diagnose, docs/diagnose.md); cosim.diagnose.effects writes the model variants that wire them in"
+  package Effects "Candidate missing effects of the discrepancy workflow (cosim diagnose, docs/diagnose.md); each fills a slot of package Interfaces, and cosim.diagnose.effects writes the variants that redeclare the slot with it"
     model DirectionalMeshEfficiency "Gear mesh loss with one efficiency when the motor drives the load and another when the load back-drives the motor (effect backdrive_efficiency)"
       // As Components.MeshEfficiency, but the loss level of the back-driven branch is (1 - eta_b)*|tau_out|:
       // driving gives tau_out = eta*tau_in, back-driving tau_in = eta_b*tau_out; at standstill any tau_in between
       // eta_b*tau_out and tau_out/eta is held. Both branches vanish at s*tau_out = 0 (continuous).
+      extends Gripper.Interfaces.MeshSlot;
       parameter Real eta(unit = "1") = 0.68 "Mesh efficiency, motor driving the load";
       parameter Real eta_b(unit = "1") = 0.68 "Mesh efficiency, load back-driving the motor";
       parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the mesh bristle (input side)";
       parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
       parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
-      input Real w(unit = "rad/s") "Input shaft speed";
-      input Real tau_out(unit = "N.m") "Torque passed on towards the load, in input-side units";
-      output Real tau_f(unit = "N.m") "Loss torque against the motion (added to the input torque)";
       Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
       Real N(unit = "N.m") "Transmitted load max(|tau_in|, |tau_out|)";
     equation
@@ -245,13 +291,11 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // displacement in m), so a clamped jaw holds its friction at rest. The presliding displacement is 0.1 um:
       // with 1 um, the jaw's um-scale motions in the hold stayed on the bristle's elastic range and the fitted
       // variant missed the held friction of the hidden-effect truth (docs/diagnose.md).
+      extends Gripper.Interfaces.LoadFrictionSlot;
       parameter Real mu_F(unit = "1") = 0.05 "Friction force per unit gripping force";
       parameter Real x_b(unit = "m") = 1e-7 "Presliding displacement of the bristle";
       parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
       parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
-      input Real v(unit = "m/s") "Jaw velocity, positive closing";
-      input Real F_n(unit = "N") "Gripping (normal) force";
-      output Real F(unit = "N") "Friction force against the motion";
       Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
     equation
       der(s) = Gripper.Components.bristleRate(v, s, x_b, tau_b, s_ba);
@@ -273,15 +317,13 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // stuck jaw holds the hit up to F_s (with tau_b = 1e-4 s the hit counted as sliding); the state is stiff
       // (an implicit solver in the master). g is floored at 1e-3 in the bristle's rate so that F_c = 0 cannot
       // divide by zero.
-      parameter Real F_c(unit = "N") = 0.0785 "Coulomb (sliding) friction level";
+      extends Gripper.Interfaces.GuideSlot;
       parameter Real F_s(unit = "N") = 0.3 "Static (breakaway) friction level, > 0";
       parameter Real v_st(unit = "m/s") = 1e-4 "Stribeck velocity";
       parameter Real x_b(unit = "m") = 1e-7 "Presliding displacement of the bristle at the static level";
       parameter Real tau_b(unit = "s") = 1e-6 "Bristle relaxation time at high speed";
       parameter Real tau_g(unit = "s") = 1e-4 "Lag of the sliding level behind the sliding velocity";
       parameter Real s_ba(unit = "1") = 0.9 "Elastic fraction of the bristle range";
-      input Real v(unit = "m/s") "Jaw velocity, positive closing";
-      output Real F(unit = "N") "Friction force against the motion";
       Real s(unit = "1", start = 0.0, fixed = true) "Bristle deflection over x_b, in [-1, 1]";
       Real g(unit = "1", start = 1.0, fixed = true) "Sliding level over F_s";
       Real v_p(unit = "m/s") "Sliding (plastic) part of the jaw velocity";
@@ -293,20 +335,18 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end StribeckGuide;
 
     model CoggingTorque "Motor cogging (detent) torque, periodic in the rotor angle (effect cogging)"
+      extends Gripper.Interfaces.CoggingSlot;
       parameter Real T_cog(unit = "N.m") = 1e-3 "Cogging torque amplitude";
       parameter Real n_cog(unit = "1") = 24 "Cogging periods per revolution";
       parameter Real phase(unit = "rad") = 0 "Cogging phase at theta = 0";
-      input Real theta(unit = "rad") "Rotor angle";
-      output Real tau(unit = "N.m") "Cogging torque against positive rotation";
     equation
       tau = T_cog*sin(n_cog*theta + phase);
     end CoggingTorque;
 
     model LoadCell "Load-cell first-order low-pass and offset (effect loadcell_filter)"
+      extends Gripper.Interfaces.LoadCellSlot;
       parameter Real tau_lc(unit = "s") = 0.01 "Low-pass time constant";
       parameter Real F_off(unit = "N") = 0 "Offset (zero error)";
-      input Real F(unit = "N") "True force";
-      output Real F_meas(unit = "N") "Force the load cell reports";
       Real F_f(unit = "N", start = 0.0, fixed = true) "Filtered force";
     equation
       tau_lc*der(F_f) = F - F_f;
@@ -314,6 +354,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end LoadCell;
 
     model HuntCrossleyContact "Components.FingerContact with a Hunt-Crossley damping term lambda_hc*F_s*v added to the linear damping (effect contact_damping)"
+      extends Gripper.Interfaces.ContactSlot;
       // As Components.FingerContact (copied: equations cannot be changed by extends); the damping force is
       // (C + lambda_hc*F_s)*v, Hunt and Crossley's damping proportional to the elastic force (dissipation grows
       // with penetration, no force jump at first touch), on top of the linear term.
@@ -337,10 +378,6 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       parameter Real c_2(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_H "Series compliance, coating second region";
       parameter Real F_lim(unit = "N") = k_P*d_lim "Force at the coating region boundary";
       parameter Real p_lim(unit = "m") = F_lim*c_1 "Penetration at the coating region boundary";
-      input Real x(unit = "m") "Jaw displacement, positive closing";
-      input Real v(unit = "m/s") "Jaw velocity, positive closing";
-      output Real F(unit = "N") "Contact (gripping) force, >= 0";
-      output Real delta_c(unit = "m") "Coating deflection";
       Real pen(unit = "m") "Penetration of the (coated) finger into the object";
       Real F_s(unit = "N") "Elastic contact force";
       Real C(unit = "N.s/m") "Current damping coefficient";
@@ -354,6 +391,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       F = max(0, F_s + min(F_s, F_d));
     end HuntCrossleyContact;
     model RelaxingCoatingContact "Components.FingerContact whose coating relaxes: a Maxwell branch (spring k_rel*k_P, time constant tau_rel) in parallel with the coating's elastic element, a standard linear solid (effect coating_relaxation)"
+      extends Gripper.Interfaces.ContactSlot;
       // The coating force is F_el(delta_c) + k_rel*k_P*(delta_c - z): the elastic two-region element plus a Maxwell
       // branch whose dashpot (k_rel*k_P*tau_rel) yields at rate der(z) = (delta_c - z)/tau_rel. Right after an impact
       // the coating is stiffer by k_rel*k_P; held still, its force relaxes to F_el with time constant ~tau_rel.
@@ -376,10 +414,6 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       parameter Real k_H(unit = "N/m") = k_H_ratio*k_P "Coating second-region stiffness";
       parameter Real k_s(unit = "N/m") = 1/(1/k_f + 1/k_obj) "Finger and object in series";
       parameter Real k_m(unit = "N/m") = k_rel*k_P "Maxwell branch stiffness";
-      input Real x(unit = "m") "Jaw displacement, positive closing";
-      input Real v(unit = "m/s") "Jaw velocity, positive closing";
-      output Real F(unit = "N") "Contact (gripping) force, >= 0";
-      output Real delta_c(unit = "m") "Coating deflection";
       Real z(unit = "m", start = 0.0, fixed = true) "Dashpot displacement of the Maxwell branch";
       Real pen(unit = "m") "Penetration of the (coated) finger into the object";
       Real delta_1(unit = "m") "Coating deflection if it stays in the first region";
@@ -453,15 +487,16 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real F_g(unit = "N") "Gripping force (load cell)";
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
     Gripper.Components.BristleFriction drag(T_c = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) "No-load drag at the motor shaft";
-    Gripper.Components.MeshEfficiency mesh(eta = eta_g, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) "Gear efficiency by power-flow direction";
+    replaceable Gripper.Components.MeshEfficiency mesh(eta = eta_g, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) constrainedby Gripper.Interfaces.MeshSlot "Gear efficiency by power-flow direction";
     Gripper.Components.IdealGear gear(ratio = ratio) "Planetary gear kinematics";
     Gripper.Components.RotationalDamper bearing(d = B_g) "Gear bearing damping at the output";
     Gripper.Components.ElastoBacklash backlash(b = play, c = c_play, d = d_play) "Gear shaft play";
     Gripper.Components.RackPinion rack(r_p = r_p, n = 2) "Pinion driving both racks";
     Gripper.Components.JawMass jaw(m = m_jf + J_p/(2*r_p^2)) "One jaw with half the pinion inertia";
     Gripper.Components.GreaseViscous grease(eta = eta_grease, S = S_i, d = d_grease, n_s = 4) "Grease on the 4 guide surfaces";
-    Gripper.Components.RegularisedCoulomb guide(F_c = F_cj, v_s = v_s) "Guide Coulomb friction";
-    Gripper.Components.FingerContact contact(gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Finger, coating and object";
+    replaceable Gripper.Components.RegularisedCoulomb guide(F_c = F_cj, v_s = v_s) constrainedby Gripper.Interfaces.GuideSlot "Guide Coulomb friction";
+    replaceable Gripper.Components.NoLoadFriction lfric constrainedby Gripper.Interfaces.LoadFrictionSlot "Guide friction that depends on the gripping force (none)";
+    replaceable Gripper.Components.FingerContact contact(gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) constrainedby Gripper.Interfaces.ContactSlot "Finger, coating and object";
   equation
     // motor shaft -> drag and mesh loss -> ideal gear -> bearing + play -> pinion -> jaws
     drag.w = w_m;
@@ -479,9 +514,11 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     rack.v = jaw.v;
     grease.v = jaw.v;
     guide.v = jaw.v;
+    lfric.v = jaw.v;
+    lfric.F_n = contact.F;
     contact.x = jaw.x;
     contact.v = jaw.v;
-    jaw.F = rack.F - grease.F - guide.F - contact.F;
+    jaw.F = rack.F - grease.F - guide.F - contact.F - lfric.F;
     F_g = contact.F;
     x_jaw = jaw.x;
   end DrivetrainMechanics;
@@ -498,7 +535,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
     output Real F_g(unit = "N") "Gripping force (load cell)";
     Gripper.Components.PMSM motor(R_s = R_s, L_d = L_d, L_q = L_q, p = p, Psi_m = Psi_m, J = J_r + J_g, B_r = B_r) "Motor with the gear input inertia";
-    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
   equation
     motor.v_d = v_d;
     motor.v_q = v_q;
@@ -542,7 +579,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
     parameter Real k_c(unit = "1/s") = 2000 "Correction rate of the motor-angle reconstruction";
     Gripper.Components.AngleReconstruction shaft(k_c = k_c) "Motor angle between communication points";
-    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
   equation
     shaft.theta_in = theta_m;
     shaft.w_in = w_m;
@@ -565,16 +602,20 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real F_g(unit = "N") "Gripping force (load cell)";
     Real phi(unit = "rad", start = 0.0, fixed = true) "Motor shaft angle";
     Real w(unit = "rad/s", start = 0.0, fixed = true) "Motor shaft speed";
-    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    replaceable Gripper.Components.NoCogging cog constrainedby Gripper.Interfaces.CoggingSlot "Motor cogging (none)";
+    replaceable Gripper.Components.IdealLoadCell lc constrainedby Gripper.Interfaces.LoadCellSlot "Load cell (ideal)";
   equation
     der(phi) = w;
-    (J_r + J_g)*der(w) = k_t*i_ref - B_r*w - drive.tau_load;
+    cog.theta = phi;
+    (J_r + J_g)*der(w) = k_t*i_ref - B_r*w - drive.tau_load - cog.tau;
     drive.theta_m = phi;
     drive.w_m = w;
     theta_m = phi;
     w_m = w;
     x_jaw = drive.x_jaw;
-    F_g = drive.F_g;
+    lc.F = drive.F_g;
+    F_g = lc.F_meas;
   end GripperCurrentDriven;
 
   model GripperSpeedControlled "Whole gripper under a PI speed loop around an ideal current loop: the speed reference is the input (diagnosis of cogging at slow, steady motion)"
@@ -594,10 +635,13 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     Real w(unit = "rad/s", start = 0.0, fixed = true) "Motor shaft speed";
     Real e_w(unit = "rad", start = 0.0, fixed = true) "Integral of the speed error";
     Real i_ref(unit = "A") "q current the speed loop asks for";
-    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    replaceable Gripper.Components.NoCogging cog constrainedby Gripper.Interfaces.CoggingSlot "Motor cogging (none)";
+    replaceable Gripper.Components.IdealLoadCell lc constrainedby Gripper.Interfaces.LoadCellSlot "Load cell (ideal)";
   equation
     der(phi) = w;
-    (J_r + J_g)*der(w) = k_t*i_ref - B_r*w - drive.tau_load;
+    cog.theta = phi;
+    (J_r + J_g)*der(w) = k_t*i_ref - B_r*w - drive.tau_load - cog.tau;
     der(e_w) = w_ref - w;
     i_ref = K_pw*(w_ref - w) + K_iw*e_w;
     i_q = i_ref;
@@ -606,6 +650,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     theta_m = phi;
     w_m = w;
     x_jaw = drive.x_jaw;
-    F_g = drive.F_g;
+    lc.F = drive.F_g;
+    F_g = lc.F_meas;
   end GripperSpeedControlled;
 end Gripper;

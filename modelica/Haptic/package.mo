@@ -7,42 +7,85 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
   //   the user's intended position, equilibrium-point style) and the hand can also push with an extra torque
   //   tau_h. With phi_ref = 0 and tau_h = 0 the models are exactly the paper's transfer functions (2), (9) and
   //   seed 001's (1).
-  // - tau_1 is the torque the drive applies to m1; each concrete model sets tau_1 = tau (the command acts at
-  //   once). The discrepancy workflow's variants (package Effects, docs/diagnose.md) change that one equation.
+  // - Effect slots (package Interfaces): in each concrete model the torque command reaches m1 through the
+  //   replaceable delay (none by default) and a replaceable side mode hangs on m1 (none by default); Device7's
+  //   user is the replaceable hand (the skin only by default). The discrepancy workflow's variants redeclare them
+  //   with blocks of package Effects (docs/diagnose.md). The slots are declared in the concrete models, not in
+  //   Device: rumoca ignores a redeclare of an element the extended class inherits (docs/compiler.md).
   // - Default parameter values: user 1 at grasp position 3 (11 parameters) / 4 (7 parameters) of Table I,
   //   the nominal X-axis arm of seed 001 Table II. A config loads another row by setting the parameters.
 
-  package Effects "Candidate missing effects of the discrepancy workflow for the device + user (cosim diagnose, docs/diagnose.md); cosim.diagnose.effects writes the variants of Device7 that wire them in"
-    model HandMass "The user's hand as an inertia mh held by kh, bh to the user's reference, gripping the stylus through the skin ks, bs (effect hand_mass: the 11-parameter user of seed 000 eq. 2, Fig. 5 top)"
-      // Device7 lumps the hand into m2 and grounds it through ks, bs; this block puts the hand mass between the
-      // skin and the user's reference, which adds the pole/zero pair of the hand (seed 000 Sec. II-D).
-      parameter Real mh(unit = "kg.m2") = 0.005 "Hand inertia at the phi axis";
-      parameter Real bh(unit = "N.m.s/rad") = 0.2 "Damping of the hand to the user's reference";
-      parameter Real kh(unit = "N.m/rad") = 3 "Stiffness of the hand to the user's reference";
-      parameter Real ks(unit = "N.m/rad") = 3.5 "Stylus/skin stiffness between the stylus and the hand";
-      parameter Real bs(unit = "N.m.s/rad") = 0.02 "Stylus/skin damping between the stylus and the hand";
+  package Interfaces "Effect slots of the device models: what a block must take and give to fill a replaceable component"
+    partial model DelaySlot "Path of the torque command from the controller to m1"
+      input Real u(unit = "N.m") "Torque commanded";
+      output Real y(unit = "N.m") "Torque applied";
+    end DelaySlot;
+
+    partial model ModeSlot "A structure hung on a device inertia"
+      input Real phi(unit = "rad") "Angle of the inertia the mode hangs on";
+      input Real w(unit = "rad/s") "Angular velocity of that inertia";
+      output Real tau(unit = "N.m") "Torque of the mode on that inertia";
+    end ModeSlot;
+
+    partial model HandSlot "The user's hand on the stylus (m2)"
       input Real phi_s(unit = "rad") "Stylus angle (m2)";
       input Real w_s(unit = "rad/s") "Stylus angular velocity";
       input Real phi_ref(unit = "rad") "User's intended position";
       input Real tau_h(unit = "N.m") "Extra torque the hand applies (intent)";
       output Real tau(unit = "N.m") "Torque of the hand on the stylus";
+      output Real tau_b(unit = "N.m") "Friction torque of the stylus to ground that the hand's model separates from the skin";
+    end HandSlot;
+
+    model NoDelay "The torque command acts at once (default of the slot delay)"
+      extends DelaySlot;
+    equation
+      y = u;
+    end NoDelay;
+
+    model NoMode "No further vibration mode (default of the slot mode)"
+      extends ModeSlot;
+    equation
+      tau = 0;
+    end NoMode;
+
+    model Skin "The 7-parameter user: m2 (hand lumped in) held by the skin ks, bs to the user's reference (default of Device7's slot hand)"
+      extends HandSlot;
+      parameter Real ks(unit = "N.m/rad") = 1.6 "Stylus/skin stiffness of m2 to the user's reference";
+      parameter Real bs(unit = "N.m.s/rad") = 0.09 "Stylus/skin damping of m2 to the user's reference";
+    equation
+      tau = -ks*(phi_s - phi_ref) - bs*w_s + tau_h;
+      tau_b = 0;
+    end Skin;
+  end Interfaces;
+
+  package Effects "Candidate missing effects of the discrepancy workflow for the device + user (cosim diagnose, docs/diagnose.md); each fills a slot of package Interfaces, and cosim.diagnose.effects writes the variants that redeclare the slot with it"
+    model HandMass "The user's hand as an inertia mh held by kh, bh to the user's reference, gripping the stylus through the skin ks, bs (effect hand_mass: the 11-parameter user of seed 000 eq. 2, Fig. 5 top)"
+      // Device7 lumps the hand into m2 and grounds it through ks, bs; this block puts the hand mass between the
+      // skin and the user's reference, which adds the pole/zero pair of the hand (seed 000 Sec. II-D); the
+      // 11-parameter form also separates the stylus's own viscous friction b2 to ground.
+      extends Haptic.Interfaces.HandSlot;
+      parameter Real mh(unit = "kg.m2") = 0.005 "Hand inertia at the phi axis";
+      parameter Real bh(unit = "N.m.s/rad") = 0.2 "Damping of the hand to the user's reference";
+      parameter Real kh(unit = "N.m/rad") = 3 "Stiffness of the hand to the user's reference";
+      parameter Real ks(unit = "N.m/rad") = 3.5 "Stylus/skin stiffness between the stylus and the hand";
+      parameter Real bs(unit = "N.m.s/rad") = 0.02 "Stylus/skin damping between the stylus and the hand";
+      parameter Real b2(unit = "N.m.s/rad") = 0.02 "Viscous friction of the stylus (m2) to ground";
       Real phih(unit = "rad", start = 0.0, fixed = true) "Hand angle";
       Real wh(unit = "rad/s", start = 0.0, fixed = true) "Hand angular velocity";
     equation
       tau = ks*(phih - phi_s) + bs*(wh - w_s);
       der(phih) = wh;
       mh*der(wh) = -tau - kh*(phih - phi_ref) - bh*wh + tau_h;
+      tau_b = b2*w_s;
     end HandMass;
 
     model SideMode "A second vibration mode of the device: an inertia m3 hung on a device inertia by the compliance k3, b3 (effect vibration_mode)"
       // Seen from the encoder, any further lightly damped structural mode (a link, the gimbal, the base) adds an
       // antiresonance/resonance pair; lumped here as a side resonator with its own frequency sqrt(k3/m3).
+      extends Haptic.Interfaces.ModeSlot;
       parameter Real m3(unit = "kg.m2") = 0.0005 "Modal inertia at the phi axis";
       parameter Real k3(unit = "N.m/rad") = 70 "Modal stiffness";
       parameter Real b3(unit = "N.m.s/rad") = 0.01 "Modal damping";
-      input Real phi(unit = "rad") "Angle of the inertia the mode hangs on";
-      input Real w(unit = "rad/s") "Angular velocity of that inertia";
-      output Real tau(unit = "N.m") "Torque of the mode on that inertia";
       Real phi3(unit = "rad", start = 0.0, fixed = true) "Modal angle";
       Real w3(unit = "rad/s", start = 0.0, fixed = true) "Modal angular velocity";
     equation
@@ -55,9 +98,8 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
       // exp(-sT) ~ N(s)/D(s), D = 1 + sT/2 + (sT)^2/10 + (sT)^3/120, N(s) = D(-s): all-pass (|N/D| = 1 exactly),
       // phase within 0.1 deg of -wT up to wT = 2.1 rad, 1 deg at 3.1 rad (docs/diagnose.md). Written as
       // N/D = 2 (1 + (sT)^2/10)/D - 1 with D(s) z = u. Needs T > 0.
+      extends Haptic.Interfaces.DelaySlot;
       parameter Real T(unit = "s") = 1e-3 "Delay";
-      input Real u(unit = "N.m") "Torque commanded";
-      output Real y(unit = "N.m") "Torque applied, delayed";
       Real z(unit = "N.m", start = 0.0, fixed = true) "Filter state: D(s) z = u";
       Real dz(unit = "N.m/s", start = 0.0, fixed = true) "der(z)";
       Real ddz(unit = "N.m/s2", start = 0.0, fixed = true) "der(dz)";
@@ -87,7 +129,7 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
     Real w2(unit = "rad/s", start = 0.0, fixed = true) "Angular velocity of m2";
     Real tau_c(unit = "N.m") "Torque transmitted from m1 to m2 through kc, bc";
     Real tau_b2(unit = "N.m") "Friction torque of m2 to ground";
-    Real tau_1(unit = "N.m") "Torque the drive applies to m1 (tau itself: set by each concrete model)";
+    Real tau_1(unit = "N.m") "Torque the drive applies to m1 (set by each concrete model through its slots delay and mode)";
   equation
     tau_c = kc*(phi1 - phi2) + bc*(w1 - w2);
     der(phi1) = w1;
@@ -108,8 +150,13 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
     parameter Real kh(unit = "N.m/rad") = 2.3 "Stiffness of the hand to the user's reference";
     Real phih(unit = "rad", start = 0.0, fixed = true) "Hand angle";
     Real wh(unit = "rad/s", start = 0.0, fixed = true) "Hand angular velocity";
+    replaceable Haptic.Interfaces.NoDelay delay constrainedby Haptic.Interfaces.DelaySlot "Loop delay of the torque command (none)";
+    replaceable Haptic.Interfaces.NoMode mode constrainedby Haptic.Interfaces.ModeSlot "Second vibration mode, hung on m1 (none)";
   equation
-    tau_1 = tau;
+    delay.u = tau;
+    mode.phi = phi1;
+    mode.w = w1;
+    tau_1 = delay.y + mode.tau;
     tau_b2 = b2*w2;
     tau_user = ks*(phih - phi2) + bs*(wh - w2);
     der(phih) = wh;
@@ -120,10 +167,20 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
     extends Device(m1 = 0.0008, m2 = 0.00295, b1 = 0.042, bc = 0.04, kc = 100);
     parameter Real bs(unit = "N.m.s/rad") = 0.09 "Stylus/skin damping of m2 to the user's reference";
     parameter Real ks(unit = "N.m/rad") = 1.6 "Stylus/skin stiffness of m2 to the user's reference";
+    replaceable Haptic.Interfaces.Skin hand(ks = ks, bs = bs) constrainedby Haptic.Interfaces.HandSlot "The user's hand (the skin only)";
+    replaceable Haptic.Interfaces.NoDelay delay constrainedby Haptic.Interfaces.DelaySlot "Loop delay of the torque command (none)";
+    replaceable Haptic.Interfaces.NoMode mode constrainedby Haptic.Interfaces.ModeSlot "Second vibration mode, hung on m1 (none)";
   equation
-    tau_1 = tau;
-    tau_b2 = 0;
-    tau_user = -ks*(phi2 - phi_ref) - bs*w2 + tau_h;
+    delay.u = tau;
+    mode.phi = phi1;
+    mode.w = w1;
+    tau_1 = delay.y + mode.tau;
+    hand.phi_s = phi2;
+    hand.w_s = w2;
+    hand.phi_ref = phi_ref;
+    hand.tau_h = tau_h;
+    tau_b2 = hand.tau_b;
+    tau_user = hand.tau;
   end Device7;
 
   model DeviceArm "Device + the Fu arm (seed 001 eq. 1) at point A, r from the phi axis: grasp k1, b1 to the arm mass M held by k2, b2"
@@ -140,8 +197,13 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
     Real xM(unit = "m", start = 0.0, fixed = true) "Arm mass position";
     Real vM(unit = "m/s", start = 0.0, fixed = true) "Arm mass velocity";
     Real F_grasp(unit = "N") "Force of the arm on the stylus at point A";
+    replaceable Haptic.Interfaces.NoDelay delay constrainedby Haptic.Interfaces.DelaySlot "Loop delay of the torque command (none)";
+    replaceable Haptic.Interfaces.NoMode mode constrainedby Haptic.Interfaces.ModeSlot "Second vibration mode, hung on m1 (none)";
   equation
-    tau_1 = tau;
+    delay.u = tau;
+    mode.phi = phi1;
+    mode.w = w1;
+    tau_1 = delay.y + mode.tau;
     tau_b2 = b2*w2;
     xA = r*phi2;
     vA = r*w2;

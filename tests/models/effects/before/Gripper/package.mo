@@ -1,0 +1,611 @@
+package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 planetary gear with efficiency and play, rack-and-pinion jaws, coated finger contacts"
+  // Conventions (see docs/models/gripper.md):
+  // - Positive motor rotation closes the jaws; x (jaw displacement) is positive towards the object.
+  // - Components are causal blocks (inputs/outputs) wired by explicit equations. Acausal flanges would
+  //   need either speed in the connector (rumoca rejects it: unbalanced connector) or der(phi) in each
+  //   element (redundant states through rigid couplings, hence index reduction). With blocks, only the
+  //   rigid bodies (PMSM rotor with the gear input, jaw mass) and internal states (bristles) use der().
+  // - Torques and forces named tau_load / tau_f / F act against positive motion unless stated.
+  // - d-q quantities use the power-invariant Park transform: T = P*(Psi_m*i_q + (L_d - L_q)*i_d*i_q),
+  //   k_t = P*Psi_m, electrical power v_d*i_d + v_q*i_q.
+
+  package Components "One physical effect per block; blocks are wired by explicit equations (see the header note)"
+    model PMSM "Permanent magnet synchronous motor in the rotor d-q frame with its rotor, eqs. (3)-(7), power-invariant Park transform"
+      parameter Real R_s(unit = "Ohm") = 0.45 "Stator phase resistance";
+      parameter Real L_d(unit = "H") = 2.5e-4 "d-axis inductance";
+      parameter Real L_q(unit = "H") = 2.5e-4 "q-axis inductance";
+      parameter Integer p = 4 "Number of pole pairs";
+      parameter Real Psi_m(unit = "Wb") = 0.009848 "Permanent magnet flux linkage (k_t = p*Psi_m)";
+      parameter Real J(unit = "kg.m2") = 1.01e-5 "Inertia of the rotor and of everything rigidly attached to it";
+      parameter Real B_r(unit = "N.m.s/rad") = 1.01e-5 "Rotor viscous damping, eq. (6)";
+      input Real v_d(unit = "V") "d-axis stator voltage";
+      input Real v_q(unit = "V") "q-axis stator voltage";
+      input Real tau_load(unit = "N.m") "Load torque on the shaft, against positive rotation";
+      Real i_d(unit = "A", start = 0.0, fixed = true) "d-axis stator current";
+      Real i_q(unit = "A", start = 0.0, fixed = true) "q-axis stator current";
+      Real phi(unit = "rad", start = 0.0, fixed = true) "Mechanical rotor angle";
+      Real w(unit = "rad/s", start = 0.0, fixed = true) "Mechanical rotor speed";
+      Real tau_e(unit = "N.m") "Electromagnetic (air-gap) torque, eq. (5)";
+    equation
+      L_d*der(i_d) = v_d - R_s*i_d + p*w*L_q*i_q;
+      L_q*der(i_q) = v_q - R_s*i_q - p*w*(L_d*i_d + Psi_m);
+      tau_e = p*(Psi_m*i_q + (L_d - L_q)*i_d*i_q);
+      der(phi) = w;
+      J*der(w) = tau_e - B_r*w - tau_load;
+    end PMSM;
+
+    function bristleRate "Rate of a normalised elasto-plastic bristle state (Dupont et al. 2002), rate-limited"
+      // ds/dt = (w - alpha(s, w)*|w|*s)/(phi_b + |w|*tau_b). alpha = 0 while the bristle unloads (s*w <= 0)
+      // or stays within the elastic fraction s_ba of its range: a pure spring there, so small oscillations
+      // about a held load trace closed loops and do not ratchet (a Dahl/LuGre bristle drifts). alpha rises
+      // smoothly to 1 at |s| = 1, so steady sliding gives s = sign(w). The rate is bounded by about 4/tau_b.
+      input Real w(unit = "rad/s") "Sliding speed";
+      input Real s(unit = "1") "Normalised bristle deflection";
+      input Real phi_b(unit = "rad") "Presliding angle at the Coulomb level";
+      input Real tau_b(unit = "s") "Bristle relaxation time at high speed";
+      input Real s_ba(unit = "1") "Elastic (breakaway) fraction of the bristle range, 0 <= s_ba < 1";
+      output Real ds(unit = "1/s") "Time derivative of s";
+    protected
+      Real a(unit = "1") "Absolute deflection";
+      Real alpha(unit = "1") "Plastic fraction of the motion";
+    algorithm
+      a := abs(s);
+      alpha := noEvent(if s*w <= 0 then 0 else if a <= s_ba then 0 else if a >= 1 then 1 else 0.5 + 0.5*sin(3.14159265358979*(a - 0.5*(1 + s_ba))/(1 - s_ba)));
+      ds := (w - alpha*abs(w)*s)/(phi_b + abs(w)*tau_b);
+    end bristleRate;
+
+    model BristleFriction "Coulomb friction carried by an elasto-plastic bristle state: holds a static torque without creep or drift"
+      parameter Real T_c(unit = "N.m") = 7.88e-3 "Coulomb friction torque level";
+      parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle (bristle deflection at the Coulomb level)";
+      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed (bounds the state's rate)";
+      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
+      input Real w(unit = "rad/s") "Shaft speed relative to the housing";
+      output Real tau_f(unit = "N.m") "Friction torque against the motion";
+      Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
+    equation
+      der(s) = Gripper.Components.bristleRate(w, s, phi_b, tau_b, s_ba);
+      tau_f = T_c*s;
+    end BristleFriction;
+
+    model MeshEfficiency "Gear mesh loss: efficiency eta by the direction of power flow, held by an elasto-plastic bristle (input side)"
+      // A loss torque at the gear input of Coulomb type whose level is (1 - eta)*N with
+      // N = max(|tau_in|, |tau_out|): driving gives tau_out = eta*tau_in, back-driving gives
+      // tau_in = eta*tau_out, and at standstill any tau_in between eta*tau_out and tau_out/eta is held
+      // (the stuck mode of Modelica's LossyGear). tau_in = tau_out + tau_f.
+      parameter Real eta(unit = "1") = 0.68 "Mesh efficiency";
+      parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the mesh bristle (input side)";
+      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
+      input Real w(unit = "rad/s") "Input shaft speed";
+      input Real tau_out(unit = "N.m") "Torque passed on towards the load, in input-side units";
+      output Real tau_f(unit = "N.m") "Loss torque against the motion (added to the input torque)";
+      Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
+      Real N(unit = "N.m") "Transmitted load max(|tau_in|, |tau_out|)";
+    equation
+      N = noEvent(if s*tau_out > 0 then abs(tau_out)/(1 - (1 - eta)*abs(s)) else abs(tau_out));
+      der(s) = Gripper.Components.bristleRate(w, s, phi_b, tau_b, s_ba);
+      tau_f = (1 - eta)*N*s;
+    end MeshEfficiency;
+
+    model IdealGear "Ideal reduction gear kinematics and statics, no inertia and no loss"
+      parameter Real ratio(unit = "1") = 28 "Reduction ratio input speed / output speed";
+      input Real phi_in(unit = "rad") "Input angle";
+      input Real w_in(unit = "rad/s") "Input speed";
+      input Real tau_load_out(unit = "N.m") "Load torque at the output";
+      output Real phi_out(unit = "rad") "Output angle";
+      output Real w_out(unit = "rad/s") "Output speed";
+      output Real tau_load_in(unit = "N.m") "Load torque referred to the input";
+    equation
+      phi_out = phi_in/ratio;
+      w_out = w_in/ratio;
+      tau_load_in = tau_load_out/ratio;
+    end IdealGear;
+
+    model RotationalDamper "Viscous damper to the housing"
+      parameter Real d(unit = "N.m.s/rad") = 0.05191 "Damping coefficient";
+      input Real w(unit = "rad/s") "Shaft speed";
+      output Real tau(unit = "N.m") "Damping torque against the motion";
+    equation
+      tau = d*w;
+    end RotationalDamper;
+
+    model ElastoBacklash "Shaft play as an elastic-damped hard stop, force-continuous at contact (cf. MSL ElastoBacklash)"
+      parameter Real b(unit = "rad") = 0.013962634 "Total play (torque is zero for |phi_rel| <= b/2)";
+      parameter Real c(unit = "N.m/rad") = 1000 "Stiffness at the stops";
+      parameter Real d(unit = "N.m.s/rad") = 0.05 "Damping at the stops (limited so that it cannot pull)";
+      input Real phi_rel(unit = "rad") "Driving-side angle minus driven-side angle";
+      input Real w_rel(unit = "rad/s") "Driving-side speed minus driven-side speed";
+      output Real tau(unit = "N.m") "Torque transmitted from the driving to the driven side";
+      Real tau_c(unit = "N.m") "Elastic torque";
+      Real tau_d(unit = "N.m") "Damping torque before limiting";
+    equation
+      tau_c = c*(max(phi_rel - b/2, 0) + min(phi_rel + b/2, 0));
+      tau_d = d*w_rel;
+      tau = noEvent(if phi_rel > b/2 then max(0, tau_c + min(tau_c, tau_d)) else if phi_rel < -b/2 then min(0, tau_c + max(tau_c, tau_d)) else 0);
+    end ElastoBacklash;
+
+    model RackPinion "Pinion driving n synchronised racks (jaws) symmetrically"
+      parameter Real r_p(unit = "m") = 0.008957 "Pinion pitch radius";
+      parameter Integer n = 2 "Number of racks (jaws) driven by the pinion";
+      input Real tau(unit = "N.m") "Torque on the pinion";
+      input Real x(unit = "m") "Jaw displacement";
+      input Real v(unit = "m/s") "Jaw velocity";
+      output Real F(unit = "N") "Actuation force on each jaw";
+      output Real phi(unit = "rad") "Pinion angle";
+      output Real w(unit = "rad/s") "Pinion speed";
+    equation
+      F = tau/(n*r_p);
+      phi = x/r_p;
+      w = v/r_p;
+    end RackPinion;
+
+    model JawMass "Jaw-finger mass of one jaw (rigid body; carries its share of the pinion inertia)"
+      parameter Real m(unit = "kg") = 0.085 "Moving mass of one jaw";
+      input Real F(unit = "N") "Net force on the jaw, positive closing";
+      Real x(unit = "m", start = 0.0, fixed = true) "Jaw displacement, positive closing";
+      Real v(unit = "m/s", start = 0.0, fixed = true) "Jaw velocity, positive closing";
+    equation
+      der(x) = v;
+      m*der(v) = F;
+    end JawMass;
+
+    model GreaseViscous "Viscous grease force on the guide surfaces, eq. (11): sum eta*S_i/d * v"
+      parameter Real eta(unit = "Pa.s") = 0.2 "Grease dynamic viscosity";
+      parameter Real S(unit = "m2") = 2e-4 "Area of one sliding surface";
+      parameter Real d(unit = "m") = 5e-5 "Grease layer thickness";
+      parameter Integer n_s = 4 "Number of sliding surfaces of one jaw";
+      input Real v(unit = "m/s") "Jaw velocity";
+      output Real F(unit = "N") "Viscous force against the motion";
+    equation
+      F = n_s*eta*S/d*v;
+    end GreaseViscous;
+
+    model RegularisedCoulomb "Coulomb friction on the guide surfaces, eq. (11), regularised by tanh (creeps at rest)"
+      parameter Real F_c(unit = "N") = 0.0785 "Coulomb friction force level, sum of mu_i*R_i";
+      parameter Real v_s(unit = "m/s") = 1e-4 "Regularisation velocity";
+      input Real v(unit = "m/s") "Jaw velocity";
+      output Real F(unit = "N") "Friction force against the motion";
+    equation
+      F = F_c*tanh(v/v_s);
+    end RegularisedCoulomb;
+
+    model FingerContact "Finger (cantilever) in series with an optional two-region coating and the object; opens when the gap opens"
+      // Elastic part: springs in series, k_f (finger), k_P/k_H (coating regions), k_obj (object), solved
+      // explicitly (massless intermediate nodes). Damping acts on the total penetration rate with a coefficient
+      // that blends from C_p to C_h across the coating's region boundary, limited as in ElastoBacklash so that
+      // the force is continuous at first touch and the contact cannot pull.
+      parameter Real gap0(unit = "m") = 0.002 "Gap between the bare finger surface and the object at x = 0";
+      parameter Real t_coat(unit = "m") = 0 "Coating thickness (0 for bare fingers)";
+      parameter Real k_f(unit = "N/m") = 1.46e6 "Finger stiffness (FEM)";
+      parameter Real k_obj(unit = "N/m") = 3.53e7 "Object stiffness on one side (cylinder)";
+      parameter Real k_P(unit = "N/m") = 1e12 "Coating first-region stiffness (1e12: no coating)";
+      parameter Real k_H_ratio(unit = "1") = 100 "Coating second-region stiffness / first-region stiffness";
+      parameter Real d_lim(unit = "m") = 0.0015 "Coating deflection at the region boundary";
+      parameter Real C_p(unit = "N.s/m") = 2000 "Contact damping, first region";
+      parameter Real C_h(unit = "N.s/m") = 2000 "Contact damping, second region";
+      parameter Real w_tr(unit = "m") = 5e-6 "Width of the damping blend across the region boundary";
+      parameter Real k_H(unit = "N/m") = k_H_ratio*k_P "Coating second-region stiffness";
+      parameter Real c_1(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_P "Series compliance, coating first region";
+      parameter Real c_2(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_H "Series compliance, coating second region";
+      parameter Real F_lim(unit = "N") = k_P*d_lim "Force at the coating region boundary";
+      parameter Real p_lim(unit = "m") = F_lim*c_1 "Penetration at the coating region boundary";
+      input Real x(unit = "m") "Jaw displacement, positive closing";
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      output Real F(unit = "N") "Contact (gripping) force, >= 0";
+      output Real delta_c(unit = "m") "Coating deflection";
+      Real pen(unit = "m") "Penetration of the (coated) finger into the object";
+      Real F_s(unit = "N") "Elastic contact force";
+      Real C(unit = "N.s/m") "Current damping coefficient";
+      Real F_d(unit = "N") "Damping force before limiting";
+    equation
+      pen = x - (gap0 - t_coat);
+      F_s = max(pen, 0)/c_1 - max(pen - p_lim, 0)*(1/c_1 - 1/c_2);
+      delta_c = F_s/k_P - max(F_s - F_lim, 0)*(1/k_P - 1/k_H);
+      C = C_p + (C_h - C_p)*0.5*(1 + tanh((delta_c - d_lim)/w_tr));
+      F_d = C*v;
+      F = max(0, F_s + min(F_s, F_d));
+    end FingerContact;
+
+    model AngleReconstruction "Co-simulation input reconstruction: angle integrated from the speed input, pulled to the angle input"
+      // Under a zero-order hold the angle input is a staircase; fed straight into a stiff compliance it makes
+      // the lightly preloaded play chatter. Integrating the (held) speed gives a smooth angle, and the
+      // correction k_c*(theta_in - theta) removes drift. In a monolithic model theta = theta_in exactly.
+      parameter Real k_c(unit = "1/s") = 2000 "Correction rate towards the angle input";
+      input Real theta_in(unit = "rad") "Angle input (sampled)";
+      input Real w_in(unit = "rad/s") "Speed input (sampled)";
+      output Real theta(unit = "rad", start = 0.0, fixed = true) "Reconstructed angle";
+    equation
+      der(theta) = w_in + k_c*(theta_in - theta);
+    end AngleReconstruction;
+  end Components;
+
+  package Effects "Candidate missing effects of the discrepancy workflow (cosim diagnose, docs/diagnose.md); cosim.diagnose.effects writes the model variants that wire them in"
+    model DirectionalMeshEfficiency "Gear mesh loss with one efficiency when the motor drives the load and another when the load back-drives the motor (effect backdrive_efficiency)"
+      // As Components.MeshEfficiency, but the loss level of the back-driven branch is (1 - eta_b)*|tau_out|:
+      // driving gives tau_out = eta*tau_in, back-driving tau_in = eta_b*tau_out; at standstill any tau_in between
+      // eta_b*tau_out and tau_out/eta is held. Both branches vanish at s*tau_out = 0 (continuous).
+      parameter Real eta(unit = "1") = 0.68 "Mesh efficiency, motor driving the load";
+      parameter Real eta_b(unit = "1") = 0.68 "Mesh efficiency, load back-driving the motor";
+      parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the mesh bristle (input side)";
+      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
+      input Real w(unit = "rad/s") "Input shaft speed";
+      input Real tau_out(unit = "N.m") "Torque passed on towards the load, in input-side units";
+      output Real tau_f(unit = "N.m") "Loss torque against the motion (added to the input torque)";
+      Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
+      Real N(unit = "N.m") "Transmitted load max(|tau_in|, |tau_out|)";
+    equation
+      N = noEvent(if s*tau_out > 0 then abs(tau_out)/(1 - (1 - eta)*abs(s)) else abs(tau_out));
+      der(s) = Gripper.Components.bristleRate(w, s, phi_b, tau_b, s_ba);
+      tau_f = noEvent(if s*tau_out > 0 then 1 - eta else 1 - eta_b)*N*s;
+    end DirectionalMeshEfficiency;
+
+    model LoadDependentFriction "Jaw-guide friction proportional to the gripping force (effect load_dependent_friction): the clamped finger tilts the jaw in its guides"
+      // Coulomb level mu_F*F_n carried by an elasto-plastic bristle (Components.bristleRate with a presliding
+      // displacement in m), so a clamped jaw holds its friction at rest. The presliding displacement is 0.1 um:
+      // with 1 um, the jaw's um-scale motions in the hold stayed on the bristle's elastic range and the fitted
+      // variant missed the held friction of the hidden-effect truth (docs/diagnose.md).
+      parameter Real mu_F(unit = "1") = 0.05 "Friction force per unit gripping force";
+      parameter Real x_b(unit = "m") = 1e-7 "Presliding displacement of the bristle";
+      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      input Real F_n(unit = "N") "Gripping (normal) force";
+      output Real F(unit = "N") "Friction force against the motion";
+      Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
+    equation
+      der(s) = Gripper.Components.bristleRate(v, s, x_b, tau_b, s_ba);
+      F = mu_F*F_n*s;
+    end LoadDependentFriction;
+
+    model StribeckGuide "Jaw-guide friction with stiction and a Stribeck drop, carried by an elasto-plastic bristle (effect stiction); replaces the regularised Coulomb guide"
+      // The friction is the bristle's force F_s*s (s: deflection over the presliding range x_b at the static
+      // level), so it is continuous in time: a jaw that stops keeps the force it slid with and takes up more
+      // load elastically, up to F_s. The bristle turns plastic at s_ba of the current sliding level g*F_s and
+      // slides at g*F_s. g follows the Stribeck curve F_c + (F_s - F_c)*exp(-(v_p/v_st)^2) of the *sliding*
+      // velocity v_p (the jaw's less the bristle's deflection rate) with a short lag tau_g (frictional memory,
+      // which also keeps g off an algebraic loop): a jaw at rest taking up load has v_p ~ 0 and keeps g = 1.
+      // Measured on the slide truth (a Karnopp guide): with the level multiplying a bristle state normalised to
+      // it, the friction jumped to F_s when a sliding jaw stopped and pushed it back; with the jaw velocity v in
+      // the curve, the bristle's own loading motion dropped the level and the jaw never stuck; with s_ba = 0.5
+      // the plastic creep under a slowly rising load broke the jaw free at 0.5-0.85 F_s. tau_b = 1e-6 s puts the
+      // bristle's rate limit x_b/tau_b = 0.1 m/s above the speed at which the play's flank hits the jaw, so a
+      // stuck jaw holds the hit up to F_s (with tau_b = 1e-4 s the hit counted as sliding); the state is stiff
+      // (an implicit solver in the master). g is floored at 1e-3 in the bristle's rate so that F_c = 0 cannot
+      // divide by zero.
+      parameter Real F_c(unit = "N") = 0.0785 "Coulomb (sliding) friction level";
+      parameter Real F_s(unit = "N") = 0.3 "Static (breakaway) friction level, > 0";
+      parameter Real v_st(unit = "m/s") = 1e-4 "Stribeck velocity";
+      parameter Real x_b(unit = "m") = 1e-7 "Presliding displacement of the bristle at the static level";
+      parameter Real tau_b(unit = "s") = 1e-6 "Bristle relaxation time at high speed";
+      parameter Real tau_g(unit = "s") = 1e-4 "Lag of the sliding level behind the sliding velocity";
+      parameter Real s_ba(unit = "1") = 0.9 "Elastic fraction of the bristle range";
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      output Real F(unit = "N") "Friction force against the motion";
+      Real s(unit = "1", start = 0.0, fixed = true) "Bristle deflection over x_b, in [-1, 1]";
+      Real g(unit = "1", start = 1.0, fixed = true) "Sliding level over F_s";
+      Real v_p(unit = "m/s") "Sliding (plastic) part of the jaw velocity";
+    equation
+      der(s) = Gripper.Components.bristleRate(v, s/max(g, 1e-3), x_b, tau_b, s_ba);
+      v_p = v - x_b*der(s);
+      der(g) = ((F_c + (F_s - F_c)*exp(-(v_p/v_st)^2))/F_s - g)/tau_g;
+      F = F_s*s;
+    end StribeckGuide;
+
+    model CoggingTorque "Motor cogging (detent) torque, periodic in the rotor angle (effect cogging)"
+      parameter Real T_cog(unit = "N.m") = 1e-3 "Cogging torque amplitude";
+      parameter Real n_cog(unit = "1") = 24 "Cogging periods per revolution";
+      parameter Real phase(unit = "rad") = 0 "Cogging phase at theta = 0";
+      input Real theta(unit = "rad") "Rotor angle";
+      output Real tau(unit = "N.m") "Cogging torque against positive rotation";
+    equation
+      tau = T_cog*sin(n_cog*theta + phase);
+    end CoggingTorque;
+
+    model LoadCell "Load-cell first-order low-pass and offset (effect loadcell_filter)"
+      parameter Real tau_lc(unit = "s") = 0.01 "Low-pass time constant";
+      parameter Real F_off(unit = "N") = 0 "Offset (zero error)";
+      input Real F(unit = "N") "True force";
+      output Real F_meas(unit = "N") "Force the load cell reports";
+      Real F_f(unit = "N", start = 0.0, fixed = true) "Filtered force";
+    equation
+      tau_lc*der(F_f) = F - F_f;
+      F_meas = F_f + F_off;
+    end LoadCell;
+
+    model HuntCrossleyContact "Components.FingerContact with a Hunt-Crossley damping term lambda_hc*F_s*v added to the linear damping (effect contact_damping)"
+      // As Components.FingerContact (copied: equations cannot be changed by extends); the damping force is
+      // (C + lambda_hc*F_s)*v, Hunt and Crossley's damping proportional to the elastic force (dissipation grows
+      // with penetration, no force jump at first touch), on top of the linear term.
+      // Elastic part: springs in series, k_f (finger), k_P/k_H (coating regions), k_obj (object), solved
+      // explicitly (massless intermediate nodes). Damping acts on the total penetration rate with a coefficient
+      // that blends from C_p to C_h across the coating's region boundary, limited as in ElastoBacklash so that
+      // the force is continuous at first touch and the contact cannot pull.
+      parameter Real gap0(unit = "m") = 0.002 "Gap between the bare finger surface and the object at x = 0";
+      parameter Real t_coat(unit = "m") = 0 "Coating thickness (0 for bare fingers)";
+      parameter Real k_f(unit = "N/m") = 1.46e6 "Finger stiffness (FEM)";
+      parameter Real k_obj(unit = "N/m") = 3.53e7 "Object stiffness on one side (cylinder)";
+      parameter Real k_P(unit = "N/m") = 1e12 "Coating first-region stiffness (1e12: no coating)";
+      parameter Real k_H_ratio(unit = "1") = 100 "Coating second-region stiffness / first-region stiffness";
+      parameter Real d_lim(unit = "m") = 0.0015 "Coating deflection at the region boundary";
+      parameter Real C_p(unit = "N.s/m") = 2000 "Contact damping, first region";
+      parameter Real C_h(unit = "N.s/m") = 2000 "Contact damping, second region";
+      parameter Real w_tr(unit = "m") = 5e-6 "Width of the damping blend across the region boundary";
+      parameter Real lambda_hc(unit = "s/m") = 0.1 "Hunt-Crossley damping per unit elastic force";
+      parameter Real k_H(unit = "N/m") = k_H_ratio*k_P "Coating second-region stiffness";
+      parameter Real c_1(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_P "Series compliance, coating first region";
+      parameter Real c_2(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_H "Series compliance, coating second region";
+      parameter Real F_lim(unit = "N") = k_P*d_lim "Force at the coating region boundary";
+      parameter Real p_lim(unit = "m") = F_lim*c_1 "Penetration at the coating region boundary";
+      input Real x(unit = "m") "Jaw displacement, positive closing";
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      output Real F(unit = "N") "Contact (gripping) force, >= 0";
+      output Real delta_c(unit = "m") "Coating deflection";
+      Real pen(unit = "m") "Penetration of the (coated) finger into the object";
+      Real F_s(unit = "N") "Elastic contact force";
+      Real C(unit = "N.s/m") "Current damping coefficient";
+      Real F_d(unit = "N") "Damping force before limiting";
+    equation
+      pen = x - (gap0 - t_coat);
+      F_s = max(pen, 0)/c_1 - max(pen - p_lim, 0)*(1/c_1 - 1/c_2);
+      delta_c = F_s/k_P - max(F_s - F_lim, 0)*(1/k_P - 1/k_H);
+      C = C_p + (C_h - C_p)*0.5*(1 + tanh((delta_c - d_lim)/w_tr));
+      F_d = (C + lambda_hc*F_s)*v;
+      F = max(0, F_s + min(F_s, F_d));
+    end HuntCrossleyContact;
+    model RelaxingCoatingContact "Components.FingerContact whose coating relaxes: a Maxwell branch (spring k_rel*k_P, time constant tau_rel) in parallel with the coating's elastic element, a standard linear solid (effect coating_relaxation)"
+      // The coating force is F_el(delta_c) + k_rel*k_P*(delta_c - z): the elastic two-region element plus a Maxwell
+      // branch whose dashpot (k_rel*k_P*tau_rel) yields at rate der(z) = (delta_c - z)/tau_rel. Right after an impact
+      // the coating is stiffer by k_rel*k_P; held still, its force relaxes to F_el with time constant ~tau_rel.
+      // The massless coating node balances k_s*(pen - delta_c) = F_el(delta_c) + k_rel*k_P*(delta_c - z), with k_s
+      // the finger and object in series; F_el is piecewise linear, so delta_c is explicit in each region. Bare
+      // fingers (k_P = 1e12) give delta_c ~ 0 and the baseline force: the branch has nothing to relax.
+      // Damping as in Components.FingerContact. k_rel = 0 is Components.FingerContact.
+      parameter Real gap0(unit = "m") = 0.002 "Gap between the bare finger surface and the object at x = 0";
+      parameter Real t_coat(unit = "m") = 0 "Coating thickness (0 for bare fingers)";
+      parameter Real k_f(unit = "N/m") = 1.46e6 "Finger stiffness (FEM)";
+      parameter Real k_obj(unit = "N/m") = 3.53e7 "Object stiffness on one side (cylinder)";
+      parameter Real k_P(unit = "N/m") = 1e12 "Coating first-region stiffness (1e12: no coating)";
+      parameter Real k_H_ratio(unit = "1") = 100 "Coating second-region stiffness / first-region stiffness";
+      parameter Real d_lim(unit = "m") = 0.0015 "Coating deflection at the region boundary";
+      parameter Real C_p(unit = "N.s/m") = 2000 "Contact damping, first region";
+      parameter Real C_h(unit = "N.s/m") = 2000 "Contact damping, second region";
+      parameter Real w_tr(unit = "m") = 5e-6 "Width of the damping blend across the region boundary";
+      parameter Real k_rel(unit = "1") = 1 "Maxwell branch stiffness / coating first-region stiffness";
+      parameter Real tau_rel(unit = "s") = 0.1 "Relaxation time constant of the Maxwell branch";
+      parameter Real k_H(unit = "N/m") = k_H_ratio*k_P "Coating second-region stiffness";
+      parameter Real k_s(unit = "N/m") = 1/(1/k_f + 1/k_obj) "Finger and object in series";
+      parameter Real k_m(unit = "N/m") = k_rel*k_P "Maxwell branch stiffness";
+      input Real x(unit = "m") "Jaw displacement, positive closing";
+      input Real v(unit = "m/s") "Jaw velocity, positive closing";
+      output Real F(unit = "N") "Contact (gripping) force, >= 0";
+      output Real delta_c(unit = "m") "Coating deflection";
+      Real z(unit = "m", start = 0.0, fixed = true) "Dashpot displacement of the Maxwell branch";
+      Real pen(unit = "m") "Penetration of the (coated) finger into the object";
+      Real delta_1(unit = "m") "Coating deflection if it stays in the first region";
+      Real F_s(unit = "N") "Elastic contact force (negative: not touching)";
+      Real C(unit = "N.s/m") "Current damping coefficient";
+      Real F_d(unit = "N") "Damping force before limiting";
+    equation
+      pen = x - (gap0 - t_coat);
+      delta_1 = (k_s*max(pen, 0) + k_m*z)/(k_s + k_P + k_m);
+      delta_c = noEvent(if delta_1 <= d_lim then delta_1 else (k_s*max(pen, 0) + k_m*z + (k_H - k_P)*d_lim)/(k_s + k_H + k_m));
+      der(z) = (delta_c - z)/tau_rel;
+      F_s = k_s*(max(pen, 0) - delta_c);
+      C = C_p + (C_h - C_p)*0.5*(1 + tanh((delta_c - d_lim)/w_tr));
+      F_d = C*v;
+      F = noEvent(if pen > 0 then max(0, F_s + min(F_s, F_d)) else 0);
+    end RelaxingCoatingContact;
+  end Effects;
+
+  package Parameters "Shared top-level parameter declarations (values and sources: docs/models/gripper.md)"
+    partial model MotorParameters "PMSM parameters"
+      parameter Real R_s(unit = "Ohm") = 0.45 "Stator phase resistance (estimate)";
+      parameter Real L_d(unit = "H") = 2.5e-4 "d-axis inductance (estimate)";
+      parameter Real L_q(unit = "H") = 2.5e-4 "q-axis inductance (estimate)";
+      parameter Integer p = 4 "Number of pole pairs (estimate)";
+      parameter Real k_t(unit = "N.m/A") = 0.0393939394 "Torque constant T/i_q = 0.13 N.m / 3.3 A";
+      parameter Real J_r(unit = "kg.m2") = 1e-5 "Rotor inertia (estimate)";
+      parameter Real J_g(unit = "kg.m2") = 1e-7 "Gearbox inertia at the motor side (estimate), rigid with the rotor";
+      parameter Real B_r(unit = "N.m.s/rad") = 1.01e-5 "Rotor viscous damping, eq. (6) (estimate)";
+      parameter Real Psi_m(unit = "Wb") = k_t/p "Flux linkage, power-invariant Park: k_t = p*Psi_m";
+    end MotorParameters;
+
+    partial model DrivetrainParameters "Gear, play, rack-and-pinion, jaw and contact parameters"
+      parameter Real ratio(unit = "1") = 28 "Gear reduction ratio (paper)";
+      parameter Real eta_g(unit = "1") = 0.68 "Gear efficiency by direction of power flow (0.68 calibrated, 0.75 datasheet)";
+      parameter Real T_max(unit = "N.m") = 0.13 "Motor max torque in eq. (9) (estimate)";
+      parameter Real omega_max(unit = "rad/s") = 628.3185 "Gear max continuous input speed 6000 rpm (paper)";
+      parameter Real B_g(unit = "N.m.s/rad") = T_max*(1 - eta_g)*ratio^2/omega_max "Bearing damping at the gear output, eq. (9)";
+      parameter Real T_c0(unit = "N.m") = 7.88e-3 "No-load Coulomb drag at the motor shaft (0.2 A dead zone)";
+      parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the bristle frictions (motor side)";
+      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range (elasto-plastic friction)";
+      parameter Real play(unit = "rad") = 0.013962634 "Total gear shaft play 0.8 deg (paper)";
+      parameter Real c_play(unit = "N.m/rad") = 1000 "Stiffness at the play stops (gear output)";
+      parameter Real d_play(unit = "N.m.s/rad") = 0.05 "Damping at the play stops (gear output)";
+      parameter Real r_p(unit = "m") = 0.008957 "Pinion pitch radius (estimate)";
+      parameter Real J_p(unit = "kg.m2") = 7.94e-7 "Pinion inertia (estimate)";
+      parameter Real m_jf(unit = "kg") = 0.08 "Jaw + finger mass, each (estimate)";
+      parameter Real eta_grease(unit = "Pa.s") = 0.2 "Grease dynamic viscosity (estimate)";
+      parameter Real S_i(unit = "m2") = 2e-4 "Area of each of the 4 sliding surfaces of a jaw (estimate)";
+      parameter Real d_grease(unit = "m") = 5e-5 "Grease layer thickness (estimate)";
+      parameter Real F_cj(unit = "N") = 0.0785 "Guide Coulomb friction per jaw, mu*R (estimate: 0.1*m_jf*g)";
+      parameter Real v_s(unit = "m/s") = 1e-4 "Regularisation velocity of the guide Coulomb friction";
+      parameter Real gap0(unit = "m") = 0.002 "Initial gap bare finger - object, per jaw (condition)";
+      parameter Real t_coat(unit = "m") = 0 "Coating thickness (condition: 0 bare, 0.0025 P1-P3)";
+      parameter Real k_f(unit = "N/m") = 1.46e6 "Finger stiffness, FEM (paper)";
+      parameter Real k_obj(unit = "N/m") = 3.53e7 "Object stiffness per side (condition: ABS 3.53e7, aluminium 1.2e9)";
+      parameter Real k_P(unit = "N/m") = 1e12 "Coating first-region stiffness (condition: 1e12 bare)";
+      parameter Real k_H_ratio(unit = "1") = 100 "Coating second/first region stiffness ratio (paper)";
+      parameter Real d_lim(unit = "m") = 0.0015 "Coating deflection at the region boundary (estimate)";
+      parameter Real C_p(unit = "N.s/m") = 2000 "Contact damping, first region (condition: 10 coatings, 2000 bare)";
+      parameter Real C_h(unit = "N.s/m") = 2000 "Contact damping, second region (paper)";
+      parameter Real w_tr(unit = "m") = 5e-6 "Width of the damping blend across the coating region boundary";
+    end DrivetrainParameters;
+  end Parameters;
+
+  model DrivetrainMechanics "Motor-side drag, gear mesh loss, 28:1 gear, bearing damping, play, rack-and-pinion, jaws, guide friction, contacts"
+    extends Gripper.Parameters.DrivetrainParameters;
+    input Real theta_m(unit = "rad") "Motor shaft angle";
+    input Real w_m(unit = "rad/s") "Motor shaft speed";
+    output Real tau_load(unit = "N.m") "Load torque on the motor shaft, against positive rotation";
+    output Real F_g(unit = "N") "Gripping force (load cell)";
+    output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
+    Gripper.Components.BristleFriction drag(T_c = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) "No-load drag at the motor shaft";
+    Gripper.Components.MeshEfficiency mesh(eta = eta_g, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) "Gear efficiency by power-flow direction";
+    Gripper.Components.IdealGear gear(ratio = ratio) "Planetary gear kinematics";
+    Gripper.Components.RotationalDamper bearing(d = B_g) "Gear bearing damping at the output";
+    Gripper.Components.ElastoBacklash backlash(b = play, c = c_play, d = d_play) "Gear shaft play";
+    Gripper.Components.RackPinion rack(r_p = r_p, n = 2) "Pinion driving both racks";
+    Gripper.Components.JawMass jaw(m = m_jf + J_p/(2*r_p^2)) "One jaw with half the pinion inertia";
+    Gripper.Components.GreaseViscous grease(eta = eta_grease, S = S_i, d = d_grease, n_s = 4) "Grease on the 4 guide surfaces";
+    Gripper.Components.RegularisedCoulomb guide(F_c = F_cj, v_s = v_s) "Guide Coulomb friction";
+    Gripper.Components.FingerContact contact(gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Finger, coating and object";
+  equation
+    // motor shaft -> drag and mesh loss -> ideal gear -> bearing + play -> pinion -> jaws
+    drag.w = w_m;
+    mesh.w = w_m;
+    gear.phi_in = theta_m;
+    gear.w_in = w_m;
+    bearing.w = gear.w_out;
+    backlash.phi_rel = gear.phi_out - rack.phi;
+    backlash.w_rel = gear.w_out - rack.w;
+    gear.tau_load_out = backlash.tau + bearing.tau;
+    mesh.tau_out = gear.tau_load_in;
+    tau_load = gear.tau_load_in + mesh.tau_f + drag.tau_f;
+    rack.tau = backlash.tau;
+    rack.x = jaw.x;
+    rack.v = jaw.v;
+    grease.v = jaw.v;
+    guide.v = jaw.v;
+    contact.x = jaw.x;
+    contact.v = jaw.v;
+    jaw.F = rack.F - grease.F - guide.F - contact.F;
+    F_g = contact.F;
+    x_jaw = jaw.x;
+  end DrivetrainMechanics;
+
+  model GripperPlant "Whole gripper plant: inputs d-q voltages, outputs currents, motor angle and speed, jaw position, gripping force"
+    extends Gripper.Parameters.MotorParameters;
+    extends Gripper.Parameters.DrivetrainParameters;
+    input Real v_d(unit = "V") "d-axis stator voltage";
+    input Real v_q(unit = "V") "q-axis stator voltage";
+    output Real i_d(unit = "A") "d-axis stator current";
+    output Real i_q(unit = "A") "q-axis stator current";
+    output Real theta_m(unit = "rad") "Motor shaft angle";
+    output Real w_m(unit = "rad/s") "Motor shaft speed";
+    output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
+    output Real F_g(unit = "N") "Gripping force (load cell)";
+    Gripper.Components.PMSM motor(R_s = R_s, L_d = L_d, L_q = L_q, p = p, Psi_m = Psi_m, J = J_r + J_g, B_r = B_r) "Motor with the gear input inertia";
+    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+  equation
+    motor.v_d = v_d;
+    motor.v_q = v_q;
+    motor.tau_load = drive.tau_load;
+    drive.theta_m = motor.phi;
+    drive.w_m = motor.w;
+    i_d = motor.i_d;
+    i_q = motor.i_q;
+    theta_m = motor.phi;
+    w_m = motor.w;
+    x_jaw = drive.x_jaw;
+    F_g = drive.F_g;
+  end GripperPlant;
+
+  model PMSM "Split FMU: the motor with the gear input inertia, driven by a load torque"
+    extends Gripper.Parameters.MotorParameters;
+    input Real v_d(unit = "V") "d-axis stator voltage";
+    input Real v_q(unit = "V") "q-axis stator voltage";
+    input Real tau_load(unit = "N.m") "Load torque of the drivetrain on the motor shaft, against positive rotation";
+    output Real i_d(unit = "A") "d-axis stator current";
+    output Real i_q(unit = "A") "q-axis stator current";
+    output Real w_m(unit = "rad/s") "Motor shaft speed";
+    output Real theta_m(unit = "rad") "Motor shaft angle";
+    Gripper.Components.PMSM motor(R_s = R_s, L_d = L_d, L_q = L_q, p = p, Psi_m = Psi_m, J = J_r + J_g, B_r = B_r) "Motor with the gear input inertia";
+  equation
+    motor.v_d = v_d;
+    motor.v_q = v_q;
+    motor.tau_load = tau_load;
+    i_d = motor.i_d;
+    i_q = motor.i_q;
+    w_m = motor.w;
+    theta_m = motor.phi;
+  end PMSM;
+
+  model Drivetrain "Split FMU: everything after the motor shaft, driven by the motor angle and speed through the compliant play"
+    extends Gripper.Parameters.DrivetrainParameters;
+    input Real theta_m(unit = "rad") "Motor shaft angle";
+    input Real w_m(unit = "rad/s") "Motor shaft speed";
+    output Real tau_load(unit = "N.m") "Load torque on the motor shaft, against positive rotation";
+    output Real F_g(unit = "N") "Gripping force (load cell)";
+    output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
+    parameter Real k_c(unit = "1/s") = 2000 "Correction rate of the motor-angle reconstruction";
+    Gripper.Components.AngleReconstruction shaft(k_c = k_c) "Motor angle between communication points";
+    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+  equation
+    shaft.theta_in = theta_m;
+    shaft.w_in = w_m;
+    drive.theta_m = shaft.theta;
+    drive.w_m = w_m;
+    tau_load = drive.tau_load;
+    F_g = drive.F_g;
+    x_jaw = drive.x_jaw;
+  end Drivetrain;
+
+  model GripperCurrentDriven "Whole gripper in current mode with an ideal current loop: the q current is the input (calibration and diagnosis of slow experiments)"
+    // The FOC current loop (bandwidth ~1 kHz) is much faster than a 5 s current step, so for the static test the
+    // electrical dynamics reduce to i_q = i_ref and the air-gap torque to k_t*i_ref.
+    extends Gripper.Parameters.MotorParameters;
+    extends Gripper.Parameters.DrivetrainParameters;
+    input Real i_ref(unit = "A") "q-axis current held by the current loop";
+    output Real theta_m(unit = "rad") "Motor shaft angle";
+    output Real w_m(unit = "rad/s") "Motor shaft speed";
+    output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
+    output Real F_g(unit = "N") "Gripping force (load cell)";
+    Real phi(unit = "rad", start = 0.0, fixed = true) "Motor shaft angle";
+    Real w(unit = "rad/s", start = 0.0, fixed = true) "Motor shaft speed";
+    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+  equation
+    der(phi) = w;
+    (J_r + J_g)*der(w) = k_t*i_ref - B_r*w - drive.tau_load;
+    drive.theta_m = phi;
+    drive.w_m = w;
+    theta_m = phi;
+    w_m = w;
+    x_jaw = drive.x_jaw;
+    F_g = drive.F_g;
+  end GripperCurrentDriven;
+
+  model GripperSpeedControlled "Whole gripper under a PI speed loop around an ideal current loop: the speed reference is the input (diagnosis of cogging at slow, steady motion)"
+    // An identification run, not the paper's 100 Hz velocity PID: a continuous PI of ~30 Hz bandwidth holds slow
+    // speeds, so a torque periodic in the rotor angle shows as a ripple of the current it takes (docs/diagnose.md).
+    extends Gripper.Parameters.MotorParameters;
+    extends Gripper.Parameters.DrivetrainParameters;
+    parameter Real K_pw(unit = "A.s/rad") = 0.05 "Speed loop proportional gain";
+    parameter Real K_iw(unit = "A/rad") = 2.5 "Speed loop integral gain";
+    input Real w_ref(unit = "rad/s") "Motor speed reference";
+    output Real i_q(unit = "A") "q-axis current held by the current loop";
+    output Real theta_m(unit = "rad") "Motor shaft angle";
+    output Real w_m(unit = "rad/s") "Motor shaft speed";
+    output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
+    output Real F_g(unit = "N") "Gripping force (load cell)";
+    Real phi(unit = "rad", start = 0.0, fixed = true) "Motor shaft angle";
+    Real w(unit = "rad/s", start = 0.0, fixed = true) "Motor shaft speed";
+    Real e_w(unit = "rad", start = 0.0, fixed = true) "Integral of the speed error";
+    Real i_ref(unit = "A") "q current the speed loop asks for";
+    Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+  equation
+    der(phi) = w;
+    (J_r + J_g)*der(w) = k_t*i_ref - B_r*w - drive.tau_load;
+    der(e_w) = w_ref - w;
+    i_ref = K_pw*(w_ref - w) + K_iw*e_w;
+    i_q = i_ref;
+    drive.theta_m = phi;
+    drive.w_m = w;
+    theta_m = phi;
+    w_m = w;
+    x_jaw = drive.x_jaw;
+    F_g = drive.F_g;
+  end GripperSpeedControlled;
+end Gripper;

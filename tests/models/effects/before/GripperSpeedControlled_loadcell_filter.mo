@@ -1,0 +1,37 @@
+  package Diagnosis "Model variants written by cosim diagnose: the baseline plus one effect (docs/diagnose.md)"
+    model GripperSpeedControlled_loadcell_filter "Whole gripper under a PI speed loop around an ideal current loop: the speed reference is the input (diagnosis of cogging at slow, steady motion)"
+      // An identification run, not the paper's 100 Hz velocity PID: a continuous PI of ~30 Hz bandwidth holds slow
+      // speeds, so a torque periodic in the rotor angle shows as a ripple of the current it takes (docs/diagnose.md).
+      extends Gripper.Parameters.MotorParameters;
+      extends Gripper.Parameters.DrivetrainParameters;
+      parameter Real tau_lc(unit = "s") = 0.01 "Load-cell low-pass time constant (effect loadcell_filter)";
+      parameter Real F_off(unit = "N") = 0.0 "Load-cell offset (effect loadcell_filter)";
+      parameter Real K_pw(unit = "A.s/rad") = 0.05 "Speed loop proportional gain";
+      parameter Real K_iw(unit = "A/rad") = 2.5 "Speed loop integral gain";
+      input Real w_ref(unit = "rad/s") "Motor speed reference";
+      output Real i_q(unit = "A") "q-axis current held by the current loop";
+      output Real theta_m(unit = "rad") "Motor shaft angle";
+      output Real w_m(unit = "rad/s") "Motor shaft speed";
+      output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
+      output Real F_g(unit = "N") "Gripping force (load cell)";
+      Real phi(unit = "rad", start = 0.0, fixed = true) "Motor shaft angle";
+      Real w(unit = "rad/s", start = 0.0, fixed = true) "Motor shaft speed";
+      Real e_w(unit = "rad", start = 0.0, fixed = true) "Integral of the speed error";
+      Real i_ref(unit = "A") "q current the speed loop asks for";
+      Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    Gripper.Effects.LoadCell lc(tau_lc = tau_lc, F_off = F_off) "Load-cell dynamics and offset";
+    equation
+      der(phi) = w;
+      (J_r + J_g)*der(w) = k_t*i_ref - B_r*w - drive.tau_load;
+      der(e_w) = w_ref - w;
+      i_ref = K_pw*(w_ref - w) + K_iw*e_w;
+      i_q = i_ref;
+      drive.theta_m = phi;
+      drive.w_m = w;
+      theta_m = phi;
+      w_m = w;
+      x_jaw = drive.x_jaw;
+      lc.F = drive.F_g;
+      F_g = lc.F_meas;
+    end GripperSpeedControlled_loadcell_filter;
+  end Diagnosis;
