@@ -25,6 +25,17 @@ def lower(path, model):
 
     This is the public, explicit form of the model (CasADi functions ``ode`` and ``out`` of x, u, p, t) that the
     FMU contains, for calibration and diagnosis with exact derivatives.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.mo`` file holding the model (rumoca also reads the other ``.mo`` files of its directory).
+    model : str
+        Full model name, e.g. ``Gripper.GripperPlant``.
+
+    Returns
+    -------
+    LoweredModel
     """
     return lower_system(translate(load_flat_model(path, model)))
 
@@ -41,6 +52,8 @@ def build_fmu(path, model, out_dir="fmus", name=None, description=""):
     out_dir : str or Path, default "fmus"
     name : str, optional
         FMU file stem; default: the model's last name component.
+    description : str, optional
+        The FMU's ``description`` attribute.
 
     Returns
     -------
@@ -81,6 +94,11 @@ def _line_of(text, needle):
 
 def read_model_list(models_toml):
     """Read ``models.toml``: a list of ``[[model]]`` tables with ``name``, ``model``, ``source``.
+
+    Parameters
+    ----------
+    models_toml : str or Path
+        The model list; every problem in it is reported at once, with its line.
 
     Returns
     -------

@@ -201,7 +201,13 @@ def effect_names():
 
 
 def get_effect(name):
-    """The :class:`Effect` called ``name``; a ConfigError lists the library when it is unknown."""
+    """The :class:`Effect` called ``name``; a ConfigError lists the library when it is unknown.
+
+    Parameters
+    ----------
+    name : str
+        An effect identifier, e.g. ``"cogging"``.
+    """
     if name in EFFECTS:
         return EFFECTS[name]
     raise ConfigError(f"unknown effect {name!r}; implemented: {', '.join(EFFECTS)}")
@@ -355,8 +361,24 @@ def variant_text(source_text, model, effect):
 def write_variant(source, model, effect, folder):
     """Write the package with ``effect``'s variant of ``model`` to ``folder/<Pkg>/package.mo``.
 
-    Returns (path of the written file, variant model name). The folder gets only this one package, as the
-    compiler front end loads every ``.mo`` of a directory."""
+    The folder gets only this one package, as the compiler front end loads every ``.mo`` of a directory.
+
+    Parameters
+    ----------
+    source : str or Path
+        The baseline's package file.
+    model : str
+        The baseline, ``Pkg.Model``.
+    effect : Effect
+        The effect to add.
+    folder : str or Path
+        Where the package is written.
+
+    Returns
+    -------
+    tuple
+        (path of the written file, variant model name).
+    """
     source = Path(source)
     name, text = variant_text(source.read_text(encoding="utf-8"), model, effect)
     out = Path(folder) / source.parent.name / source.name

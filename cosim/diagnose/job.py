@@ -42,7 +42,53 @@ _SCHEMA = {
 
 @dataclass(frozen=True)
 class DiagnoseJob:
-    """A validated diagnosis job (see the module docstring for the TOML form)."""
+    """A validated diagnosis job (the module docstring gives its TOML form; docs/reference/jobs.md every key).
+
+    Attributes
+    ----------
+    path : Path
+        The job file.
+    source : Path
+        The Modelica file of the baseline.
+    model : str
+        The baseline's full name, ``Pkg.Model``.
+    fixed : dict
+        Parameter values held for every record (``[model] parameters``).
+    records : tuple
+        ``(data file, {parameter: value})`` per measured record; the values are fixed for that record only.
+    inputs : dict
+        Model input -> data column.
+    window : tuple of float
+        ``(start, stop)`` of the data used, s.
+    decimate : int
+        Keep every n-th sample.
+    kind : {"staircase", "impact", "frequency"}
+        The experiment's kind.
+    duration, steady_s, min_hold_s : float
+        Length the data must cover, the steady tail of each hold that enters the cost, the shortest hold, s.
+    signals : tuple
+        ``(output, column, noise floor)`` per compared signal.
+    rtol : float
+        CVODES relative tolerance.
+    max_nfev : int
+        Least-squares evaluations per fit.
+    free : dict
+        Baseline parameter -> ``(start, min, max)``.
+    effects : tuple of str
+        The candidate effects.
+    min_gap_removed, min_delta_bic, gap_sigmas : float
+        The decision's thresholds.
+    workers : int
+        Dask workers (0: in this process).
+    scheduler : str
+        A Dask scheduler address ("" for a local cluster).
+    input : str
+        Frequency kind: the excited model input.
+    sample_rate : float
+        Frequency kind: Hz of the zero-order hold the model is compared through (0: continuous).
+    bands_per_decade : float
+        Frequency kind: width of the frequency bands (the segments).
+    """
 
     path: Path
     source: Path
@@ -77,7 +123,24 @@ class DiagnoseJob:
 
 
 def load_diagnose_job(path, overrides=()):
-    """Read and validate a diagnosis job; every problem is reported at once with file:line and key."""
+    """Read and validate a diagnosis job; every problem is reported at once with file:line and key.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML job.
+    overrides : sequence of str, optional
+        ``--set key=value`` overrides, applied before validation.
+
+    Returns
+    -------
+    DiagnoseJob
+
+    Raises
+    ------
+    ConfigError
+        Every problem of the job, each with file:line and key.
+    """
     path = Path(path)
     data, problems = read_toml(path, overrides, what="job")
     t = sections(data, problems, _SCHEMA)
