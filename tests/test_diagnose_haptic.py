@@ -145,7 +145,7 @@ def test_noise_estimate_matches_the_true_scatter():
 @pytest.mark.parametrize("effect, seed", [("none", 1), ("hand_mass", 1), ("vibration_mode", 1), ("loop_delay", 1)])
 def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     frame, truth = make_case(effect, np.random.default_rng(seed))
-    s = run_diagnosis(load_diagnose_job(_write_job(tmp_path, frame)), progress=False, build=False).summary
+    s = run_diagnosis(load_diagnose_job(_write_job(tmp_path, frame)), progress=False, build=False).to_json()
     assert s["effect"] == effect, s["verdict"]
     assert s["kind"] == "frequency" and s["units"] == ["dB", "deg"]
     assert {c["effect"] for c in s["candidates"]} == set(HAPTIC)
