@@ -240,7 +240,6 @@ def test_workflow_names_the_hidden_impact_effect(effect, seed, trials, candidate
     # the force noise from ~100 differences: the robust scale alone spreads by ~12 % (1 sd), the impact adds more
     np.testing.assert_allclose(s["noise"]["used"], [FORCE_NOISE, COUNT], rtol=0.3)
     if effect == "none":
-        assert s["rmse_after"] == s["rmse_before"]
         return
     assert s["gap_removed"] >= 0.8
     assert s["rmse_after_per_signal"][1] < s["rmse_before_per_signal"][1]  # the angle improves as well
