@@ -49,7 +49,7 @@ def main(argv=None):
             with tempfile.TemporaryDirectory() as folder:
                 path = write_job(folder, pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), CANDIDATES, args.workers)
                 t0 = time.time()
-                s = run_diagnosis(load_diagnose_job(path), progress=False, build=False).summary
+                s = run_diagnosis(load_diagnose_job(path), progress=False, build=False).to_json()
             matrix.loc[effect, s["effect"]] += 1
             if effect != "none" and s["effect"] == effect:
                 gaps.append(s["gap_removed"])

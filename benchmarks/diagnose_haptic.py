@@ -49,7 +49,7 @@ def main(argv=None):
             with tempfile.TemporaryDirectory() as folder:
                 t0 = time.time()
                 job = load_diagnose_job(_write_job(Path(folder), frame, effects=HAPTIC))
-                s = run_diagnosis(job, progress=False, build=False).summary
+                s = run_diagnosis(job, progress=False, build=False).to_json()
                 times.append(time.time() - t0)
             matrix.loc[effect, s["effect"]] += 1
             if effect != "none" and s["effect"] == effect:

@@ -97,7 +97,7 @@ def main(argv=None):
                 diagnosis = run_diagnosis(job, progress=False, build=False)
             if args.save:
                 write_diagnosis(diagnosis, args.save / f"case{k}_{effect}", source)
-            s = diagnosis.summary
+            s = diagnosis.to_json()
             matrix.loc[effect, s["effect"]] += 1
             channel, unit, noise = s["signals"][0], s["units"][0], s["noise"]["used"][0]
             channel_gap = (1 - (s["rmse_after"] ** 2 - noise ** 2) / (s["rmse_before"] ** 2 - noise ** 2)

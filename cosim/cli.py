@@ -114,12 +114,11 @@ def _cmd_diagnose(args):
     out = args.out or f"out/{Path(args.job).stem}"
     result = diagnose(args.job, out=out, overrides=args.set, progress=not args.no_progress,
                       build=not args.no_build)
-    s = result.summary
-    print(s["verdict"])
-    unit = f" {s['units'][0]}" if s["units"][0] else ""
-    print(f"{s['signals'][0]}, measured vs replayed model: RMSE {s['rmse_before']:.4g} -> "
-          f"{s['rmse_after']:.4g}{unit}, max error {s['max_error_before']:.4g} -> {s['max_error_after']:.4g}{unit}; "
-          f"wrote {out}/diagnosis.json, report.md")
+    print(result.verdict)
+    unit = f" {result.units[0]}" if result.units[0] else ""
+    print(f"{result.signals[0]}, measured vs replayed model: RMSE {result.rmse_before:.4g} -> "
+          f"{result.rmse_after:.4g}{unit}, max error {result.max_error_before:.4g} -> "
+          f"{result.max_error_after:.4g}{unit}; wrote {out}/diagnosis.json, report.md")
     return 0
 
 

@@ -4,7 +4,8 @@ it and show the gap shrink. See docs/diagnose.md."""
 
 from cosim.diagnose.effects import EFFECTS, effect_names, get_effect, write_variant
 from cosim.diagnose.job import DiagnoseJob, load_diagnose_job
-from cosim.diagnose.workflow import Diagnosis, run_diagnosis
+from cosim.diagnose.result import Diagnosis
+from cosim.diagnose.workflow import run_diagnosis
 
 __all__ = ["EFFECTS", "effect_names", "get_effect", "write_variant", "DiagnoseJob", "load_diagnose_job",
            "Diagnosis", "run_diagnosis", "diagnose"]

@@ -14,65 +14,53 @@ import matplotlib.pyplot as plt  # noqa: E402
 __all__ = ["write_diagnosis", "plot_diagnosis"]
 
 
-def _json(value):
-    if isinstance(value, dict):
-        return {k: _json(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json(v) for v in value]
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    if isinstance(value, float) and not np.isfinite(value):
-        return None
-    return value
-
-
 def plot_diagnosis(diagnosis, folder):
     """Write ``fit.png`` (measured vs before vs after, residuals) and, for a staircase, ``curve.png`` (output
     against input at the cost samples), or for a frequency response ``bode.png`` and ``bands.png``; returns the
     file names."""
-    d, s = diagnosis, diagnosis.summary
+    d, tr = diagnosis, diagnosis.traces
     folder = Path(folder)
-    if s.get("kind") == "frequency":
+    if d.kind == "frequency":
         return _plot_frequency(diagnosis, folder)
     names = []
-    n = d.measured.shape[0]
+    n = tr.measured.shape[0]
     fig, axes = plt.subplots(2 * n, 1, figsize=(10, 3.2 * 2 * n), sharex=True)
     for j in range(n):
         ax, ar = axes[2 * j], axes[2 * j + 1]
-        ax.plot(d.time, d.measured[j], ".", ms=2, color="0.5", label="measured")
-        ax.plot(*_apart(d.time, d.before[j]), color="C0", lw=1.2,
-                label=f"baseline (RMSE {s['rmse_before_per_signal'][j]:.3g})")
+        ax.plot(tr.time, tr.measured[j], ".", ms=2, color="0.5", label="measured")
+        ax.plot(*_apart(tr.time, tr.before[j]), color="C0", lw=1.2,
+                label=f"baseline (RMSE {d.rmse_before_per_signal[j]:.3g})")
         if d.effect != "none":
-            ax.plot(*_apart(d.time, d.after[j]), color="C3", lw=1.2,
-                    label=f"with {d.effect} (RMSE {s['rmse_after_per_signal'][j]:.3g})")
-        label = f"{s['signals'][j]} [{s['units'][j]}]"
+            ax.plot(*_apart(tr.time, tr.after[j]), color="C3", lw=1.2,
+                    label=f"with {d.effect} (RMSE {d.rmse_after_per_signal[j]:.3g})")
+        label = f"{d.signals[j]} [{d.units[j]}]"
         ax.set_ylabel(label)
         ax.legend(loc="best", fontsize=8)
         ax.grid(alpha=0.3)
-        sigma = s["noise"]["used"][j]
-        ar.plot(d.time[d.mask], (d.before[j] - d.measured[j])[d.mask], ".", ms=2, color="C0", label="baseline")
+        sigma = d.noise.used[j]
+        ar.plot(tr.time[tr.mask], (tr.before[j] - tr.measured[j])[tr.mask], ".", ms=2, color="C0", label="baseline")
         if d.effect != "none":
-            ar.plot(d.time[d.mask], (d.after[j] - d.measured[j])[d.mask], ".", ms=2, color="C3",
+            ar.plot(tr.time[tr.mask], (tr.after[j] - tr.measured[j])[tr.mask], ".", ms=2, color="C3",
                     label=d.effect)
         ar.axhspan(-3 * sigma, 3 * sigma, color="0.85", label="±3 noise")
         ar.set_ylabel(f"residual {label}")
         ar.legend(loc="best", fontsize=8)
         ar.grid(alpha=0.3)
-    axes[-1].set_xlabel("time [s]" + (f" ({len(s['records'])} records end to end)" if len(s["records"]) > 1 else ""))
-    fig.suptitle(s["verdict"], fontsize=10)
+    axes[-1].set_xlabel("time [s]" + (f" ({len(d.records)} records end to end)" if len(d.records) > 1 else ""))
+    fig.suptitle(d.verdict, fontsize=10)
     fig.tight_layout()
     fig.savefig(folder / "fit.png", dpi=110)
     plt.close(fig)
     names.append("fit.png")
-    if d.inputs.shape[1] >= 1 and any(seg["kind"] in ("up", "down") for seg in s["segments"]):
+    if tr.inputs.shape[1] >= 1 and any(seg.kind in ("up", "down") for seg in d.segments):
         fig, ax = plt.subplots(figsize=(7, 5))
-        m = d.mask
-        ax.plot(d.inputs[m, 0], d.measured[0, m], ".", ms=3, color="0.5", label="measured")
-        ax.plot(d.inputs[m, 0], d.before[0, m], ".", ms=3, color="C0", label="baseline")
+        m = tr.mask
+        ax.plot(tr.inputs[m, 0], tr.measured[0, m], ".", ms=3, color="0.5", label="measured")
+        ax.plot(tr.inputs[m, 0], tr.before[0, m], ".", ms=3, color="C0", label="baseline")
         if d.effect != "none":
-            ax.plot(d.inputs[m, 0], d.after[0, m], ".", ms=3, color="C3", label=f"with {d.effect}")
-        ax.set_xlabel(f"{s['inputs'][0]} (held level) [{s['input_units'][0]}]")
-        ax.set_ylabel(f"{s['signals'][0]} [{s['units'][0]}]")
+            ax.plot(tr.inputs[m, 0], tr.after[0, m], ".", ms=3, color="C3", label=f"with {d.effect}")
+        ax.set_xlabel(f"{d.inputs[0]} (held level) [{d.input_units[0]}]")
+        ax.set_ylabel(f"{d.signals[0]} [{d.units[0]}]")
         ax.grid(alpha=0.3)
         ax.legend()
         ax.set_title("steady values: rising and falling branches")
@@ -86,43 +74,43 @@ def plot_diagnosis(diagnosis, folder):
 def _plot_frequency(diagnosis, folder):
     """``bode.png``: magnitude and phase, measured vs before vs after, and the residuals with the +-3 sigma band
     over frequency (band edges dotted); ``bands.png``: RMS residual per band before and after, in noise levels."""
-    d, s = diagnosis, diagnosis.summary
-    f = d.time
+    d, tr = diagnosis, diagnosis.traces
+    f = tr.time
     fig, axes = plt.subplots(4, 1, figsize=(9, 11), sharex=True)
     for j in range(2):
         ax, ar = axes[j], axes[2 + j]
-        label = f"{s['signals'][j]} [{s['units'][j]}]"
-        ax.semilogx(f, d.measured[j], ".", ms=3, color="0.5", label="measured")
-        ax.semilogx(f, d.before[j], color="C0", lw=1.2, label="baseline")
-        ar.semilogx(f, d.before[j] - d.measured[j], ".", ms=3, color="C0", label="baseline")
+        label = f"{d.signals[j]} [{d.units[j]}]"
+        ax.semilogx(f, tr.measured[j], ".", ms=3, color="0.5", label="measured")
+        ax.semilogx(f, tr.before[j], color="C0", lw=1.2, label="baseline")
+        ar.semilogx(f, tr.before[j] - tr.measured[j], ".", ms=3, color="C0", label="baseline")
         if d.effect != "none":
-            ax.semilogx(f, d.after[j], color="C3", lw=1.2, label=f"with {d.effect}")
-            ar.semilogx(f, d.after[j] - d.measured[j], ".", ms=3, color="C3", label=d.effect)
-        ar.fill_between(f, -3 * d.noise[j], 3 * d.noise[j], color="0.85", label="±3 noise")
+            ax.semilogx(f, tr.after[j], color="C3", lw=1.2, label=f"with {d.effect}")
+            ar.semilogx(f, tr.after[j] - tr.measured[j], ".", ms=3, color="C3", label=d.effect)
+        ar.fill_between(f, -3 * d.noise.sigma[j], 3 * d.noise.sigma[j], color="0.85", label="±3 noise")
         ax.set_ylabel(label)
-        ar.set_ylabel(f"residual {s['signals'][j]} [{s['units'][j]}]")
+        ar.set_ylabel(f"residual {d.signals[j]} [{d.units[j]}]")
         for a in (ax, ar):
-            for seg in s["segments"][::2]:
-                a.axvline(seg["t0"], color="0.7", lw=0.6, ls=":")
+            for seg in d.segments[::2]:
+                a.axvline(seg.t0, color="0.7", lw=0.6, ls=":")
             a.grid(alpha=0.3, which="both")
             a.legend(loc="best", fontsize=8)
     axes[-1].set_xlabel("frequency [Hz]")
-    fig.suptitle(s["verdict"], fontsize=10)
+    fig.suptitle(d.verdict, fontsize=10)
     fig.tight_layout()
     fig.savefig(folder / "bode.png", dpi=110)
     plt.close(fig)
     fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
     for j, ax in enumerate(axes):
-        rows = [r for r in s["segments"] if r["signal"] == s["signals"][j]]
+        rows = [r for r in d.segments if r.signal == d.signals[j]]
         x = np.arange(len(rows))
-        level = [r["rmse_before"] / r["sigmas"] if r["sigmas"] else np.nan for r in rows]
-        ax.bar(x - 0.2, [r["sigmas"] for r in rows], 0.4, color="C0", label="baseline")
-        ax.bar(x + 0.2, [r["rmse_after"] / n for r, n in zip(rows, level)], 0.4, color="C3",
+        level = [r.rmse_before / r.sigmas if r.sigmas else np.nan for r in rows]
+        ax.bar(x - 0.2, [r.sigmas for r in rows], 0.4, color="C0", label="baseline")
+        ax.bar(x + 0.2, [r.rmse_after / n for r, n in zip(rows, level)], 0.4, color="C3",
                label=d.effect if d.effect != "none" else "after (= baseline)")
-        ax.axhline(s["decision"]["gap_sigmas"], color="k", lw=0.8, ls="--", label="significance")
+        ax.axhline(d.decision["gap_sigmas"], color="k", lw=0.8, ls="--", label="significance")
         ax.set_ylabel("RMS residual [noise levels]")
-        ax.set_title(f"{s['signals'][j]} [{s['units'][j]}] per band", fontsize=9)
-        ax.set_xticks(x, [f"{r['t0']:.3g}-{r['t1']:.3g}" for r in rows], rotation=30, fontsize=8)
+        ax.set_title(f"{d.signals[j]} [{d.units[j]}] per band", fontsize=9)
+        ax.set_xticks(x, [f"{r.t0:.3g}-{r.t1:.3g}" for r in rows], rotation=30, fontsize=8)
         ax.grid(alpha=0.3, axis="y")
         ax.legend(fontsize=8)
     axes[-1].set_xlabel("frequency band [Hz]")
@@ -140,57 +128,57 @@ def _apart(time, values):
 
 
 def _report(diagnosis, figures):
-    s = diagnosis.summary
-    unit = f" {s['units'][0]}" if s.get("units") and s["units"][0] else ""
-    pu = s["parameter_units"]
+    d = diagnosis
+    unit = f" {d.units[0]}" if d.units and d.units[0] else ""
+    pu = d.parameter_units
 
     def values(params, names=None):
         return ", ".join(f"{k} = {v:.5g}" + (f" {pu[k]}" if pu.get(k, "1") != "1" else "")
                          for k, v in params.items() if names is None or k in names)
 
-    lines = [f"# Diagnosis: {s['model']}", "", f"**{s['verdict']}**", ""]
-    if s["also_explained_by"]:
-        lines += [f"Nearly as good on the held-out segments: {', '.join(s['also_explained_by'])} (the data do not "
+    lines = [f"# Diagnosis: {d.model}", "", f"**{d.verdict}**", ""]
+    if d.also_explained_by:
+        lines += [f"Nearly as good on the held-out segments: {', '.join(d.also_explained_by)} (the data do not "
                   f"tell these apart).", ""]
-    records = s["records"]
-    data = f"`{s['data']}`" if len(records) == 1 else f"{len(records)} records (repeated trials, one fit): " + \
-        ", ".join(f"`{r['path']}`" + (f" ({values(r['parameters'])})" if r["parameters"] else "") for r in records)
-    lines += [f"- data: {data}; signals: {', '.join(s['signals'])}",
-              f"- noise (1 sd) estimated from the data: {', '.join(f'{v:.3g}' for v in s['noise']['estimated'])}; "
-              f"used (floored by the job): {', '.join(f'{v:.3g}' for v in s['noise']['used'])} "
-              f"({', '.join(f'{n} [{u}]' for n, u in zip(s['signals'], s['units']))})",
-              f"- {s['signals'][0]} on the cost samples, model replayed by CVODES on the lowered equations: RMSE "
-              f"before {s['rmse_before']:.4g}{unit}, after {s['rmse_after']:.4g}{unit}; max error before "
-              f"{s['max_error_before']:.4g}{unit}, after {s['max_error_after']:.4g}{unit}; gap above the noise "
-              f"removed (all channels): {100 * s['gap_removed']:.0f} %",
-              "- baseline parameters: " + values(s["baseline"]["parameters"]), ""]
-    if s["after"]:
-        lines += ["- after: " + values(s["after"]["parameters"]), ""]
-    if s.get("rerun"):
-        r = s["rerun"]
-        lines += [f"- re-run of the built FMUs through the master ({', '.join(f'`{c}`' for c in r['configs'].values())}"
-                  f"; BDF, measured inputs played), {r['signal']}: RMSE before {r['rmse_before']:.4g}{unit}, after "
-                  f"{r['rmse_after']:.4g}{unit}; max error before {r['max_error_before']:.4g}{unit}, after "
-                  f"{r['max_error_after']:.4g}{unit}; largest difference to the CVODES replay "
-                  f"{max(r['max_difference_to_replay_before'], r['max_difference_to_replay_after']):.3g}{unit}", ""]
+    records = d.records
+    data = f"`{d.data}`" if len(records) == 1 else f"{len(records)} records (repeated trials, one fit): " + \
+        ", ".join(f"`{r.path}`" + (f" ({values(r.parameters)})" if r.parameters else "") for r in records)
+    lines += [f"- data: {data}; signals: {', '.join(d.signals)}",
+              f"- noise (1 sd) estimated from the data: {', '.join(f'{v:.3g}' for v in d.noise.estimated)}; "
+              f"used (floored by the job): {', '.join(f'{v:.3g}' for v in d.noise.used)} "
+              f"({', '.join(f'{n} [{u}]' for n, u in zip(d.signals, d.units))})",
+              f"- {d.signals[0]} on the cost samples, model replayed by CVODES on the lowered equations: RMSE "
+              f"before {d.rmse_before:.4g}{unit}, after {d.rmse_after:.4g}{unit}; max error before "
+              f"{d.max_error_before:.4g}{unit}, after {d.max_error_after:.4g}{unit}; gap above the noise "
+              f"removed (all channels): {100 * d.gap_removed:.0f} %",
+              "- baseline parameters: " + values(d.baseline_parameters), ""]
+    if d.after_parameters is not None:
+        lines += ["- after: " + values(d.after_parameters), ""]
+    if d.rerun is not None:
+        r = d.rerun
+        lines += [f"- re-run of the built FMUs through the master ({', '.join(f'`{c}`' for c in r.configs.values())}"
+                  f"; BDF, measured inputs played), {r.signal}: RMSE before {r.rmse_before:.4g}{unit}, after "
+                  f"{r.rmse_after:.4g}{unit}; max error before {r.max_error_before:.4g}{unit}, after "
+                  f"{r.max_error_after:.4g}{unit}; largest difference to the CVODES replay "
+                  f"{max(r.max_difference_to_replay_before, r.max_difference_to_replay_after):.3g}{unit}", ""]
     lines += ["## Candidates", "",
               "Fitted on the even segments, scored on the odd ones (score: fraction of the baseline's held-out gap "
               "above the noise that the candidate removes).", "",
               f"| effect | score | ΔBIC | ΔAIC | p (LR) | RMSE after [{unit.strip()}] | fitted parameters |",
               "|---|---|---|---|---|---|---|"]
-    for c in s["candidates"]:
-        params = values(c["parameters"], c["added_parameters"])
-        lines.append(f"| {c['effect']} | {c['score']:.3f} | {c['delta_bic']:.1f} | {c['delta_aic']:.1f} | "
-                     f"{c['p_value']:.2g} | {c['rmse_after']:.4g} | {params} |")
+    for c in d.candidates:
+        params = values(c.parameters, c.added_parameters)
+        lines.append(f"| {c.effect} | {c.score:.3f} | {c.delta_bic:.1f} | {c.delta_aic:.1f} | "
+                     f"{c.p_value:.2g} | {c.rmse_after:.4g} | {params} |")
     lines += ["", "## Where the gap is", "", "| segment | signal | samples | bias before | RMSE before | × noise | "
               "shape | RMSE after |", "|---|---|---|---|---|---|---|---|"]
-    for r in s["segments"]:
-        lines.append(f"| {r['segment']} | {r['signal']} | {r['samples']} | {r['bias_before']:+.3g} | "
-                     f"{r['rmse_before']:.3g} | {r['sigmas']:.1f}{' **!**' if r['significant'] else ''} | "
-                     f"{r['shape']} | {r['rmse_after']:.3g} |")
-    for f in s["shapes"]:
+    for r in d.segments:
+        lines.append(f"| {r.segment} | {r.signal} | {r.samples} | {r.bias_before:+.3g} | "
+                     f"{r.rmse_before:.3g} | {r.sigmas:.1f}{' **!**' if r.significant else ''} | "
+                     f"{r.shape} | {r.rmse_after:.3g} |")
+    for f in d.shapes:
         lines += ["", f"- {f['shape']}: {f['detail']}"]
-    w, c = s["whiteness"], s["input_cross_correlation"]
+    w, c = d.whiteness, d.input_cross_correlation
     lines += ["", "## Residual analysis (baseline)", "",
               f"- whiteness: {w['outside']} of {len(w['acf'])} autocorrelations outside ±{w['band']:.3g}; Ljung-Box "
               f"Q = {w['q']:.4g}, p = {w['p_value']:.2g} ({'white' if w['white'] else 'not white: structure left'})"]
@@ -216,7 +204,7 @@ def write_diagnosis(diagnosis, out, source=None):
     staging = Path(tempfile.mkdtemp(prefix=".diagnosis-", dir=out.parent))
     try:
         figures = plot_diagnosis(diagnosis, staging)
-        (staging / "diagnosis.json").write_text(json.dumps(_json(diagnosis.summary), indent=2) + "\n",
+        (staging / "diagnosis.json").write_text(json.dumps(diagnosis.to_json(), indent=2) + "\n",
                                                 encoding="utf-8")
         (staging / "report.md").write_text(_report(diagnosis, figures), encoding="utf-8")
         if diagnosis.variant_source and source is not None:

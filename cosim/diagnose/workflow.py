@@ -24,11 +24,18 @@ Repeated trials (``data.records``: several records, each with its own fixed valu
 are diagnosed as one experiment: every fit shares its parameters over the records, their samples are end to end
 (noise, cost, folds, scores), each record is cut into its own segments. One impact sees a position-dependent
 torque such as cogging at one rest angle; impacts with the object placed anew each time see it at several.
+
+In code, each step is a stage, a function returning a frozen dataclass that the next stages read: the samples
+(:class:`Samples`), the noise (:class:`Noise`), the segments and folds (:class:`Split`), the candidates' scores
+(:class:`Scores`), the decision (:class:`Decision`) and the show (:class:`Show`); :func:`run_diagnosis` chains
+them into a :class:`Diagnosis`, whose :meth:`Diagnosis.to_json` is the content of ``diagnosis.json``.
 """
 
+import difflib
 import shutil
 import tempfile
-from dataclasses import dataclass, field, replace
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -38,53 +45,157 @@ from cosim.diagnose.analysis import (band_shape, branch_shapes, cross_correlatio
                                      in_segment, noise_level, quiet_phases, segment_table, whiteness)
 from cosim.experiment import Experiment, steady_mask
 from cosim.parallel import map_on_dask
-from cosim.diagnose.effects import EFFECTS, write_variant
+from cosim.diagnose.effects import EFFECTS, Effect, write_variant
 from cosim.diagnose.fitting import Replay, Trials, fit_samples, weighted
 from cosim.diagnose.frequency import DEG_PER_DB, FrequencyReplay, frequency_noise
+from cosim.diagnose.result import Candidate, Diagnosis, Noise, RecordSummary, Rerun, SegmentRow, Traces
 
-__all__ = ["Diagnosis", "run_diagnosis"]
+__all__ = ["Samples", "Split", "Scores", "Decision", "Show", "load_samples", "estimate_noise", "split_segments",
+           "score_candidates", "rivals_of", "decide", "show", "run_diagnosis"]
 
 MIN_QUIET_SAMPLES = 20  # fewer samples in an impact's approach and steady holds: its noise from every sample
+RERUN_HOW = "the built FMUs run by the master (BDF) with the measured inputs played at the data rate"
 
+
+# -- the effect library (cosim.diagnose.effects): every use of it is here -----------------------------------------
+
+def _effect(name):
+    """The candidate ``name``, or for ``"baseline"`` an effect that adds nothing."""
+    return Effect("baseline", "", ()) if name == "baseline" else EFFECTS[name]
+
+
+def _write_variant(job, name, folder):
+    """The job's baseline with the effect ``name`` written into a copy of its package in ``folder``; returns the
+    copy's path and the variant's model name."""
+    return write_variant(job.source, job.model, EFFECTS[name], folder)
+
+
+def _added_parameters(name):
+    """The parameters the effect ``name`` declares, then the baseline's parameters it frees."""
+    effect = EFFECTS[name]
+    return [p.name for p in effect.parameters] + [n for n, _, _ in effect.frees]
+
+
+def _title(name):
+    """One line: what physics the effect ``name`` adds."""
+    return EFFECTS[name].title
+
+
+def _effect_units(names):
+    """Name -> unit of the parameters the effects ``names`` declare."""
+    return {p.name: p.unit for n in names for p in EFFECTS[n].parameters}
+
+
+# -- the stages' results ------------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class Diagnosis:
-    """The result of a diagnosis: ``summary`` is the content of ``diagnosis.json``; the arrays feed the plots.
+class Samples:
+    """The measured records end to end, as every stage reads them.
 
     Attributes
     ----------
-    effect : str
-        The named effect, or ``"none"``.
-    summary : dict
-    time : ndarray, shape (N,)
-        Time [s], or frequency [Hz] for a frequency response.
-    inputs : ndarray, shape (N, n_inputs)
-        (N, 0) for a frequency response.
-    measured, before, after : ndarray, shape (n_signals, N)
-        For a frequency response the two channels magnitude [dB] and phase [deg].
-        Measured outputs and the baseline's and the winner's replays (``after`` is ``before`` for "none").
-    mask : ndarray of bool, shape (N,)
-        Cost samples.
-    noise : ndarray, shape (n_signals,) or (n_signals, N)
-        The noise level (1 sd) each residual was weighed with.
-    variant_source : str
-        Modelica text of the package with the winner's variant ("" for none).
-    variant_diff : str
+    model : cosim.compile.LoweredModel
+        The baseline, lowered.
+    records : list of (Experiment, dict)
+        Each record and its trial's fixed values (:func:`~cosim.diagnose.job.load_records`).
+    experiment : Experiment
+        The records end to end (:func:`_end_to_end`).
+    shifts : list of float
+        Time shift of each record in ``experiment`` [s].
+    sampled : list of ndarray of bool
+        Per record, the instants where every compared channel has a sample.
+    present, mask : ndarray of bool, shape (N,)
+        The instants every channel has; the cost samples among them.
+    channels, units : list of str
+        Names and units of the compared channels.
+    floor : ndarray, shape (n_signals,)
+        The job's noise floor of each channel.
     """
 
-    effect: str
-    summary: dict
-    time: np.ndarray
-    inputs: np.ndarray
-    measured: np.ndarray
-    before: np.ndarray
-    after: np.ndarray
+    model: object
+    records: list
+    experiment: Experiment
+    shifts: list
+    sampled: list
+    present: np.ndarray
     mask: np.ndarray
+    channels: list
+    units: list
+    floor: np.ndarray
+
+    @property
+    def time(self):
+        """Time [s] (frequency [Hz] for a frequency response), shape (N,)."""
+        return self.experiment.time
+
+    @property
+    def measured(self):
+        """The compared channels, shape (n_signals, N)."""
+        return self.experiment.measured.T
+
+    @property
+    def n_fit(self):
+        """The number of weighted residuals in the cost."""
+        return int(self.mask.sum()) * self.measured.shape[0]
+
+
+@dataclass(frozen=True)
+class Split:
+    """The segments (holds, impact phases, frequency bands; labelled by record for repeated trials), the segment
+    ``shape`` classifier (None: the time-domain default) and the two folds, each (train, test) masks."""
+
+    segments: list
+    shape: object
+    folds: list
+
+
+@dataclass(frozen=True)
+class Scores:
+    """The baseline's fit on every cost sample (``base``, refitted when a candidate showed it a better start), the
+    fits per fold (``fits``: "baseline" and each effect -> [fold 0, fold 1]) and the ``candidates`` in the job's
+    order."""
+
+    base: dict
+    fits: dict
+    candidates: tuple
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The baseline's residual per segment (``rows``, :func:`~cosim.diagnose.analysis.segment_table`), its
+    shapes, whiteness and cross-correlation with the input; whether it shows a gap (``mean_square`` in noise
+    levels squared against ``chance``), the ``winner`` (None: "none") and its ``rivals``."""
+
+    rows: list
+    shapes: list
+    whiteness: dict
+    cross_correlation: object
+    mean_square: float
+    chance: float
+    gap_found: bool
+    winner: object
+    rivals: list
+
+    @property
+    def effect(self):
+        """The winner's name, or ``"none"``."""
+        return "none" if self.winner is None else self.winner.effect
+
+
+@dataclass(frozen=True)
+class Show:
+    """The winner added: its fit on every cost sample (``final``, None for "none"), its replay ``after`` (the
+    baseline's for "none"), its built ``fmu``, the package with its variant and the diff, the ``rerun``."""
+
+    final: object
+    after: np.ndarray
+    fmu: object = None
     variant_source: str = ""
     variant_diff: str = ""
-    candidate_predictions: dict = field(default_factory=dict)
-    noise: np.ndarray = None  # noise level used: (n_signals,), or (n_signals, N) per frequency
+    rerun: object = None
 
+
+# -- fits -----------------------------------------------------------------------------------------------------------
 
 def _scales(values):
     return np.array([abs(v) if v != 0 else 1.0 for v in values], float)
@@ -94,11 +205,10 @@ def _fit_candidate(task):
     """One fit in a worker (a candidate's variant, or the baseline itself for ``effect = "baseline"``) on one
     fold's training segments; replays every sample."""
     from cosim.compile import lower
-    from cosim.diagnose.effects import Effect
     from cosim.diagnose.job import load_records
 
     job = task["job"]
-    effect = Effect("baseline", "", ()) if task["effect"] == "baseline" else EFFECTS[task["effect"]]
+    effect = _effect(task["effect"])
     model = lower(task["variant_path"], task["variant_model"])
     records = load_records(job, model)
     defaults = dict(zip([p.name for p in model.parameters], model.parameter_values))
@@ -130,30 +240,6 @@ def _fit(model, records, job, free, weights, mask, label):
     return result
 
 
-def _spread(where, values):
-    """A boolean array over all instants: ``values`` at those ``where`` selects (a record's sampled instants),
-    False elsewhere."""
-    out = np.zeros(len(where), bool)
-    out[where] = values
-    return out
-
-
-def _end_to_end(records):
-    """The records (from :func:`~cosim.diagnose.job.load_records`) as one Experiment, each record's time shifted to
-    start ten samples after the previous one ends (the gap keeps noise differences and segments inside a record);
-    returns it and the shift of each record [s]. One record is returned as it is."""
-    if len(records) == 1:
-        return records[0][0], [0.0]
-    shifts, end = [], 0.0
-    for r, _ in records:
-        shifts.append(end - r.time[0] if shifts else 0.0)
-        end = shifts[-1] + r.time[-1] + 10 * float(np.median(np.diff(r.time)))
-    parts = [r for r, _ in records]
-    return Experiment(time=np.concatenate([r.time + shift for r, shift in zip(parts, shifts)]),
-                      inputs=np.vstack([r.inputs for r in parts]), measured=np.vstack([r.measured for r in parts]),
-                      weights=parts[0].weights, mask=np.concatenate([r.mask for r in parts])), shifts
-
-
 def _run_tasks(job, tasks, progress):
     if job.workers <= 0 or len(tasks) <= 1 and not job.scheduler:
         return [_fit_candidate(t) for t in tasks]
@@ -178,6 +264,42 @@ def _ms(pred, measured, weights, mask):
     return float(np.mean(r[:, mask] ** 2)) if mask.any() else float("nan")
 
 
+def _rmse(pred, measured, mask):
+    r = (pred - measured)[:, mask]
+    return [float(np.sqrt(np.mean(x ** 2))) for x in r], [float(np.max(np.abs(x))) for x in r]
+
+
+# -- stage 0: the samples -------------------------------------------------------------------------------------------
+
+def _spread(where, values):
+    """A boolean array over all instants: ``values`` at those ``where`` selects (a record's sampled instants),
+    False elsewhere."""
+    out = np.zeros(len(where), bool)
+    out[where] = values
+    return out
+
+
+def _end_to_end(records):
+    """The records (from :func:`~cosim.diagnose.job.load_records`) as one Experiment, each record's time shifted to
+    start ten samples after the previous one ends (the gap keeps noise differences and segments inside a record);
+    returns it and the shift of each record [s]. One record is returned as it is."""
+    if len(records) == 1:
+        return records[0][0], [0.0]
+    shifts, end = [], 0.0
+    for r, _ in records:
+        shifts.append(end - r.time[0] if shifts else 0.0)
+        end = shifts[-1] + r.time[-1] + 10 * float(np.median(np.diff(r.time)))
+    parts = [r for r, _ in records]
+    return Experiment(time=np.concatenate([r.time + shift for r, shift in zip(parts, shifts)]),
+                      inputs=np.vstack([r.inputs for r in parts]), measured=np.vstack([r.measured for r in parts]),
+                      weights=parts[0].weights, mask=np.concatenate([r.mask for r in parts])), shifts
+
+
+def _per_record(records, f):
+    """``f`` of each record's Experiment, end to end."""
+    return np.concatenate([f(r) for r, _ in records])
+
+
 def _channels(job, model):
     """Names, units and noise floors of the compared channels: the job's signals, or for a frequency response
     the magnitude [dB] and phase [deg] of its one output (the phase floor: the same complex-log error)."""
@@ -189,41 +311,176 @@ def _channels(job, model):
     return [o for o, _, _ in job.signals], units, [n for _, _, n in job.signals]
 
 
-def _rmse(pred, measured, mask):
-    r = (pred - measured)[:, mask]
-    return [float(np.sqrt(np.mean(x ** 2))) for x in r], [float(np.max(np.abs(x))) for x in r]
+def load_samples(job):
+    """The job's baseline lowered and its records end to end, with the cost samples: a staircase's settled end of
+    each hold (``steady_s`` > 0), else every instant where each compared channel has a sample.
+
+    Raises
+    ------
+    cosim.errors.ConfigError
+        When no hold lasts ``experiment.steady_s``.
+    """
+    from cosim.compile import lower
+    from cosim.diagnose.job import load_records
+
+    model = lower(job.source, job.model)
+    records = load_records(job, model)
+    e, shifts = _end_to_end(records)
+    # per record, the instants where every compared channel has a sample (multi-rate data are compared there; the
+    # inputs are played at every instant)
+    sampled = [np.all(np.isfinite(r.measured), axis=1) for r, _ in records]
+    channels, units, floor = _channels(job, model)
+    present = np.concatenate(sampled)
+    if job.kind == "staircase" and job.steady_s > 0:
+        mask = present & _per_record(records, lambda r: steady_mask(r.time, r.inputs, job.steady_s, job.min_hold_s))
+    else:
+        mask = present
+    if not mask.any():
+        from cosim.errors import ConfigError
+        raise ConfigError(f"{job.path}: no hold of the input lasts experiment.steady_s = {job.steady_s:g} s")
+    return Samples(model=model, records=records, experiment=e, shifts=shifts, sampled=sampled, present=present,
+                   mask=mask, channels=channels, units=units, floor=np.array(floor))
 
 
-def _rerun_both(job, records, model, base, variant_path, variant, final, folder, y, mask):
-    """Build the baseline's and the winner's FMUs into ``folder/fmu`` and re-run both through the master with the
-    measured inputs of every record (:mod:`cosim.diagnose.rerun`, configs in ``folder/rerun``, in
-    ``folder/rerun/record<k>`` for repeated trials); returns the summary's ``rerun`` entry."""
-    from cosim.compile import build_fmu
-    from cosim.diagnose.rerun import rerun
+# -- stage 1: the noise ---------------------------------------------------------------------------------------------
 
-    outputs = [o for o, _, _ in job.signals]
-    inputs = [u.name for u in model.inputs]
-    fmus = {"baseline": build_fmu(job.source, job.model, out_dir=folder / "fmu"),
-            final["label"]: build_fmu(variant_path, variant, out_dir=folder / "fmu")}
-    final["fmu"] = str(fmus[final["label"]])
-    entry = {"how": "the built FMUs run by the master (BDF) with the measured inputs played at the data rate",
-             "signal": outputs[0], "configs": {}}
-    fits = {"baseline": base, final["label"]: final}
-    folders = [folder / "rerun"] if len(records) == 1 else \
-        [folder / "rerun" / f"record{k}" for k in range(len(records))]
-    replayed = [rerun({label: (fmus[label], {**job.fixed, **trial, **fit["parameters"]})
-                       for label, fit in fits.items()}, e, inputs, outputs, where, job.rtol)
-                for (e, trial), where in zip(records, folders)]
-    for label, fit in fits.items():
-        predicted = np.hstack([r[label] for r in replayed])
-        rmse, max_error = _rmse(predicted, y, mask)
-        key = "before" if label == "baseline" else "after"
-        entry[f"rmse_{key}"], entry[f"max_error_{key}"] = rmse[0], max_error[0]
-        entry[f"max_difference_to_replay_{key}"] = float(np.max(np.abs(predicted - fit["predicted"])[0, mask]))
-        entry["configs"][label] = str((folders[0] if len(folders) == 1 else folder / "rerun" / "record*")
-                                      / f"{label}.toml")
-    return entry
+def estimate_noise(job, samples):
+    """The noise level of each channel: from differences inside the steady windows of a staircase, inside the
+    approach and steady hold of each impact, or of neighbouring frequencies (shaped by the coherence), floored by
+    the job's stated noise."""
+    s, floor = samples, samples.floor
+    if job.kind == "frequency":  # per frequency, shaped by the coherence
+        sigma, estimated = frequency_noise(s.experiment, floor)
+        return Noise(estimated=estimated, floor=floor, sigma=sigma)
+    t, y = s.time, s.measured
+    estimated = noise_level(t, y, s.present & _per_record(s.records, lambda r: steady_mask(
+        r.time, r.inputs, job.steady_s or 0.2, job.min_hold_s)) if job.kind == "staircase" else s.mask)
+    if job.kind == "impact":  # from every sample first, then from the approach and steady hold of each record
+        rough = max(estimated[0], floor[0])
+        quiet = np.concatenate([_spread(p, quiet_phases(r.time[p], r.measured[p, 0], rough))
+                                for (r, _), p in zip(s.records, s.sampled)])
+        if (s.mask & quiet).sum() >= MIN_QUIET_SAMPLES:
+            estimated = noise_level(t, y, s.mask & quiet)
+    return Noise(estimated=estimated, floor=floor, sigma=np.maximum(estimated, floor))
 
+
+# -- stage 2: segments and folds ------------------------------------------------------------------------------------
+
+def split_segments(job, samples, noise):
+    """The segments (each record cut into its own, labelled by record for repeated trials) and the two folds: fit
+    on the even segments and score on the odd ones, and back (alternate samples when a fold would be empty)."""
+    s = samples
+    t, mask = s.time, s.mask
+    if job.kind == "frequency":
+        segments, shape = frequency_bands(t, s.measured[0], job.bands_per_decade), band_shape
+    else:
+        segments, shape = [], None
+        for k, ((r, _), shift, p) in enumerate(zip(s.records, s.shifts, s.sampled)):
+            for piece in cut_segments(r.time[p], r.inputs[p], job.kind, r.measured[p, 0], noise.sigma[0],
+                                      job.min_hold_s):
+                segments.append(replace(piece, index=len(segments), t0=piece.t0 + shift, t1=piece.t1 + shift,
+                                        label=piece.label if len(s.records) == 1 else
+                                        f"record {k} ({job.records[k][0].name}): {piece.label}"))
+    seg_index = np.full(len(t), -1)
+    for seg in segments:
+        seg_index[in_segment(t, seg)] = seg.index
+    folds = [(mask & (seg_index % 2 == 0), mask & (seg_index % 2 == 1)),
+             (mask & (seg_index % 2 == 1), mask & (seg_index % 2 == 0))]
+    if not all(train.any() and test.any() for train, test in folds):
+        even = np.arange(len(t)) % 2 == 0
+        folds = [(mask & even, mask & ~even), (mask & ~even, mask & even)]
+    return Split(segments=segments, shape=shape, folds=folds)
+
+
+# -- stage 3: the candidates' scores ------------------------------------------------------------------------------
+
+def _fold_fits(job, samples, weights, folds, base, folder, progress):
+    """The baseline and every candidate fitted on each fold's training samples (candidates' variants written into
+    ``folder``), the baseline restarted from candidates that beat it and stalled candidates from the baseline;
+    returns the fits ("baseline" and each effect -> [fold 0, fold 1]) and ``base``, refitted when a restart moved
+    a fold's baseline."""
+    s = samples
+    base_free = {n: (base["parameters"][n], lo, hi) for n, (_, lo, hi) in job.free.items()}
+    tasks = [{"job": job, "effect": "baseline", "variant_path": str(job.source), "variant_model": job.model,
+              "baseline": base_free, "weights": weights, "mask": train, "fold": f}
+             for f, (train, _) in enumerate(folds)]
+    for name in job.effects:
+        path, variant = _write_variant(job, name, folder / name)
+        tasks += [{"job": job, "effect": name, "variant_path": str(path), "variant_model": variant,
+                   "baseline": base_free, "weights": weights, "mask": train, "fold": f}
+                  for f, (train, _) in enumerate(folds)]
+    results = {}
+    for task, res in zip(tasks, _run_tasks(job, tasks, progress)):
+        results.setdefault(task["effect"], [None, None])[task["fold"]] = res
+    # A candidate contains the baseline, so its fit may find values of the baseline's parameters that the
+    # baseline's own fit missed (an impact's cost is rough: the held force jumps with where the motor sticks).
+    # The baseline is refitted from the values of every candidate that beats it by more than min_delta_bic on
+    # the same samples, so that no candidate wins by a better start.
+    restarted = []
+    for f, (fit, (train, _)) in enumerate(zip(results["baseline"], folds)):
+        better = [results[n][f] for n in job.effects if results[n][f]["chi2"] < fit["chi2"] - job.min_delta_bic]
+        restarted.append(_restart_baseline(job, s.model, s.records, fit, better, weights, train))
+    moved = [new for new, old in zip(restarted, results["baseline"]) if new is not old]
+    results["baseline"] = restarted
+    # The other way round: a candidate fitting a fold worse than the (restarted) baseline stalled (a
+    # step in the effect's parameter can stall the trust region while the baseline's parameters still had
+    # far to go). It is refitted from the baseline's values on that fold.
+    stalled = [{**task, "baseline": {n: (results["baseline"][task["fold"]]["parameters"][n], lo, hi)
+                                     for n, (_, lo, hi) in job.free.items()}}
+               for task in tasks if task["effect"] != "baseline"
+               and results[task["effect"]][task["fold"]]["chi2"] > results["baseline"][task["fold"]]["chi2"]]
+    for task, retry in zip(stalled, _run_tasks(job, stalled, progress)):
+        if retry["chi2"] < results[task["effect"]][task["fold"]]["chi2"]:
+            results[task["effect"]][task["fold"]] = retry
+    if moved:
+        base = _restart_baseline(job, s.model, s.records, base, moved, weights, s.mask)
+    return results, base
+
+
+def _score(job, samples, weights, folds, fits):
+    """Each candidate against the baseline: the fraction of the baseline's held-out gap above the noise it removes
+    (each cost sample predicted by the fold's fit that did not see it), information criteria and a
+    likelihood-ratio test on the summed training chi-square."""
+    y, n_fit = samples.measured, samples.n_fit
+
+    def pooled(pair):
+        r = np.concatenate([weighted(fit["predicted"] - y, weights)[:, test].ravel()
+                            for fit, (_, test) in zip(pair, folds)])
+        return r, sum(fit["chi2"] for fit in pair)
+
+    k_base = len(job.free)
+    r_b, chi2_b = pooled(fits["baseline"])
+    ms_b_test = float(np.mean(r_b ** 2))
+    candidates = []
+    for name in job.effects:
+        pair = fits[name]
+        k = len(pair[0]["free"])
+        r_c, chi2_c = pooled(pair)
+        ms_c = float(np.mean(r_c ** 2))
+        removed = (ms_b_test - ms_c) / max(ms_b_test - 1.0, 1e-12) if ms_b_test > 1.0 else 0.0
+        delta = chi2_b - chi2_c
+        heldout = np.concatenate([(fit["predicted"] - y)[0, test] for fit, (_, test) in zip(pair, folds)])
+        candidates.append(Candidate(
+            effect=name, score=float(removed),
+            rmse_after=float(np.sqrt(np.mean(heldout ** 2))), max_error_after=float(np.max(np.abs(heldout))),
+            parameters=dict(pair[0]["parameters"]), parameters_other_fold=dict(pair[1]["parameters"]),
+            added_parameters=_added_parameters(name),
+            heldout_ms_sigma2=ms_c, aic=chi2_c + 2 * k, bic=chi2_c + k * np.log(n_fit),
+            delta_aic=float(delta - 2 * (k - k_base)), delta_bic=float(delta - (k - k_base) * np.log(n_fit)),
+            p_value=float(stats.chi2.sf(max(delta, 0.0), max(k - k_base, 1))), free=pair[0]["free"]))
+    return tuple(candidates)
+
+
+def score_candidates(job, samples, noise, split, base, folder, progress=True):
+    """Fit the baseline and every candidate on each fold and score the candidates on the held-out folds
+    (variants written into ``folder``); no candidates: no fits."""
+    if not job.effects:
+        return Scores(base=base, fits={}, candidates=())
+    fits, base = _fold_fits(job, samples, noise.weights, split.folds, base, folder, progress)
+    return Scores(base=base, fits=fits, candidates=_score(job, samples, noise.weights, split.folds, fits))
+
+
+# -- stage 4: the decision ----------------------------------------------------------------------------------------
 
 def rivals_of(winner, qualified):
     """The qualified candidates the held-out data cannot tell from the winner: a score within 0.1 of its score
@@ -232,253 +489,212 @@ def rivals_of(winner, qualified):
     winner's residual (a jaw friction mimicking a larger gear play on an impact: RMSE 1.23 N against 0.46 N)."""
     if winner is None:
         return []
-    return [c["effect"] for c in qualified if c is not winner and c["score"] >= winner["score"] - 0.1
-            and c["heldout_ms_sigma2"] <= 1.5 * winner["heldout_ms_sigma2"]]
+    return [c.effect for c in qualified if c is not winner and c.score >= winner.score - 0.1
+            and c.heldout_ms_sigma2 <= 1.5 * winner.heldout_ms_sigma2]
 
 
-def run_diagnosis(job, progress=True, build=True, out=None):
-    """Run the workflow on a loaded :class:`~cosim.diagnose.job.DiagnoseJob`; returns a :class:`Diagnosis`.
-
-    ``build`` builds the baseline's and the winner's FMUs and re-runs them through the master (into ``out/fmu`` and
-    ``out/rerun`` when ``out`` is given, else a temporary folder)."""
-    from cosim.compile import lower
-    from cosim.diagnose.job import load_records
-
-    model = lower(job.source, job.model)
-    records = load_records(job, model)
-    e, shifts = _end_to_end(records)
-    t, y = e.time, e.measured.T
-    inputs = np.zeros((len(t), 0)) if job.kind == "frequency" else e.inputs
-
-    def per_record(f):
-        return np.concatenate([f(r) for r, _ in records])
-
-    # per record, the instants where every compared channel has a sample (multi-rate data are compared there; the
-    # inputs are played at every instant)
-    sampled = [np.all(np.isfinite(r.measured), axis=1) for r, _ in records]
-    channels, units, floor = _channels(job, model)
-    present = np.concatenate(sampled)
-    if job.kind == "staircase" and job.steady_s > 0:
-        mask = present & per_record(lambda r: steady_mask(r.time, r.inputs, job.steady_s, job.min_hold_s))
-    else:
-        mask = present
-    if not mask.any():
-        from cosim.errors import ConfigError
-        raise ConfigError(f"{job.path}: no hold of the input lasts experiment.steady_s = {job.steady_s:g} s")
-    floor = np.array(floor)
-    if job.kind == "frequency":  # per frequency, shaped by the coherence
-        sigma, estimated = frequency_noise(e, floor)
-    else:
-        estimated = noise_level(t, y, present & per_record(lambda r: steady_mask(r.time, r.inputs,
-                                                                                  job.steady_s or 0.2, job.min_hold_s))
-                                if job.kind == "staircase" else mask)
-        if job.kind == "impact":  # from every sample first, then from the approach and steady hold of each record
-            rough = max(estimated[0], floor[0])
-            quiet = np.concatenate([_spread(p, quiet_phases(r.time[p], r.measured[p, 0], rough))
-                                    for (r, _), p in zip(records, sampled)])
-            if (mask & quiet).sum() >= MIN_QUIET_SAMPLES:
-                estimated = noise_level(t, y, mask & quiet)
-        sigma = np.maximum(estimated, floor)
-    weights = 1.0 / sigma
-
-    # 1. replay and compare
-    base = _fit(model, records, job, dict(job.free), weights, mask, "baseline")
-    before = base["predicted"]
+def decide(job, samples, noise, split, scores):
+    """Locate the baseline's gap (segment table, shapes, whiteness, cross-correlation with the input) and name the
+    winner: the best-scoring candidate that removes ``min_gap_removed`` of the held-out gap and improves BIC by
+    ``min_delta_bic``, when the baseline shows a gap (a significant segment *and* a whole residual beyond chance);
+    else none."""
+    s = samples
+    t, y, mask, sigma = s.time, s.measured, s.mask, noise.sigma
+    before = scores.base["predicted"]
     residual = before - y
-    rmse_before, max_before = _rmse(before, y, mask)
-
-    # 2. locate (the segments; their table once the baseline is final, after the restarts below)
-    if job.kind == "frequency":
-        segments, shape = frequency_bands(t, y[0], job.bands_per_decade), band_shape
-    else:
-        segments, shape = [], None
-        for k, ((r, _), shift, p) in enumerate(zip(records, shifts, sampled)):
-            for piece in cut_segments(r.time[p], r.inputs[p], job.kind, r.measured[p, 0], sigma[0], job.min_hold_s):
-                segments.append(replace(piece, index=len(segments), t0=piece.t0 + shift, t1=piece.t1 + shift,
-                                        label=piece.label if len(records) == 1 else
-                                        f"record {k} ({job.records[k][0].name}): {piece.label}"))
-
-    # 3. name: two-fold cross-validation over segments (fit on the even ones, score on the odd ones, and back)
-    seg_index = np.full(len(t), -1)
-    for s in segments:
-        seg_index[in_segment(t, s)] = s.index
-    folds = [(mask & (seg_index % 2 == 0), mask & (seg_index % 2 == 1)),
-             (mask & (seg_index % 2 == 1), mask & (seg_index % 2 == 0))]
-    if not all(train.any() and test.any() for train, test in folds):
-        even = np.arange(len(t)) % 2 == 0
-        folds = [(mask & even, mask & ~even), (mask & ~even, mask & even)]
-    candidates = []
-    folder = Path(tempfile.mkdtemp(prefix="cosim-diagnose-"))
-    results = {}
-    if job.effects:
-        base_free = {n: (base["parameters"][n], lo, hi) for n, (_, lo, hi) in job.free.items()}
-        tasks = [{"job": job, "effect": "baseline", "variant_path": str(job.source), "variant_model": job.model,
-                  "baseline": base_free, "weights": weights, "mask": train, "fold": f}
-                 for f, (train, _) in enumerate(folds)]
-        for name in job.effects:
-            path, variant = write_variant(job.source, job.model, EFFECTS[name], folder / name)
-            tasks += [{"job": job, "effect": name, "variant_path": str(path), "variant_model": variant,
-                       "baseline": base_free, "weights": weights, "mask": train, "fold": f}
-                      for f, (train, _) in enumerate(folds)]
-        for task, res in zip(tasks, _run_tasks(job, tasks, progress)):
-            results.setdefault(task["effect"], [None, None])[task["fold"]] = res
-        # A candidate contains the baseline, so its fit may find values of the baseline's parameters that the
-        # baseline's own fit missed (an impact's cost is rough: the held force jumps with where the motor sticks).
-        # The baseline is refitted from the values of every candidate that beats it by more than min_delta_bic on
-        # the same samples, so that no candidate wins by a better start.
-        restarted = []
-        for f, (fit, (train, _)) in enumerate(zip(results["baseline"], folds)):
-            better = [results[n][f] for n in job.effects if results[n][f]["chi2"] < fit["chi2"] - job.min_delta_bic]
-            restarted.append(_restart_baseline(job, model, records, fit, better, weights, train))
-        moved = [new for new, old in zip(restarted, results["baseline"]) if new is not old]
-        results["baseline"] = restarted
-        # The other way round: a candidate fitting a fold worse than the (restarted) baseline stalled (a
-        # step in the effect's parameter can stall the trust region while the baseline's parameters still had
-        # far to go). It is refitted from the baseline's values on that fold.
-        stalled = [{**task, "baseline": {n: (results["baseline"][task["fold"]]["parameters"][n], lo, hi)
-                                         for n, (_, lo, hi) in job.free.items()}}
-                   for task in tasks if task["effect"] != "baseline"
-                   and results[task["effect"]][task["fold"]]["chi2"] > results["baseline"][task["fold"]]["chi2"]]
-        for task, retry in zip(stalled, _run_tasks(job, stalled, progress)):
-            if retry["chi2"] < results[task["effect"]][task["fold"]]["chi2"]:
-                results[task["effect"]][task["fold"]] = retry
-        if moved:
-            base = _restart_baseline(job, model, records, base, moved, weights, mask)
-            before = base["predicted"]
-            residual = before - y
-            rmse_before, max_before = _rmse(before, y, mask)
-    rows = segment_table(t, residual, before, y, mask, segments, sigma, job.gap_sigmas, shape)
-    findings = branch_shapes(segments, rows, sigma)
-    white = whiteness(residual[0, mask])
-    cross = None if job.kind == "frequency" else cross_correlation(residual[0, mask], e.inputs[mask, 0])
-    n_fit = int(mask.sum()) * y.shape[0]
+    rows = segment_table(t, residual, before, y, mask, split.segments, sigma, job.gap_sigmas, split.shape)
+    cross = None if job.kind == "frequency" else cross_correlation(residual[0, mask], s.experiment.inputs[mask, 0])
     # a gap is a segment above gap_sigmas noise levels *and* a baseline whose whole residual is more than noise:
     # its mean square (in noise units) must exceed 1 by more than gap_sigmas times the sqrt(2/n) a mean of n
     # squared unit noises scatters by (a lone segment at 3 sigma is also what noise gives over many segments)
-    ms_baseline, chance = _ms(before, y, weights, mask), 1.0 + job.gap_sigmas * np.sqrt(2.0 / n_fit)
+    ms_baseline, chance = _ms(before, y, noise.weights, mask), 1.0 + job.gap_sigmas * np.sqrt(2.0 / s.n_fit)
     gap_found = any(r["significant"] for r in rows) and bool(ms_baseline > chance)
+    qualified = [c for c in scores.candidates if gap_found and c.score >= job.min_gap_removed
+                 and c.delta_bic >= job.min_delta_bic]
+    winner = max(qualified, key=lambda c: (c.score, c.delta_bic)) if qualified else None
+    return Decision(rows=rows, shapes=branch_shapes(split.segments, rows, sigma),
+                    whiteness=whiteness(residual[0, mask]), cross_correlation=cross, mean_square=ms_baseline,
+                    chance=chance, gap_found=gap_found, winner=winner, rivals=rivals_of(winner, qualified))
 
-    def pooled(fits):
-        """Held-out weighted residuals of both folds (each cost sample predicted by the fit that did not see it),
-        and the summed training chi-square."""
-        r = np.concatenate([weighted(fit["predicted"] - y, weights)[:, test].ravel()
-                            for fit, (_, test) in zip(fits, folds)])
-        return r, sum(fit["chi2"] for fit in fits)
 
-    k_base = len(job.free)
-    if results:
-        r_b, chi2_b = pooled(results["baseline"])
-        ms_b_test = float(np.mean(r_b ** 2))
-    for name in job.effects:
-        fits = results[name]
-        k = len(fits[0]["free"])
-        r_c, chi2_c = pooled(fits)
-        ms_c = float(np.mean(r_c ** 2))
-        removed = (ms_b_test - ms_c) / max(ms_b_test - 1.0, 1e-12) if ms_b_test > 1.0 else 0.0
-        delta = chi2_b - chi2_c
-        heldout = np.concatenate([(fit["predicted"] - y)[0, test] for fit, (_, test) in zip(fits, folds)])
-        candidates.append({
-            "effect": name, "score": float(removed),
-            "rmse_after": float(np.sqrt(np.mean(heldout ** 2))), "max_error_after": float(np.max(np.abs(heldout))),
-            "parameters": dict(fits[0]["parameters"]),
-            "parameters_other_fold": dict(fits[1]["parameters"]),
-            "added_parameters": [p.name for p in EFFECTS[name].parameters] + [n for n, _, _ in EFFECTS[name].frees],
-            "heldout_ms_sigma2": ms_c, "aic": chi2_c + 2 * k, "bic": chi2_c + k * np.log(n_fit),
-            "delta_aic": float(delta - 2 * (k - k_base)), "delta_bic": float(delta - (k - k_base) * np.log(n_fit)),
-            "p_value": float(stats.chi2.sf(max(delta, 0.0), max(k - k_base, 1))),
-            "free": fits[0]["free"],
-        })
-    qualified = [c for c in candidates if gap_found and c["score"] >= job.min_gap_removed
-                 and c["delta_bic"] >= job.min_delta_bic]
-    winner = max(qualified, key=lambda c: (c["score"], c["delta_bic"])) if qualified else None
-    effect = winner["effect"] if winner else "none"
-    rivals = rivals_of(winner, qualified)
+# -- stage 5: the show ----------------------------------------------------------------------------------------------
 
-    # 4. add and show
-    after, variant_source, variant_diff, final, rerun_out = before, "", "", None, None
-    if winner:
-        from cosim.compile import lower as lower_variant
+@contextmanager
+def _build_folder(out):
+    """Where the FMUs and the re-run configs go: ``out``, or without it a new folder the result points to (removed
+    when the build fails)."""
+    if out is not None:
+        yield Path(out)
+        return
+    folder = Path(tempfile.mkdtemp(prefix="cosim-diagnose-"))
+    try:
+        yield folder
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
 
-        path, variant = write_variant(job.source, job.model, EFFECTS[effect], folder / "winner")
-        vmodel = lower_variant(path, variant)
-        folds_fit = (winner["parameters"], winner["parameters_other_fold"])
-        starts = [{n: 0.5 * (folds_fit[0][n] + folds_fit[1][n]) for n in folds_fit[0]}]
-        if any(abs(folds_fit[0][n] - folds_fit[1][n]) > 0.1 * abs(starts[0][n]) for n in folds_fit[0]):
-            starts += folds_fit  # the folds found different minima: their mean may lie in neither basin
-        variant_records = load_records(job, vmodel)
-        final = min((_fit(vmodel, variant_records, job, {n: (v, *winner["free"][n][1:]) for n, v in start.items()},
-                          weights, mask, effect) for start in starts), key=lambda fit: fit["chi2"])
-        after = final["predicted"]
-        variant_source = path.read_text(encoding="utf-8")
-        import difflib
 
-        variant_diff = "".join(difflib.unified_diff(
-            Path(job.source).read_text(encoding="utf-8").splitlines(keepends=True),
-            variant_source.splitlines(keepends=True), fromfile=str(job.source), tofile=f"{job.source} ({effect})"))
-        if build:
-            target = Path(out) if out is not None else folder
+def _final_fit(job, samples, noise, winner, path, variant):
+    """The winner's variant refitted on every cost sample, from the mean of its two folds' values (and from each
+    fold's when they found different minima); the best fit."""
+    from cosim.compile import lower
+    from cosim.diagnose.job import load_records
+
+    vmodel = lower(path, variant)
+    folds_fit = (winner.parameters, winner.parameters_other_fold)
+    starts = [{n: 0.5 * (folds_fit[0][n] + folds_fit[1][n]) for n in folds_fit[0]}]
+    if any(abs(folds_fit[0][n] - folds_fit[1][n]) > 0.1 * abs(starts[0][n]) for n in folds_fit[0]):
+        starts += folds_fit  # the folds found different minima: their mean may lie in neither basin
+    variant_records = load_records(job, vmodel)
+    return min((_fit(vmodel, variant_records, job, {n: (v, *winner.free[n][1:]) for n, v in start.items()},
+                     noise.weights, samples.mask, winner.effect) for start in starts), key=lambda fit: fit["chi2"])
+
+
+def _rerun_both(job, samples, base, final, variant_path, variant, folder):
+    """Build the baseline's and the winner's FMUs into ``folder/fmu`` and re-run both through the master with the
+    measured inputs of every record (:mod:`cosim.diagnose.rerun`, configs in ``folder/rerun``, in
+    ``folder/rerun/record<k>`` for repeated trials); returns the :class:`Rerun` and the winner's FMU."""
+    from cosim.compile import build_fmu
+    from cosim.diagnose.rerun import rerun
+
+    s = samples
+    outputs = [o for o, _, _ in job.signals]
+    inputs = [u.name for u in s.model.inputs]
+    fmus = {"baseline": build_fmu(job.source, job.model, out_dir=folder / "fmu"),
+            final["label"]: build_fmu(variant_path, variant, out_dir=folder / "fmu")}
+    fits = {"baseline": base, final["label"]: final}
+    folders = [folder / "rerun"] if len(s.records) == 1 else \
+        [folder / "rerun" / f"record{k}" for k in range(len(s.records))]
+    replayed = [rerun({label: (fmus[label], {**job.fixed, **trial, **fit["parameters"]})
+                       for label, fit in fits.items()}, e, inputs, outputs, where, job.rtol)
+                for (e, trial), where in zip(s.records, folders)]
+    entry = {"configs": {}}
+    for label, fit in fits.items():
+        predicted = np.hstack([r[label] for r in replayed])
+        rmse, max_error = _rmse(predicted, s.measured, s.mask)
+        key = "before" if label == "baseline" else "after"
+        entry[f"rmse_{key}"], entry[f"max_error_{key}"] = rmse[0], max_error[0]
+        entry[f"max_difference_to_replay_{key}"] = float(np.max(np.abs(predicted - fit["predicted"])[0, s.mask]))
+        entry["configs"][label] = str((folders[0] if len(folders) == 1 else folder / "rerun" / "record*")
+                                      / f"{label}.toml")
+    return Rerun(how=RERUN_HOW, signal=outputs[0], **entry), str(fmus[final["label"]])
+
+
+def show(job, samples, noise, scores, decision, folder, build=True, out=None):
+    """Add the winner: write its variant (into ``folder``), refit it on every cost sample, diff it against the
+    baseline's source and, with ``build``, build its FMU (and for a time series the baseline's) and re-run both
+    through the master, into ``out`` (without it, a new folder the result points to)."""
+    winner = decision.winner
+    if winner is None:
+        return Show(final=None, after=scores.base["predicted"])
+    path, variant = _write_variant(job, winner.effect, folder / "winner")
+    final = _final_fit(job, samples, noise, winner, path, variant)
+    variant_source = path.read_text(encoding="utf-8")
+    variant_diff = "".join(difflib.unified_diff(
+        Path(job.source).read_text(encoding="utf-8").splitlines(keepends=True),
+        variant_source.splitlines(keepends=True), fromfile=str(job.source), tofile=f"{job.source} ({winner.effect})"))
+    fmu, rerun = None, None
+    if build:
+        with _build_folder(out) as target:
             if job.kind == "frequency":  # a frequency response is not a time series the master could replay
                 from cosim.compile import build_fmu
 
-                final["fmu"] = str(build_fmu(path, variant, out_dir=target / "fmu"))
+                fmu = str(build_fmu(path, variant, out_dir=target / "fmu"))
             else:
-                rerun_out = _rerun_both(job, records, model, base, path, variant, final, target, y, mask)
-    rmse_after, max_after = _rmse(after, y, mask)
-    ms_after = _ms(after, y, weights, mask)
-    rows_after = segment_table(t, after - y, after, y, mask, segments, sigma, job.gap_sigmas, shape)
-    seg_out = []
-    for rb, ra in zip(rows, rows_after):
-        seg_out.append({**{k: rb[k] for k in ("segment", "kind", "t0", "t1", "level", "samples", "significant",
-                                              "shape", "sigmas")},
-                        "signal": channels[rb["signal"]], "bias_before": rb["bias"], "rmse_before": rb["rmse"],
-                        "max_error_before": rb["max_error"], "bias_after": ra["bias"], "rmse_after": ra["rmse"],
-                        "max_error_after": ra["max_error"], "significant_after": ra["significant"]})
-    summary = {
-        "job": str(job.path), "model": job.model, "data": str(job.data_path),
-        "records": [{"path": str(path), "parameters": trial, "samples": len(r.time), "compared": int(p.sum()),
-                     "time_shift": shift}
-                    for (path, trial), (r, _), shift, p in zip(job.records, records, shifts, sampled)],
-        "effect": effect,
-        "verdict": (f"missing effect: {effect} ({EFFECTS[effect].title})" if winner else
-                    "no missing effect found" + ("" if gap_found else
-                                                 f": the baseline fits within the noise (mean square "
-                                                 f"{ms_baseline:.3g} noise levels squared, chance up to "
-                                                 f"{chance:.3g}; segments above {job.gap_sigmas:g} noise "
-                                                 f"levels: {sum(r['significant'] for r in rows)})")),
-        "also_explained_by": rivals,
-        "kind": job.kind,
-        "signals": channels,
-        "units": units,
-        "inputs": [u.name for u in model.inputs] if job.kind != "frequency" else [],
-        "input_units": [u.unit for u in model.inputs] if job.kind != "frequency" else [],
-        "parameter_units": {**{p.name: p.unit for p in model.parameters},
-                            **{p.name: p.unit for n in job.effects for p in EFFECTS[n].parameters}},
-        "noise": {"estimated": estimated.tolist(), "floor": floor.tolist(),
-                  "used": (sigma if sigma.ndim == 1 else np.median(sigma, axis=1)).tolist()},
-        "rmse_before": rmse_before[0], "rmse_after": rmse_after[0],
-        "max_error_before": max_before[0], "max_error_after": max_after[0],
-        "rmse_before_per_signal": rmse_before, "rmse_after_per_signal": rmse_after,
-        "gap_removed": float(1 - (ms_after - 1) / (ms_baseline - 1)) if ms_baseline > 1 else 0.0,
-        "baseline": {"parameters": base["parameters"], "free": {n: list(v) for n, v in job.free.items()}},
-        "after": ({"parameters": final["parameters"], "fmu": final.get("fmu")} if final else None),
-        "rerun": rerun_out,
-        "segments": seg_out,
-        "gap_found": gap_found,
-        "baseline_mean_square": ms_baseline,  # weighted residual on the cost samples, in noise levels squared
-        "shapes": findings,
-        "whiteness": white,
-        "input_cross_correlation": cross,
-        "folds": {"scheme": "two-fold over segments: fit on the even ones, score on the odd ones, and back",
-                  "samples": [int(train.sum()) for train, _ in folds]},
-        "decision": {"min_gap_removed": job.min_gap_removed, "min_delta_bic": job.min_delta_bic,
-                     "gap_sigmas": job.gap_sigmas, "mean_square_chance": chance},
-        "candidates": sorted(candidates, key=lambda c: -c["score"]),
-    }
-    preds = {name: fits[0]["predicted"] for name, fits in results.items()}
-    for c in candidates:
-        del c["free"]
-    if not (build and winner and out is None):  # keep the folder only when it holds the built FMU
-        shutil.rmtree(folder, ignore_errors=True)
-    return Diagnosis(effect=effect, summary=summary, time=t, inputs=inputs, measured=y, before=before,
-                     after=after, mask=mask, noise=sigma, variant_source=variant_source, variant_diff=variant_diff,
-                     candidate_predictions=preds)
+                rerun, fmu = _rerun_both(job, samples, scores.base, final, path, variant, target)
+    return Show(final=final, after=final["predicted"], fmu=fmu, variant_source=variant_source,
+                variant_diff=variant_diff, rerun=rerun)
+
+
+# -- the result -----------------------------------------------------------------------------------------------------
+
+def _verdict(job, decision):
+    if decision.winner is not None:
+        return f"missing effect: {decision.effect} ({_title(decision.effect)})"
+    if decision.gap_found:
+        return "no missing effect found"
+    return (f"no missing effect found: the baseline fits within the noise (mean square {decision.mean_square:.3g} "
+            f"noise levels squared, chance up to {decision.chance:.3g}; segments above {job.gap_sigmas:g} noise "
+            f"levels: {sum(r['significant'] for r in decision.rows)})")
+
+
+def _segment_rows(samples, noise, split, job, rows, after):
+    """The baseline's segment table beside the winner's (``after``: its replay)."""
+    s = samples
+    rows_after = segment_table(s.time, after - s.measured, after, s.measured, s.mask, split.segments, noise.sigma,
+                               job.gap_sigmas, split.shape)
+    return tuple(SegmentRow(**{k: rb[k] for k in ("segment", "kind", "t0", "t1", "level", "samples", "significant",
+                                                  "shape", "sigmas")},
+                            signal=s.channels[rb["signal"]], bias_before=rb["bias"], rmse_before=rb["rmse"],
+                            max_error_before=rb["max_error"], bias_after=ra["bias"], rmse_after=ra["rmse"],
+                            max_error_after=ra["max_error"], significant_after=ra["significant"])
+                 for rb, ra in zip(rows, rows_after))
+
+
+def _diagnosis(job, samples, noise, split, scores, decision, shown):
+    """The stages' results as a :class:`Diagnosis`."""
+    s, base, final = samples, scores.base, shown.final
+    y, mask, model, frequency = s.measured, s.mask, s.model, job.kind == "frequency"
+    rmse_before, max_before = _rmse(base["predicted"], y, mask)
+    rmse_after, max_after = _rmse(shown.after, y, mask)
+    ms_after, ms_baseline = _ms(shown.after, y, noise.weights, mask), decision.mean_square
+    return Diagnosis(
+        job=str(job.path), model=job.model, data=str(job.data_path),
+        records=tuple(RecordSummary(path=str(path), parameters=trial, samples=len(r.time), compared=int(p.sum()),
+                                    time_shift=shift)
+                      for (path, trial), (r, _), shift, p in zip(job.records, s.records, s.shifts, s.sampled)),
+        effect=decision.effect, verdict=_verdict(job, decision), also_explained_by=decision.rivals,
+        kind=job.kind, signals=s.channels, units=s.units,
+        inputs=[] if frequency else [u.name for u in model.inputs],
+        input_units=[] if frequency else [u.unit for u in model.inputs],
+        parameter_units={**{p.name: p.unit for p in model.parameters}, **_effect_units(job.effects)},
+        noise=noise, rmse_before_per_signal=rmse_before, rmse_after_per_signal=rmse_after,
+        max_error_before=max_before[0], max_error_after=max_after[0],
+        gap_removed=float(1 - (ms_after - 1) / (ms_baseline - 1)) if ms_baseline > 1 else 0.0,
+        baseline_parameters=base["parameters"], baseline_free={n: list(v) for n, v in job.free.items()},
+        after_parameters=final["parameters"] if final else None, fmu=shown.fmu, rerun=shown.rerun,
+        segments=_segment_rows(s, noise, split, job, decision.rows, shown.after),
+        gap_found=decision.gap_found, baseline_mean_square=ms_baseline, shapes=decision.shapes,
+        whiteness=decision.whiteness, input_cross_correlation=decision.cross_correlation,
+        fold_samples=[int(train.sum()) for train, _ in split.folds],
+        decision={"min_gap_removed": job.min_gap_removed, "min_delta_bic": job.min_delta_bic,
+                  "gap_sigmas": job.gap_sigmas, "mean_square_chance": decision.chance},
+        candidates=tuple(sorted(scores.candidates, key=lambda c: -c.score)),
+        traces=Traces(time=s.time, inputs=np.zeros((len(s.time), 0)) if frequency else s.experiment.inputs,
+                      measured=y, before=base["predicted"], after=shown.after, mask=mask,
+                      candidate_predictions={name: pair[0]["predicted"] for name, pair in scores.fits.items()}),
+        variant_source=shown.variant_source, variant_diff=shown.variant_diff)
+
+
+def run_diagnosis(job, progress=True, build=True, out=None):
+    """Run the workflow on a loaded job.
+
+    Parameters
+    ----------
+    job : cosim.diagnose.job.DiagnoseJob
+    progress : bool, default True
+        Progress bar over the candidate fits.
+    build : bool, default True
+        Build the winner's FMU (for a time series also the baseline's) and re-run both through the master.
+    out : str or Path, optional
+        Where the built FMUs (``out/fmu``) and the re-run configs (``out/rerun``) go; without it, a new folder
+        the result's ``fmu`` and ``rerun.configs`` name.
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    cosim.errors.ConfigError
+        When no hold of a staircase lasts ``experiment.steady_s``.
+    """
+    samples = load_samples(job)
+    noise = estimate_noise(job, samples)
+    base = _fit(samples.model, samples.records, job, dict(job.free), noise.weights, samples.mask, "baseline")
+    split = split_segments(job, samples, noise)
+    with tempfile.TemporaryDirectory(prefix="cosim-diagnose-") as scratch:  # the variants' Modelica packages
+        scores = score_candidates(job, samples, noise, split, base, Path(scratch), progress)
+        decision = decide(job, samples, noise, split, scores)
+        shown = show(job, samples, noise, scores, decision, Path(scratch), build, out)
+    return _diagnosis(job, samples, noise, split, scores, decision, shown)

@@ -1,0 +1,282 @@
+"""The typed result of a diagnosis (:func:`cosim.diagnose.workflow.run_diagnosis`) and its JSON form: what
+``diagnosis.json`` holds is :meth:`Diagnosis.to_json`."""
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+__all__ = ["Noise", "Candidate", "Rerun", "RecordSummary", "SegmentRow", "Traces", "Diagnosis"]
+
+FOLD_SCHEME = "two-fold over segments: fit on the even ones, score on the odd ones, and back"
+
+
+@dataclass(frozen=True)
+class Noise:
+    """The noise level (1 sd) of each channel: ``estimated`` from the data, the job's ``floor`` and the level
+    ``sigma`` the residuals are weighed with, shape (n_signals,) or per frequency (n_signals, N)."""
+
+    estimated: np.ndarray
+    floor: np.ndarray
+    sigma: np.ndarray
+
+    @property
+    def weights(self):
+        """1 / ``sigma``."""
+        return 1.0 / self.sigma
+
+    @property
+    def used(self):
+        """One level per channel: ``sigma``, or its median over the frequencies."""
+        return (self.sigma if self.sigma.ndim == 1 else np.median(self.sigma, axis=1)).tolist()
+
+    def to_json(self):
+        """The ``noise`` entry of ``diagnosis.json``."""
+        return {"estimated": self.estimated.tolist(), "floor": self.floor.tolist(), "used": self.used}
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A candidate effect scored on the held-out folds (the keys of a ``candidates`` entry of diagnosis.json);
+    ``free`` (name -> [start, min, max] of its fold-0 fit) starts the winner's final fit."""
+
+    effect: str
+    score: float
+    rmse_after: float
+    max_error_after: float
+    parameters: dict
+    parameters_other_fold: dict
+    added_parameters: list
+    heldout_ms_sigma2: float
+    aic: float
+    bic: float
+    delta_aic: float
+    delta_bic: float
+    p_value: float
+    free: dict
+
+    def to_json(self):
+        """The candidate's entry in diagnosis.json (without ``free``)."""
+        entry = asdict(self)
+        del entry["free"]
+        return entry
+
+
+@dataclass(frozen=True)
+class Rerun:
+    """The baseline's and the winner's FMUs re-run through the master: the ``rerun`` entry of diagnosis.json."""
+
+    how: str
+    signal: str
+    configs: dict
+    rmse_before: float
+    max_error_before: float
+    max_difference_to_replay_before: float
+    rmse_after: float
+    max_error_after: float
+    max_difference_to_replay_after: float
+
+
+@dataclass(frozen=True)
+class RecordSummary:
+    """A record: its data file, the trial's fixed values, its instants, those compared, its time shift [s]."""
+
+    path: str
+    parameters: dict
+    samples: int
+    compared: int
+    time_shift: float
+
+
+@dataclass(frozen=True)
+class SegmentRow:
+    """A segment and a compared channel, before and after the winner (a ``segments`` entry of diagnosis.json)."""
+
+    segment: str
+    kind: str
+    t0: float
+    t1: float
+    level: float
+    samples: int
+    significant: bool
+    shape: str
+    sigmas: float
+    signal: str
+    bias_before: float
+    rmse_before: float
+    max_error_before: float
+    bias_after: float
+    rmse_after: float
+    max_error_after: float
+    significant_after: bool
+
+
+@dataclass(frozen=True)
+class Traces:
+    """The series the plots draw.
+
+    Attributes
+    ----------
+    time : ndarray, shape (N,)
+        Time [s], or frequency [Hz] for a frequency response.
+    inputs : ndarray, shape (N, n_inputs)
+        (N, 0) for a frequency response.
+    measured, before, after : ndarray, shape (n_signals, N)
+        Measured outputs and the baseline's and the winner's replays (``after`` is ``before`` for "none"); for a
+        frequency response the two channels magnitude [dB] and phase [deg].
+    mask : ndarray of bool, shape (N,)
+        Cost samples.
+    candidate_predictions : dict
+        "baseline" and each candidate -> its fold-0 replay, shape (n_signals, N).
+    """
+
+    time: np.ndarray
+    inputs: np.ndarray
+    measured: np.ndarray
+    before: np.ndarray
+    after: np.ndarray
+    mask: np.ndarray
+    candidate_predictions: dict
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """The result of a diagnosis: :meth:`to_json` is the content of ``diagnosis.json`` (each attribute below is
+    the key of that name unless said otherwise); ``traces`` feed the plots.
+
+    Attributes
+    ----------
+    job, model, data : str
+        The job file, the baseline model, the (first) data file.
+    records : tuple of RecordSummary
+    effect : str
+        The named effect, or ``"none"``.
+    verdict : str
+    also_explained_by : list of str
+        Qualified candidates the held-out data cannot tell from the winner (:func:`rivals_of`).
+    kind : str
+        "staircase", "impact" or "frequency".
+    signals, units : list of str
+        The compared channels (for a frequency response its magnitude [dB] and phase [deg]).
+    inputs, input_units : list of str
+        The model's inputs (none for a frequency response).
+    parameter_units : dict
+    noise : Noise
+        Its ``sigma`` weighs the residuals; ``noise`` in the JSON is :meth:`Noise.to_json`.
+    rmse_before_per_signal, rmse_after_per_signal : list of float
+        On the cost samples; ``rmse_before`` and ``rmse_after`` in the JSON are the first channel's.
+    max_error_before, max_error_after : float
+        The first channel's.
+    gap_removed : float
+        Fraction of the baseline's gap above the noise (all channels) the winner removes.
+    baseline_parameters, baseline_free : dict
+        The baseline's fit and its free parameters (name -> [start, min, max]): ``baseline`` in the JSON.
+    after_parameters : dict or None
+        The winner's fit on every cost sample; with ``fmu``, its built FMU (None when not built): ``after``.
+    rerun : Rerun or None
+    segments : tuple of SegmentRow
+    gap_found : bool
+    baseline_mean_square : float
+        The baseline's weighted residual on the cost samples, in noise levels squared.
+    shapes : list of dict
+    whiteness : dict
+    input_cross_correlation : dict or None
+    fold_samples : list of int
+        Training samples of each fold: ``folds`` in the JSON.
+    decision : dict
+        The decision's thresholds and the baseline's chance mean square.
+    candidates : tuple of Candidate
+        Best score first.
+    traces : Traces
+    variant_source : str
+        Modelica text of the package with the winner's variant ("" for none).
+    variant_diff : str
+    """
+
+    job: str
+    model: str
+    data: str
+    records: tuple
+    effect: str
+    verdict: str
+    also_explained_by: list
+    kind: str
+    signals: list
+    units: list
+    inputs: list
+    input_units: list
+    parameter_units: dict
+    noise: Noise
+    rmse_before_per_signal: list
+    rmse_after_per_signal: list
+    max_error_before: float
+    max_error_after: float
+    gap_removed: float
+    baseline_parameters: dict
+    baseline_free: dict
+    after_parameters: object
+    fmu: object
+    rerun: object
+    segments: tuple
+    gap_found: bool
+    baseline_mean_square: float
+    shapes: list
+    whiteness: dict
+    input_cross_correlation: object
+    fold_samples: list
+    decision: dict
+    candidates: tuple
+    traces: Traces
+    variant_source: str = ""
+    variant_diff: str = ""
+
+    @property
+    def rmse_before(self):
+        """The first channel's RMSE before, on the cost samples."""
+        return self.rmse_before_per_signal[0]
+
+    @property
+    def rmse_after(self):
+        """The first channel's RMSE after (the baseline's for "none"), on the cost samples."""
+        return self.rmse_after_per_signal[0]
+
+    def to_json(self):
+        """The content of ``diagnosis.json``: a dict of plain values (numpy scalars as Python numbers,
+        non-finite floats as None)."""
+        return _plain({
+            "job": self.job, "model": self.model, "data": self.data,
+            "records": [asdict(r) for r in self.records],
+            "effect": self.effect, "verdict": self.verdict, "also_explained_by": self.also_explained_by,
+            "kind": self.kind, "signals": self.signals, "units": self.units, "inputs": self.inputs,
+            "input_units": self.input_units, "parameter_units": self.parameter_units,
+            "noise": self.noise.to_json(),
+            "rmse_before": self.rmse_before, "rmse_after": self.rmse_after,
+            "max_error_before": self.max_error_before, "max_error_after": self.max_error_after,
+            "rmse_before_per_signal": self.rmse_before_per_signal,
+            "rmse_after_per_signal": self.rmse_after_per_signal,
+            "gap_removed": self.gap_removed,
+            "baseline": {"parameters": self.baseline_parameters, "free": self.baseline_free},
+            "after": (None if self.after_parameters is None else
+                      {"parameters": self.after_parameters, "fmu": self.fmu}),
+            "rerun": None if self.rerun is None else asdict(self.rerun),
+            "segments": [asdict(r) for r in self.segments],
+            "gap_found": self.gap_found,
+            "baseline_mean_square": self.baseline_mean_square,
+            "shapes": self.shapes, "whiteness": self.whiteness,
+            "input_cross_correlation": self.input_cross_correlation,
+            "folds": {"scheme": FOLD_SCHEME, "samples": self.fold_samples},
+            "decision": self.decision,
+            "candidates": [c.to_json() for c in self.candidates],
+        })
+
+
+def _plain(value):
+    """``value`` with numpy scalars as Python numbers and non-finite floats as None, for JSON."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
