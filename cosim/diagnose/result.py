@@ -171,7 +171,9 @@ class Diagnosis:
     baseline_parameters, baseline_free : dict
         The baseline's fit and its free parameters (name -> [start, min, max]): ``baseline`` in the JSON.
     after_parameters : dict or None
-        The winner's fit on every cost sample; with ``fmu``, its built FMU (None when not built): ``after``.
+        The winner's fit on every cost sample: ``after`` in the JSON, with ``fmu``.
+    fmu : str or None
+        The winner's built FMU (None when not built).
     rerun : Rerun or None
     segments : tuple of SegmentRow
     gap_found : bool
