@@ -1,0 +1,78 @@
+"""Where the time of one ``cosim run`` goes: imports, config, kernel load, set-up, loop, writing, plotting.
+
+Each run is a fresh process making the same calls as ``cosim run CONFIG --out DIR``, with a timer around each
+phase; the whole process is timed from outside. Prints min and median over the runs. Run after one warm-up
+``cosim run`` of the same config, so that the kernel load is numba's cache, not a first compile.
+
+    python benchmarks/startup.py [--config examples/gripper_impact.toml] [--runs 3]
+"""
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+PHASES = ("imports", "config", "kernel_load", "setup", "loop", "writing", "plotting")
+
+# The child: the calls of cosim.cli's `run` command (cosim.master.run.run_config), timed one by one.
+CHILD = r"""
+import json, sys, time
+t0 = time.perf_counter()
+import cosim.cli, cosim.master
+from cosim.master import output
+t1 = time.perf_counter()
+from cosim.config import load_config
+config = load_config(sys.argv[1], [])
+t2 = time.perf_counter()
+result = cosim.master.engine_for(config).run(progress=False)
+t3 = time.perf_counter()
+plotting = [0.0]
+draw = output.plot_results
+def timed(*args, **kwargs):
+    start = time.perf_counter()
+    try:
+        return draw(*args, **kwargs)
+    finally:
+        plotting[0] = time.perf_counter() - start
+output.plot_results = timed
+output.write_results(result, config, sys.argv[2], summary=cosim.master.summarize(result, config))
+t4 = time.perf_counter()
+print(json.dumps({"imports": t1 - t0, "config": t2 - t1, "kernel_load": result.compile_s,
+                  "setup": t3 - t2 - result.compile_s - result.wall_s, "loop": result.wall_s,
+                  "writing": t4 - t3 - plotting[0], "plotting": plotting[0]}))
+"""
+
+
+def one_run(config, out):
+    """The phases of one fresh process, and its whole wall time (s)."""
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, "-c", CHILD, config, out], capture_output=True, text=True, check=True)
+    whole = time.perf_counter() - start
+    phases = json.loads(done.stdout.strip().splitlines()[-1])
+    phases["whole process"] = whole
+    return phases
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", default="examples/gripper_impact.toml")
+    parser.add_argument("--runs", type=int, default=3)
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory(prefix="cosim-startup-") as out:
+        one_run(args.config, out)  # warm-up: numba's cache
+        runs = [one_run(args.config, out) for _ in range(args.runs)]
+    print(f"cosim run {args.config}: {args.runs} fresh processes after one warm-up")
+    print(f"{'phase':<16}{'min s':>8}{'median s':>10}")
+    for phase in (*PHASES, "whole process"):
+        values = [r[phase] for r in runs]
+        print(f"{phase:<16}{min(values):>8.3f}{statistics.median(values):>10.3f}")
+    interpreter = [r["whole process"] - sum(r[p] for p in PHASES) for r in runs]
+    print(f"{'interpreter':<16}{min(interpreter):>8.3f}{statistics.median(interpreter):>10.3f}  "
+          "(start-up and exit: the whole process less the phases)")
+
+
+if __name__ == "__main__":
+    main()
