@@ -143,6 +143,7 @@ def test_noise_estimate_matches_the_true_scatter():
 # -- hidden effects ----------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("effect, seed", [("none", 1), ("hand_mass", 1), ("vibration_mode", 1), ("loop_delay", 1)])
+@pytest.mark.slow
 def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     frame, truth = make_case(effect, np.random.default_rng(seed))
     s = run_diagnosis(load_diagnose_job(_write_job(tmp_path, frame)), progress=False, build=False).summary
@@ -166,6 +167,7 @@ def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     assert any(seg["significant"] for seg in s["segments"])
 
 
+@pytest.mark.slow
 def test_cli_on_the_shipped_job(tmp_path):
     """`cosim diagnose examples/diagnose_haptic.toml` names the demonstration's hidden loop delay and writes the
     report, the Bode and band figures, the variant's Modelica and its FMU."""

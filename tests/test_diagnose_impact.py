@@ -24,6 +24,8 @@ from diagnose_truth_impact import (CONDITION, COUNTS, CURRENT_NOISE, DURATION, F
                                    write_job)
 from test_gripper_support import ROOT
 
+pytestmark = pytest.mark.slow  # lowered gripper variants, numpy truths at 10 us steps, diagnosis fits
+
 SOURCE = ROOT / "modelica" / "Gripper" / "package.mo"
 MODEL = "Gripper.GripperCurrentDriven"
 BARE = {"gap0": 0.005, "t_coat": 0.0, "k_obj": 3.53e7, "k_P": 1e12, "C_p": 2000.0, "C_h": 2000.0}
