@@ -31,7 +31,13 @@ def _commit():
 
 
 def _stamp(seeds):
-    """One line: command, commit, date (UTC), seeds, cores and load (timings depend on both)."""
+    """One line: command, commit, date (UTC), seeds, cores and load (timings depend on both).
+
+    Refuses (SystemExit) when the ``cosim`` that ran is not this checkout's: the commit would not be the code."""
+    cosim = sys.modules.get("cosim")
+    if cosim is not None and ROOT not in Path(cosim.__file__).resolve().parents:
+        raise SystemExit(f"the benchmark ran {Path(cosim.__file__).parent}, not {ROOT / 'cosim'}; run it with "
+                         f"PYTHONPATH={ROOT} (or install this checkout: pip install -e .)")
     command = " ".join(["python", f"benchmarks/{Path(sys.argv[0]).name}", *map(shlex.quote, sys.argv[1:])])
     now = datetime.datetime.now(datetime.timezone.utc)
     load = f", load average {os.getloadavg()[0]:.1f}" if hasattr(os, "getloadavg") else ""
