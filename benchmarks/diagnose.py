@@ -27,7 +27,7 @@ from cosim.diagnose import load_diagnose_job, run_diagnosis  # noqa: E402
 from validation import write_confusion  # noqa: E402
 
 CANDIDATES = ("backdrive_efficiency", "load_dependent_friction", "loadcell_filter")
-# On steady holds a guide friction mu_F*F is, to O(mu_F^2), a lower gear efficiency (docs/diagnose.md): the
+# On steady holds a guide friction mu_F*F is, to O(mu_F^2), a lower gear efficiency (docs/guide/diagnose.md): the
 # static staircase cannot tell it from the baseline, so its row is reported apart from the naming rate.
 NOT_IDENTIFIABLE = ("load_dependent_friction",)
 
