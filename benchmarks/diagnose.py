@@ -4,7 +4,7 @@ Each case: a quasi-static stick/slip gripper (tests/diagnose_truth.py, written i
 plant and candidates) with random parameters, one hidden effect or none, load-cell noise; the workflow fits the
 baseline Gripper.GripperCurrentDriven and the candidates and names one effect or "none".
 
-Run: python benchmarks/diagnose.py [--cases N] [--seed S] [--noise SD] [--workers W]
+Run: python benchmarks/diagnose.py [--cases N] [--seed S] [--noise SD] [--workers W] [--validation]
 Prints one line per case, then the confusion matrix (rows: truth, columns: named), the false-alarm rate on "none"
 cases and the gap above the noise removed by the named effect when it is right.
 """
@@ -24,9 +24,10 @@ sys.path.insert(0, str(ROOT / "tests"))
 from diagnose_truth import TRUTH_EFFECTS, make_case, write_job  # noqa: E402
 
 from cosim.diagnose import load_diagnose_job, run_diagnosis  # noqa: E402
+from validation import write_confusion  # noqa: E402
 
 CANDIDATES = ("backdrive_efficiency", "load_dependent_friction", "loadcell_filter")
-# On steady holds a guide friction mu_F*F is, to O(mu_F^2), a lower gear efficiency (docs/diagnose.md): the
+# On steady holds a guide friction mu_F*F is, to O(mu_F^2), a lower gear efficiency (docs/guide/diagnose.md): the
 # static staircase cannot tell it from the baseline, so its row is reported apart from the naming rate.
 NOT_IDENTIFIABLE = ("load_dependent_friction",)
 
@@ -36,6 +37,8 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=100)
     parser.add_argument("--noise", type=float, default=0.3, help="load-cell noise sd [N]")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--validation", action="store_true",
+                        help="also write the confusion matrix into docs/validation.md")
     args = parser.parse_args(argv)
     labels = list(TRUTH_EFFECTS)
     named_labels = labels + [c for c in CANDIDATES if c not in labels]
@@ -70,6 +73,8 @@ def main(argv=None):
     if gaps:
         print(f"gap above the noise removed when named right: min {100 * min(gaps):.0f} %, median "
               f"{100 * np.median(gaps):.0f} %")
+    if args.validation:
+        write_confusion("diagnose-staircase", matrix, gaps, [args.seed])
 
 
 if __name__ == "__main__":

@@ -6,7 +6,7 @@ candidates: a 7-parameter device + user (none), an 11-parameter one (hand_mass, 
 one with a second mode from a hand-written state space (vibration_mode), or with an exact torque delay
 (loop_delay). The workflow fits the baseline Haptic.Device7 and the three candidates and names one or "none".
 
-Run: python benchmarks/diagnose_haptic.py [--cases N] [--seed S] [--effects a,b]
+Run: python benchmarks/diagnose_haptic.py [--cases N] [--seed S] [--effects a,b] [--validation]
 Prints one line per case, then the confusion matrix (rows: truth, columns: named), the false-alarm rate on "none"
 cases and the gap above the noise removed by the named effect when it is right.
 """
@@ -27,6 +27,7 @@ from diagnose_truth_haptic import TRUTH_EFFECTS, make_case  # noqa: E402
 from test_diagnose_haptic import HAPTIC, _write_job  # noqa: E402
 
 from cosim.diagnose import load_diagnose_job, run_diagnosis  # noqa: E402
+from validation import write_confusion  # noqa: E402
 
 
 def main(argv=None):
@@ -34,6 +35,8 @@ def main(argv=None):
     parser.add_argument("--cases", type=int, default=3, help="cases per truth effect")
     parser.add_argument("--seed", type=int, default=100)
     parser.add_argument("--effects", default=",".join(TRUTH_EFFECTS), help="truth effects to draw, comma-separated")
+    parser.add_argument("--validation", action="store_true",
+                        help="also write the confusion matrix into docs/validation.md")
     args = parser.parse_args(argv)
     labels = args.effects.split(",")
     unknown = sorted(set(labels) - set(TRUTH_EFFECTS))
@@ -72,6 +75,8 @@ def main(argv=None):
     if gaps:
         print(f"gap above the noise removed when named right: min {100 * min(gaps):.0f} %, median "
               f"{100 * np.median(gaps):.0f} %")
+    if args.validation:
+        write_confusion("diagnose-haptic", matrix, gaps, [args.seed])
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ the classic cogging measurement, where a detent shows as a ripple of the current
 
 Run: python benchmarks/diagnose_impact.py [--cases N] [--seed S] [--workers W] [--effects a,b] [--trials N]
                                           [--experiment impact|slide|speed] [--only a] [--from-case K] [--save DIR]
+                                          [--validation]
 ``--only`` and ``--from-case`` re-run a subset of a run's cases on the same draws (e.g. after a change to one
 candidate, or to finish a run that was stopped).
 Prints one line per case, with how much the hidden effect alone changes the noise-free truth's records (a miss
@@ -46,6 +47,7 @@ from diagnose_truth_impact import (COUNTS, EXPERIMENTS, TRUTH_EFFECTS, effect_si
 
 from cosim.diagnose import load_diagnose_job, run_diagnosis  # noqa: E402
 from cosim.diagnose.report import write_diagnosis  # noqa: E402
+from validation import write_confusion  # noqa: E402
 
 CANDIDATES = ("gear_play", "contact_damping", "coating_relaxation", "stiction", "loadcell_filter", "cogging",
               "load_dependent_friction")
@@ -69,6 +71,8 @@ def main(argv=None):
                         help="diagnose cases K and later only; the earlier are drawn and skipped, as with --only")
     parser.add_argument("--save", type=Path, metavar="DIR",
                         help="write each case's diagnosis (diagnosis.json, report.md, plots) to DIR/case<K>_<effect>")
+    parser.add_argument("--validation", action="store_true",
+                        help="also write the confusion matrix into docs/validation.md")
     args = parser.parse_args(argv)
     if not 0 <= args.from_case < args.cases:
         parser.error(f"--from-case must be in 0..{args.cases - 1}")
@@ -136,6 +140,9 @@ def main(argv=None):
         print(f"gap above the noise removed when named right (mean square of {channel} and theta_m in noise units, as "
               f"diagnosis.json's gap_removed): min {100 * both.min():.0f} %, median {100 * np.median(both):.0f} %; "
               f"{channel} alone: min {100 * channel_only.min():.0f} %, median {100 * np.median(channel_only):.0f} %")
+    if args.validation:
+        write_confusion(f"diagnose-{args.experiment}" + ("-trials" if args.trials > 1 else ""), matrix.loc[only],
+                        gaps, [args.seed])
 
 
 if __name__ == "__main__":

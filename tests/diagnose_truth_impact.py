@@ -73,7 +73,7 @@ PHI_DAHL = 1e-3                                   # rad, presliding angle of the
 # angle (at 1 mrad the Modelica's rebound is 3-5 counts off, the same in every trial; at 0.6-0.7 mrad the force
 # is closer), a gap above the encoder's floor that any candidate bending the rebound took for a missing effect.
 # Free down to 0.1 mrad, phi_b bent a detent torque's rest angles away; free on the slide, it traded with the
-# guides' sliding friction F_cj, so the slide keeps eta_g and T_c0 only (docs/diagnose.md, ninth round).
+# guides' sliding friction F_cj, so the slide keeps eta_g and T_c0 only (docs/dev/diagnose-history.md, ninth round).
 PHI_B_START = 1e-3                                # rad
 N_COG = 24                                        # cogging periods per revolution (motor geometry, as the Modelica's)
 PLACEMENT = 1e-4                                  # m: scatter of the object's position over repeated trials

@@ -54,6 +54,7 @@ def test_recovers_known_parameters_within_two_standard_errors(msd):
     assert 0.3 < fit.cost_after_ / 300 < 0.7
 
 
+@pytest.mark.slow
 def test_standard_errors_shrink_with_more_data(msd):
     free = {"k": (150.0, 10.0, 1000.0), "d": (3.0, 0.01, 10.0)}
     short = Calibrator(msd, ["x"], free, substeps=10).fit(experiment(*synthetic_msd(1.0, seed=1)))
@@ -112,6 +113,7 @@ def test_job_writes_results_and_parameter_set(tmp_path):
     assert (tmp_path / "out" / "fit.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_multistart_on_a_local_dask_cluster(tmp_path):
     job = write_job(tmp_path, extra="\n[multistart]\ncount = 3\nseed = 7\n")
     summary = run_job(job, out=tmp_path / "out", progress=False)
@@ -144,6 +146,7 @@ def test_bad_input_names_the_field_and_writes_nothing(tmp_path, case, edit, mess
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
 def test_fmu_only_model_falls_back_to_finite_differences(tmp_path, compiler_fmu):
     job = write_job(tmp_path)
     text = job.read_text().replace(f'source = "{COMPILER_MODELS}"\nname = "CompilerTests.MassSpringDamper"',

@@ -14,6 +14,8 @@ from cosim.experiment import Experiment, steady_mask
 
 from conftest import ROOT
 
+pytestmark = pytest.mark.slow  # the gripper's static staircase fit
+
 TRUTH = {"eta_g": 0.62, "T_c0": 0.011}
 FIXED = {"gap0": 0.0, "k_obj": 1.234e9}  # static condition: fingers pinned to aluminium cylinders
 NOISE = 0.3  # N

@@ -124,6 +124,7 @@ def test_cli_bad_input_exit_2_nothing_written(master_dir, tmp_path, capsys, edit
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_shipped_configs_validate(gripper_dir):
     for name in ("gripper_static", "gripper_impact", "gripper_impact_p3"):
         cfg = load_config(EXAMPLES / f"{name}.toml", gripper_overrides(gripper_dir))

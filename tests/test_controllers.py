@@ -170,6 +170,7 @@ def _foc_config(tmp, gripper_dir, iq, stop, record_rate):
     return path
 
 
+@pytest.mark.slow
 def test_foc_iq_step_time_constant_on_the_plant(master_dir, gripper_dir, tmp_path):
     import shutil
 
@@ -185,6 +186,7 @@ def test_foc_iq_step_time_constant_on_the_plant(master_dir, gripper_dir, tmp_pat
     assert abs(iq[-1] - 1.0) < 0.01
 
 
+@pytest.mark.slow
 def test_foc_keeps_id_near_zero_while_spinning(master_dir, gripper_dir, tmp_path):
     import shutil
 
@@ -263,6 +265,7 @@ def test_staircase_profile():
 
 
 # -- outer loop closed on the gripper plant -----------------------------------------------------------
+@pytest.mark.slow
 def test_outer_loop_closed_on_the_plant(gripper_dir):
     cfg = load_config(EXAMPLES / "gripper_impact.toml", gripper_overrides(gripper_dir) + ["run.stop=0.6"])
     res = run(cfg, progress=False)

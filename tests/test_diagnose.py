@@ -38,6 +38,7 @@ def _case_frame(effect, seed, noise=0.3):
 # -- effect library ------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("name", EXPECTED["Gripper.GripperCurrentDriven"])
+@pytest.mark.slow
 def test_every_effect_variant_lowers_with_its_parameters(name, tmp_path):
     """Each variant of GripperCurrentDriven builds (rumoca + lowering) and exposes the effect's parameters; the
     baseline part of the source is unchanged (the variant only adds a Diagnosis sub-package)."""
@@ -53,6 +54,7 @@ def test_every_effect_variant_lowers_with_its_parameters(name, tmp_path):
     assert path.read_text(encoding="utf-8").startswith(original.rpartition("end Gripper;")[0])
 
 
+@pytest.mark.slow
 def test_variant_without_effect_parameters_reproduces_the_baseline(tmp_path):
     """backdrive_efficiency with eta_b = eta_g is the baseline: same outputs along a staircase (the variant's
     extra branch is the same expression; tolerance: CVODES rtol 1e-8 on forces of ~40 N)."""
@@ -208,8 +210,9 @@ def test_records_job_errors_name_the_key(tmp_path):
 
 # Seeds: 2 gives eta_b = eta_d - 0.13; 8 gives a 2.7 N load-cell offset (offsets near 1 N are comparable to the
 # baseline's model-form floor against the quasi-static truth, 0.5-1 N, and are named but with < 80 % of the gap
-# removed: docs/diagnose.md).
+# removed: docs/dev/diagnose-history.md).
 @pytest.mark.parametrize("effect, seed", [("backdrive_efficiency", 2), ("loadcell_filter", 8), ("none", 1)])
+@pytest.mark.slow
 def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     frame, truth = _case_frame(effect, seed)
     job = load_diagnose_job(_write_job(tmp_path, frame))
@@ -236,6 +239,7 @@ def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
         assert (tmp_path / "out" / "rerun" / f"{effect}.toml").is_file()
 
 
+@pytest.mark.slow
 def test_cli_writes_diagnosis_json_and_report(tmp_path):
     """`cosim diagnose JOB --out DIR --set ...` on a short staircase with no candidates: the output files and the
     diagnosis.json keys other tools rely on."""

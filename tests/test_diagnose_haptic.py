@@ -143,6 +143,7 @@ def test_noise_estimate_matches_the_true_scatter():
 # -- hidden effects ----------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("effect, seed", [("none", 1), ("hand_mass", 1), ("vibration_mode", 1), ("loop_delay", 1)])
+@pytest.mark.slow
 def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     frame, truth = make_case(effect, np.random.default_rng(seed))
     s = run_diagnosis(load_diagnose_job(_write_job(tmp_path, frame)), progress=False, build=False).to_json()
@@ -163,6 +164,7 @@ def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
             np.testing.assert_allclose(fitted[name], truth[name], rtol=0.2, err_msg=name)
 
 
+@pytest.mark.slow
 def test_cli_on_the_shipped_job(tmp_path):
     """`cosim diagnose examples/diagnose_haptic.toml` names the demonstration's hidden loop delay and writes the
     report, the Bode and band figures, the variant's Modelica and its FMU."""

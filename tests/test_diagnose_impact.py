@@ -24,6 +24,8 @@ from diagnose_truth_impact import (CONDITION, COUNTS, CURRENT_NOISE, DURATION, F
                                    write_job)
 from test_gripper_support import ROOT
 
+pytestmark = pytest.mark.slow  # lowered gripper variants, numpy truths at 10 us steps, diagnosis fits
+
 SOURCE = ROOT / "modelica" / "Gripper" / "package.mo"
 MODEL = "Gripper.GripperCurrentDriven"
 BARE = {"gap0": 0.005, "t_coat": 0.0, "k_obj": 3.53e7, "k_P": 1e12, "C_p": 2000.0, "C_h": 2000.0}
@@ -193,7 +195,7 @@ def test_multi_rate_data_are_compared_where_every_channel_was_sampled(tmp_path):
 
 def test_shipped_repeated_trials_job_loads_three_multi_rate_records():
     """examples/diagnose_impact_trials.toml: three trials, each with its object position, 1 kHz rows with the
-    100 Hz load cell between them (its run is in docs/diagnose.md)."""
+    100 Hz load cell between them (its runs are in docs/dev/diagnose-history.md)."""
     from cosim.diagnose.job import load_records
 
     job = load_diagnose_job(ROOT / "examples" / "diagnose_impact_trials.toml")
@@ -206,7 +208,7 @@ def test_shipped_repeated_trials_job_loads_three_multi_rate_records():
 
 def test_shipped_speed_job_loads_the_speed_run():
     """examples/diagnose_speed.toml: the speed-controlled model with the loop's gains, one 1 kHz record of the speed
-    reference, current and encoder angle, cut into its four speed holds (its run is in docs/diagnose.md)."""
+    reference, current and encoder angle, cut into its four speed holds (its runs are in docs/dev/diagnose-history.md)."""
     from cosim.diagnose.analysis import cut_segments
     from cosim.diagnose.job import load_records
 

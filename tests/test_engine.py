@@ -69,6 +69,7 @@ GRIPPER = [
 
 
 @pytest.mark.parametrize("name,split,sets", GRIPPER, ids=[g[0] for g in GRIPPER])
+@pytest.mark.slow
 def test_engines_agree_on_gripper_configs(gripper_dir, name, split, sets):
     comp, py = _both(EXAMPLES / name, gripper_overrides(gripper_dir, split) + sets)
     _assert_same(comp, py)
@@ -79,6 +80,7 @@ def test_engines_agree_on_gripper_configs(gripper_dir, name, split, sets):
 @pytest.mark.parametrize("name,fmu", [("haptic_wall.toml", "HapticDevice11"),
                                       ("haptic_wall_adaptive.toml", "HapticDevice7"),
                                       ("haptic_wall_arm.toml", "HapticDeviceArm")])
+@pytest.mark.slow
 def test_engines_agree_on_haptic_configs(haptic_dir, name, fmu):
     comp, py = _both(EXAMPLES / name, [f'fmus.plant.path="{(haptic_dir / (fmu + ".fmu")).as_posix()}"', "run.stop=1.6"])
     _assert_same(comp, py)
@@ -165,6 +167,7 @@ def test_python_controllers_run_the_python_engine_with_a_note(master_dir):
         assert ("overrides step()" in result.engine_note) if not sets else ("jit = false" in result.engine_note)
 
 
+@pytest.mark.slow
 def test_ctrl_c_keeps_what_was_recorded(gripper_dir):
     # an interrupt during the kernel takes effect at the end of a chunk; the rows recorded so far are kept
     sets = gripper_overrides(gripper_dir) + ["record.rate=100", 'record.signals=["plant.F_g", "plant.w_m"]',

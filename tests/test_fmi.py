@@ -23,6 +23,7 @@ def test_model_info_of_a_compiled_model(master_dir):
     assert info.output_deps["y"] == ()  # y depends on states only
 
 
+@pytest.mark.slow
 def test_split_gripper_declares_feedthrough(gripper_dir):
     info = read_model_info(gripper_dir / "Drivetrain.fmu")
     deps = set(info.output_deps["tau_load"])

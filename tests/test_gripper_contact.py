@@ -11,6 +11,8 @@ from numpy.testing import assert_allclose
 
 from test_gripper_support import PAPER, Rk4Fmu, load_conditions, simulate_cvode
 
+pytestmark = pytest.mark.slow  # the gripper FMUs, built once per session
+
 CONDITIONS = load_conditions()
 
 

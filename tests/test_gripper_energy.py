@@ -8,8 +8,11 @@ half play, two finger contacts 2 * 1/2 k_eff pen^2 (bare finger on ABS: k_f in s
 """
 
 import numpy as np
+import pytest
 
 from test_gripper_support import PAPER
+
+pytestmark = pytest.mark.slow  # the gripper FMUs, built once per session
 
 LOSSLESS = {
     "eta_g": 1.0, "R_s": 0.0, "B_r": 0.0, "T_c0": 0.0, "d_play": 0.0, "eta_grease": 0.0, "F_cj": 0.0,

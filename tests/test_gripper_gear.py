@@ -15,6 +15,8 @@ from numpy.testing import assert_allclose
 
 from test_gripper_support import PAPER, Rk4Fmu, load_conditions, simulate_cvode
 
+pytestmark = pytest.mark.slow  # the gripper FMUs, built once per session
+
 R = PAPER["R_s"]
 KT, TC0, RP, N = PAPER["k_t"], PAPER["T_c0"], PAPER["r_p"], PAPER["ratio"]
 

@@ -40,6 +40,7 @@ def _value(table, symbol):
     return float(table[symbol][0]["value_si"])
 
 
+@pytest.mark.slow
 def test_fmu_defaults_match_reference_table(gripper_fmus, table):
     from fmpy import read_model_description
 

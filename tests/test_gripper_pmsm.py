@@ -10,6 +10,8 @@ from numpy.testing import assert_allclose
 
 from test_gripper_support import PAPER, Rk4Fmu
 
+pytestmark = pytest.mark.slow  # the gripper FMUs, built once per session
+
 
 @pytest.fixture()
 def pmsm(gripper_fmus):

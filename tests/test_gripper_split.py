@@ -7,8 +7,11 @@ step): each FMU takes one RK4 step with the other's outputs from the start of th
 """
 
 import numpy as np
+import pytest
 
 from test_gripper_support import Rk4Fmu, load_conditions, simulate_cvode
+
+pytestmark = pytest.mark.slow  # the gripper FMUs, built once per session
 
 H = 1 / 26600
 T_END = 0.5

@@ -11,6 +11,8 @@ import pytest
 
 from test_gripper_support import Rk4Fmu, load_conditions, simulate_cvode
 
+pytestmark = pytest.mark.slow  # the gripper FMUs, built once per session
+
 H = 1 / 26600
 T_END = 0.3
 CONDITIONS = load_conditions()

@@ -1,10 +1,12 @@
 """``cosim haptic margins`` writes the documented table and plot."""
 
 import pandas as pd
+import pytest
 
 from cosim.cli import main
 
 
+@pytest.mark.slow
 def test_margins_cli(tmp_path):
     assert main(["haptic", "margins", "--out", str(tmp_path)]) == 0
     t = pd.read_csv(tmp_path / "margins.csv")

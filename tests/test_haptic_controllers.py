@@ -75,6 +75,7 @@ def fmu_dir(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_step_contact_matches_margin_prediction(fmu_dir):
     # master run: the motor-torque step on the stylus resting in the wall; final penetration = tau/(K + k_user)
     # (statics, independent of the dynamics) and overshoot/settling near exp(-pi z/sqrt(1-z^2)), 4/(z w_cg)
@@ -92,6 +93,7 @@ def test_step_contact_matches_margin_prediction(fmu_dir):
     assert s5 > 1.5 * s3
 
 
+@pytest.mark.slow
 def test_adaptive_wall_equalises_settling(fmu_dir):
     # seed 000 Sec. V-C: with the adaptive impedances positions 3 and 5 settle alike (0.183 vs 0.185 s measured)
     from cosim.haptic.collision import collision_study
@@ -101,6 +103,7 @@ def test_adaptive_wall_equalises_settling(fmu_dir):
     assert abs(s5 - s3) / s3 < 0.25
 
 
+@pytest.mark.slow
 def test_collision_reaches_target_force(fmu_dir):
     from cosim.haptic.collision import collision_metrics, simulate_contact
     from cosim.haptic.params import load_user_params
@@ -114,6 +117,7 @@ def test_collision_reaches_target_force(fmu_dir):
 
 @pytest.mark.parametrize("name,fmu", [("haptic_wall.toml", "HapticDevice11"), ("haptic_wall_adaptive.toml", "HapticDevice7"),
                                       ("haptic_wall_arm.toml", "HapticDeviceArm")])
+@pytest.mark.slow
 def test_shipped_configs_run(fmu_dir, name, fmu):
     # the example configs load and run; final wall torque = tau_final = 0.1 N.m (statics)
     from cosim.config import load_config

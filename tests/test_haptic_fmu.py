@@ -17,6 +17,8 @@ from cosim.haptic.experiments import device_experiment
 from cosim.haptic.params import PARAMS_11, load_arm_params, load_user_params
 from cosim.haptic.tf import tf_arm, tf_device_arm, tf_user
 
+pytestmark = pytest.mark.slow  # the four Haptic FMUs, built for this module
+
 ROOT = Path(__file__).resolve().parent.parent
 SOURCE = ROOT / "modelica" / "Haptic" / "package.mo"
 F = np.logspace(np.log10(0.5), np.log10(70.0), 300)  # seed 000 analysis band

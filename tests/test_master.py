@@ -168,6 +168,7 @@ def test_gain_and_offset_routing(master_dir):
     assert_allclose(res.data["y"], y_ref + 2 * resp, atol=1e-8)
 
 
+@pytest.mark.slow
 def test_split_plant_equals_the_whole_plant(gripper_dir):
     # GripperPlant vs PMSM + Drivetrain integrated together: same equations, same scheme
     sets = ["run.stop=0.45"]
@@ -227,6 +228,7 @@ def test_progress_bar_on_stderr(master_dir, capsys):
 
 
 # -- shipped gripper configs end to end (shortened) ----------------------------------------------------
+@pytest.mark.slow
 def test_static_config_end_to_end(gripper_dir, tmp_path):
     out = tmp_path / "static"
     sets = gripper_overrides(gripper_dir) + ["controllers.outer.parameters.step_A=0.5",
@@ -241,6 +243,7 @@ def test_static_config_end_to_end(gripper_dir, tmp_path):
     assert (out / "static.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_impact_config_end_to_end(gripper_dir, tmp_path):
     out = tmp_path / "impact"
     sets = gripper_overrides(gripper_dir) + ["run.stop=0.9", "controllers.outer.parameters.hold_s=0.5"]

@@ -1,6 +1,6 @@
 """Discrepancy workflow (``cosim diagnose``): replay and compare a calibrated baseline with measured data, locate
 where and how the residual exceeds the noise, name the missing effect from a library of Modelica candidates, add
-it and show the gap shrink. See docs/diagnose.md."""
+it and show the gap shrink. See docs/guide/diagnose.md."""
 
 from cosim.diagnose.effects import EFFECTS, effect_names, get_effect, write_variant
 from cosim.diagnose.job import DiagnoseJob, load_diagnose_job

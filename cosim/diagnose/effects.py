@@ -350,7 +350,7 @@ def variant_text(source_text, model, effect):
     body = "".join("".join("  " + line if line.strip() else line for line in b.splitlines(keepends=True))
                    for b in blocks)
     sub = (f'  package Diagnosis "Model variants written by cosim diagnose: the baseline plus one effect '
-           f'(docs/diagnose.md)"\n{body}  end Diagnosis;\n')
+           f'(docs/guide/diagnose.md)"\n{body}  end Diagnosis;\n')
     end = f"end {package};"
     if end not in source_text:
         raise ConfigError(f"the Modelica source does not end with `{end}`")

@@ -267,7 +267,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end IdealLoadCell;
   end Components;
 
-  package Effects "Candidate missing effects of the discrepancy workflow (cosim diagnose, docs/diagnose.md); each fills a slot of package Interfaces, and cosim.diagnose.effects writes the variants that redeclare the slot with it"
+  package Effects "Candidate missing effects of the discrepancy workflow (cosim diagnose, docs/guide/diagnose.md); each fills a slot of package Interfaces, and cosim.diagnose.effects writes the variants that redeclare the slot with it"
     model DirectionalMeshEfficiency "Gear mesh loss with one efficiency when the motor drives the load and another when the load back-drives the motor (effect backdrive_efficiency)"
       // As Components.MeshEfficiency, but the loss level of the back-driven branch is (1 - eta_b)*|tau_out|:
       // driving gives tau_out = eta*tau_in, back-driving tau_in = eta_b*tau_out; at standstill any tau_in between
@@ -290,7 +290,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // Coulomb level mu_F*F_n carried by an elasto-plastic bristle (Components.bristleRate with a presliding
       // displacement in m), so a clamped jaw holds its friction at rest. The presliding displacement is 0.1 um:
       // with 1 um, the jaw's um-scale motions in the hold stayed on the bristle's elastic range and the fitted
-      // variant missed the held friction of the hidden-effect truth (docs/diagnose.md).
+      // variant missed the held friction of the hidden-effect truth (docs/guide/diagnose.md).
       extends Gripper.Interfaces.LoadFrictionSlot;
       parameter Real mu_F(unit = "1") = 0.05 "Friction force per unit gripping force";
       parameter Real x_b(unit = "m") = 1e-7 "Presliding displacement of the bristle";
@@ -620,7 +620,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
 
   model GripperSpeedControlled "Whole gripper under a PI speed loop around an ideal current loop: the speed reference is the input (diagnosis of cogging at slow, steady motion)"
     // An identification run, not the paper's 100 Hz velocity PID: a continuous PI of ~30 Hz bandwidth holds slow
-    // speeds, so a torque periodic in the rotor angle shows as a ripple of the current it takes (docs/diagnose.md).
+    // speeds, so a torque periodic in the rotor angle shows as a ripple of the current it takes (docs/guide/diagnose.md).
     extends Gripper.Parameters.MotorParameters;
     extends Gripper.Parameters.DrivetrainParameters;
     parameter Real K_pw(unit = "A.s/rad") = 0.05 "Speed loop proportional gain";

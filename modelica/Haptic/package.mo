@@ -10,7 +10,7 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
   // - Effect slots (package Interfaces): in each concrete model the torque command reaches m1 through the
   //   replaceable delay (none by default) and a replaceable side mode hangs on m1 (none by default); Device7's
   //   user is the replaceable hand (the skin only by default). The discrepancy workflow's variants redeclare them
-  //   with blocks of package Effects (docs/diagnose.md). The slots are declared in the concrete models, not in
+  //   with blocks of package Effects (docs/guide/diagnose.md). The slots are declared in the concrete models, not in
   //   Device: rumoca ignores a redeclare of an element the extended class inherits (docs/compiler.md).
   // - Default parameter values: user 1 at grasp position 3 (11 parameters) / 4 (7 parameters) of Table I,
   //   the nominal X-axis arm of seed 001 Table II. A config loads another row by setting the parameters.
@@ -58,7 +58,7 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
     end Skin;
   end Interfaces;
 
-  package Effects "Candidate missing effects of the discrepancy workflow for the device + user (cosim diagnose, docs/diagnose.md); each fills a slot of package Interfaces, and cosim.diagnose.effects writes the variants that redeclare the slot with it"
+  package Effects "Candidate missing effects of the discrepancy workflow for the device + user (cosim diagnose, docs/guide/diagnose.md); each fills a slot of package Interfaces, and cosim.diagnose.effects writes the variants that redeclare the slot with it"
     model HandMass "The user's hand as an inertia mh held by kh, bh to the user's reference, gripping the stylus through the skin ks, bs (effect hand_mass: the 11-parameter user of seed 000 eq. 2, Fig. 5 top)"
       // Device7 lumps the hand into m2 and grounds it through ks, bs; this block puts the hand mass between the
       // skin and the user's reference, which adds the pole/zero pair of the hand (seed 000 Sec. II-D); the
@@ -96,7 +96,7 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
 
     model PadeDelay "Pure delay exp(-s*T) of a torque by its third-order Pade approximation (effect loop_delay: computation and amplifier delay of the torque command)"
       // exp(-sT) ~ N(s)/D(s), D = 1 + sT/2 + (sT)^2/10 + (sT)^3/120, N(s) = D(-s): all-pass (|N/D| = 1 exactly),
-      // phase within 0.1 deg of -wT up to wT = 2.1 rad, 1 deg at 3.1 rad (docs/diagnose.md). Written as
+      // phase within 0.1 deg of -wT up to wT = 2.1 rad, 1 deg at 3.1 rad (docs/guide/diagnose.md). Written as
       // N/D = 2 (1 + (sT)^2/10)/D - 1 with D(s) z = u. Needs T > 0.
       extends Haptic.Interfaces.DelaySlot;
       parameter Real T(unit = "s") = 1e-3 "Delay";
