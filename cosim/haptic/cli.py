@@ -92,7 +92,7 @@ def add_haptic_parser(sub):
         "identify",
         help="seed 000 identification experiment on one Table I row",
         description=(
-            "White-noise torque 0.1-150 Hz for 20 s at 1 kHz, Welch estimate (Hann 4096, 50 %% overlap) with "
+            "White-noise torque 0.1-150 Hz for 20 s at 1 kHz, Welch estimate (Hann 4096, 50 % overlap) with "
             "coherence, fit of the 11- or 7-parameter model; writes OUT/identification.csv and .png."
         ),
     )
