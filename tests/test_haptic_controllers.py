@@ -1,7 +1,5 @@
 """Haptic controllers (wall, adaptive wall, user intent) and master-run contacts against the margins' prediction."""
 
-import math
-
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -79,12 +77,10 @@ def fmu_dir(tmp_path_factory):
 def test_step_contact_matches_margin_prediction(fmu_dir):
     # master run: the motor-torque step on the stylus resting in the wall; final penetration = tau/(K + k_user)
     # (statics, independent of the dynamics) and overshoot/settling near exp(-pi z/sqrt(1-z^2)), 4/(z w_cg)
-    from cosim.haptic.collision import collision_study, user_static_stiffness
-    from cosim.haptic.params import load_user_params
+    from cosim.haptic.collision import collision_study
 
     df = collision_study(users=(1,), positions=(3, 5), fmu_dir=fmu_dir, scenarios=("step",))
     for _, r in df.iterrows():
-        p = load_user_params(1, int(r.position))
         # more damped <-> less overshoot; model-based prediction within 0.1 (eq. 17 is an approximation)
         assert abs(r.step_overshoot - r.overshoot_pred) < 0.1
         assert 0.6 < r.step_settling_s / r.settling_pred_s < 1.6

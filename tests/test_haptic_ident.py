@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from cosim.freqresp import coloured_noise, model_response, simulate_lti, welch_tf, white_noise, zoh_freq_response
+from cosim.freqresp import coloured_noise, model_response, welch_tf, white_noise, zoh_freq_response
 from cosim.haptic.experiments import arm_experiment, arm_robust_stability, arm_segment_length, device_experiment
-from cosim.haptic.ident import ARM_PARAMS, ArmFit, DeviceUserFit, arm_ss, device_user_ss
+from cosim.haptic.ident import ARM_PARAMS, DeviceUserFit, arm_ss, device_user_ss
 from cosim.haptic.params import load_arm_params, load_user_params
 from cosim.errors import NotFittedError
 from cosim.haptic.tf import tf_arm, tf_user

@@ -1,7 +1,5 @@
 """Shipped Table I / arm tables: values, SI conversion, errors (references: numbers printed in the seed papers)."""
 
-import math
-
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
