@@ -13,6 +13,8 @@ __all__ = [
     "HapticDataError",
     "EngineFallbackWarning",
     "EffectSlotError",
+    "EventError",
+    "SimulationTerminated",
 ]
 
 
@@ -94,3 +96,29 @@ class EngineFallbackWarning(UserWarning):
 class EffectSlotError(ConfigError):
     """A candidate effect does not fit a model: the model has no replaceable slot (or parameter) the effect fills,
     or the effect's block does not extend the slot's constraining interface."""
+
+
+class EventError(CosimError, RuntimeError):
+    """Event handling failed: events chatter at one instant (the event iteration does not settle), or an event
+    cannot be located. The message names the FMU and the time."""
+
+
+class SimulationTerminated(CosimError):
+    """An FMU asked to stop (``terminateSimulation``, a Modelica ``terminate()``). Not a failure: the master
+    stops the run, keeps what was recorded and states the reason in the summary.
+
+    Parameters
+    ----------
+    instance : str
+        The FMU instance that asked.
+    time : float
+        When it asked (s).
+    reason : str
+        The FMU's message, when it gave one.
+    """
+
+    def __init__(self, instance, time, reason=""):
+        self.instance = instance
+        self.time = time
+        self.reason = reason
+        super().__init__(f"{instance} asked to terminate at t={time:.9g} s{': ' + reason if reason else ''}")

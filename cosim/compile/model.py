@@ -4,7 +4,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["ModelVariable", "LoweredModel"]
+__all__ = ["ModelVariable", "DiscreteVariable", "EventPart", "LoweredModel"]
 
 
 @dataclass(frozen=True)
@@ -27,6 +27,72 @@ class ModelVariable:
     unit: str = ""
     description: str = ""
     start: float = 0.0
+
+
+@dataclass(frozen=True)
+class DiscreteVariable:
+    """A discrete variable of a hybrid model: it changes only at events and holds its value between them.
+
+    Attributes
+    ----------
+    name : str
+        Flat Modelica name.
+    kind : str
+        ``real``, ``integer``, ``boolean`` or ``enumeration`` (stored as its 1-based ordinal).
+    unit, description : str
+    start : float
+        The value before the first event (``pre()`` at initialisation).
+    causality : str
+        ``output`` or ``local``.
+    """
+
+    name: str
+    kind: str
+    unit: str = ""
+    description: str = ""
+    start: float = 0.0
+    causality: str = "local"
+
+
+@dataclass(frozen=True)
+class EventPart:
+    """The discrete side of a hybrid model, as CasADi functions an FMU's C code and the master can call.
+
+    ``m`` is the event memory, a float vector of length ``n_memory``: the discrete variables first (in
+    ``discretes`` order; Integer and Boolean as whole numbers), then whatever else the events need (the held
+    value of each relation, the next instant of each ``sample``...). Between events ``m`` is constant; the
+    continuous functions of the :class:`LoweredModel` take it as a fifth argument.
+
+    Attributes
+    ----------
+    discretes : tuple of DiscreteVariable
+    n_memory : int
+    n_indicators : int
+        Number of event indicators (state events).
+    indicators : casadi.Function
+        ``indicators(x, u, p, t, m) -> z`` (n_indicators,): an event happens where a component changes sign.
+    update : casadi.Function
+        ``update(x, u, p, t, m_pre) -> (x_new, m_new, status)``: one pass of event iteration at time ``t``:
+        relations re-evaluated from the actual values, ``when`` clauses that became active fire, ``reinit``
+        applied. The importer repeats it with ``m_pre = m_new`` until ``m_new == m_pre``. ``status`` is 0, or 1
+        when ``terminate()`` fired, or ``2 + k`` when assertion ``k`` failed (``messages[k]``).
+    initial : casadi.Function
+        ``initial(x, u, p, t) -> m``: the memory at initialisation (start values; ``initial()`` is true).
+    next_time : casadi.Function
+        ``next_time(t, p, m) -> t_next``: the next time event strictly after ``t``, or ``inf`` when none.
+    messages : tuple of str
+        ``"file:line: message"`` of each assertion (index ``k`` of status ``2 + k``); the last entry is the
+        message of ``terminate()`` when the model has one.
+    """
+
+    discretes: tuple
+    n_memory: int
+    n_indicators: int
+    indicators: object
+    update: object
+    initial: object
+    next_time: object
+    messages: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -54,6 +120,9 @@ class LoweredModel:
         Integer and non-tunable parameters, evaluated at build time (name -> value).
     notes : tuple of str
         What the lowering did that a user may want to know (demoted states, nonlinear blocks, frozen starts).
+    events : EventPart or None
+        ``None`` for a continuous model. For a hybrid model, ``ode``, ``out`` and ``observe`` take the event
+        memory ``m`` as a fifth argument: ``ode(x, u, p, t, m)``.
     """
 
     name: str
@@ -68,6 +137,7 @@ class LoweredModel:
     x0: object
     constants: dict = field(default_factory=dict)
     notes: tuple = ()
+    events: EventPart = None
 
     @property
     def parameter_values(self):
