@@ -217,3 +217,40 @@ def test_terminate_gives_status_1():
     assert int(status) == 0
     _, _, status = ev.update([0.71], [], p, 0.71, m)
     assert int(status) == 1 and ev.messages[-1].endswith("Hybrid.mo:89: done heating")
+
+
+def test_enumeration_vector_when_on_an_algebraic_variable_edge_and_a_boolean_on_time():
+    model = hybrid("Relay")
+    kinds = {d.name: (d.kind, d.start) for d in model.events.discretes}
+    assert kinds == {"dir": ("enumeration", 1.0), "up": ("boolean", 0.0), "rises": ("integer", 0.0),
+                     "late": ("boolean", 0.0)}
+    _, states, _ = integrate(model, 3.0)
+    # Hand-computed: x = 0.5 + t rises to 0.9 (y = 1.8) at 0.4, falls to 0.1 (y = 0.2) at 1.2, rises to 0.9 at
+    # 2.0, falls to 0.1 at 2.8; Up = 1, Down = 2.
+    times, dirs = changes(states, 0)
+    assert_allclose(times, [0.4, 1.2, 2.0, 2.8], atol=1e-9)
+    assert dirs == [2.0, 1.0, 2.0, 1.0]
+    times, rises = changes(states, 2)
+    assert_allclose(times, [1.2, 2.8], atol=1e-9)
+    assert rises == [1.0, 2.0]  # edge(up), not at initialisation
+    assert states[0][2][1] == 1.0  # up = (dir == Up) from the start values
+    times, late = changes(states, 3)
+    assert_allclose(times, [0.9], atol=1e-15)  # a time event, at its exact instant
+    assert late == [1.0]
+
+
+def test_event_on_a_variable_of_a_nonlinear_loop():
+    model = hybrid("LoopEvent")
+    _, states, _ = integrate(model, 1.0)
+    crossing = 0.5 + 0.5 * np.sin(0.5)  # x where z + 0.5 sin z = x gives z = 0.5; x = t
+    times, xc = changes(states, 0)
+    assert_allclose(times, [crossing], atol=1e-9)
+    assert_allclose(xc, [crossing], atol=1e-9)
+
+
+def test_no_event_and_smooth_give_no_indicator():
+    model = hybrid("NoEvents")
+    assert model.events is None and model.ode.n_in() == 4
+    assert_allclose(model.derivatives([1.0], []), [-1.0])
+    assert_allclose(model.derivatives([0.4], []), [-0.2])
+    assert_allclose(model.derivatives([3.0], []), [-2.0])  # smooth(0, ...) adds x - 2

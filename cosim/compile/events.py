@@ -57,7 +57,7 @@ def _comparison(op, a, b):
     return _COMPARISONS[op](a, b)
 
 
-class _EventReader:
+class EventReader:
     """Reads the event tables of rumoca's IR with a translator's expressions."""
 
     def __init__(self, tr, discretes):
@@ -150,11 +150,15 @@ class _EventReader:
         return self.active({"when": {"trigger": action["trigger"], "guard": action["guard"]}})
 
     def read(self):
+        """The :class:`EventSystem` of the model, or None when the model has no event (continuous)."""
         self._owners()
         self._discrete_reals()
         self._actions()
-        self.system.clocks = [c for c in self.system.clocks if c is not None]
-        return self.system
+        system = self.system
+        system.clocks = [c for c in system.clocks if c is not None]
+        if not (system.discretes or system.relations or system.asserts or system.terminates or system.clocks):
+            return None
+        return system
 
     def _add_branches(self, var, branches):
         """New value of ``var``: the first active branch's value, else its pre() value (when-clauses)."""
@@ -219,14 +223,6 @@ class _EventReader:
         return "(message computed at run time; not available)"
 
 
-def read_events(tr, discretes):
-    """The :class:`EventSystem` of a translator's model, or None when the model has no event (continuous)."""
-    system = _EventReader(tr, discretes).read()
-    if not (discretes or system.relations or system.asserts or system.terminates or system.reinits):
-        return None
-    return system
-
-
 def _names(expr):
     return {s.name() for s in ca.symvar(expr)}
 
@@ -241,10 +237,11 @@ def memory_symbols(events):
             + [h for h, _ in events.held] + [c[0] for c in events.clocks])
 
 
-def pre_as_current(events):
-    """(from, to) that replace ``pre(v)`` by ``v``: between events a variable equals its left limit."""
-    names = {v.name: v.sym for v in events.discretes}
-    pairs = [(sym, names[n]) for n, sym in events.pre.items() if n in names]
+def between_events(events, variables):
+    """(from, to) for the continuous equations: between events ``pre(v)`` is ``v``, ``initial()`` and
+    ``sample()`` are false. ``variables``: name -> symbol of every variable ``pre`` may name."""
+    pairs = [(sym, variables[n]) for n, sym in events.pre.items()]
+    pairs += [(events.init, ca.SX(0))] + [(c[1], ca.SX(0)) for c in events.clocks]
     return [a for a, _ in pairs], [b for _, b in pairs]
 
 

@@ -259,11 +259,8 @@ def lower_system(system):
     if system.events is not None:
         M = ca.vertcat(*hybrid.memory_symbols(system.events)) if hybrid.memory_symbols(system.events) \
             else ca.SX(0, 1)
-        pre_from, pre_to = hybrid.pre_as_current(system.events)
-        pre_from += [system.events.pre[s.name] for s in states if s.name in system.events.pre]
-        pre_to += [s.sym for s in states if s.name in system.events.pre]
-        if pre_from:
-            equations = [(ca.substitute(e, ca.vertcat(*pre_from), ca.vertcat(*pre_to)), loc) for e, loc in equations]
+        pre_from, pre_to = hybrid.between_events(system.events, {v.name: v.sym for v in system.variables})
+        equations = [(ca.substitute(e, ca.vertcat(*pre_from), ca.vertcat(*pre_to)), loc) for e, loc in equations]
     input_names = {u.name for u in inputs}
     ders = [system.derivatives[s.name] for s in states]
     demoted, extra = [], []

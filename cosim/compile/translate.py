@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from cosim.compile.events import Relation, read_events
+from cosim.compile.events import EventReader, Relation
 from cosim.errors import UnsupportedConstructError
 
 __all__ = ["Variable", "Equation", "DaeSystem", "translate"]
@@ -141,6 +141,7 @@ class _Translator:
         self.relations = []  # events.Relation: rumoca's (in its order), then relations on time it leaves out
         self.pre_syms = {}  # variable name -> symbol of pre(variable)
         self.variables_by_index = []
+        self.reader = None  # events.EventReader, once the variables are known
         self.relation_nodes = {}
         self.no_event_nodes = set()
         self.call_serials = itertools.count()
@@ -240,6 +241,8 @@ class _Translator:
             return self.syms[index]
         if ref in ("pre_discrete_real", "pre_discrete_value", "pre_state"):
             return self._pre(index)
+        if ref == "condition":
+            return self.reader.level(index)
         if ref in _COORDINATE_NAMES:
             self.unsupported(_COORDINATE_NAMES[ref], self.provenance[i])
         if ref == "function_parameter":
@@ -348,14 +351,13 @@ class _Translator:
                 location=self.flat.locate(_span_of(v.get("declaration"))),
             ))
         self.variables_by_index = variables
+        self.reader = EventReader(self, [v for v in variables if v.role in ("discrete_real", "discrete_value")])
         for k, rel in enumerate(storage.get("relations", [])):
             self.expr(rel["relation"]["expression"])
         equations = [self._equation(op) for op in storage["continuous_equation_operations"]]
         initial = [self._equation(op) for op in storage.get("initialization_equation_operations", [])]
         derivatives = {raw[i]["name"]: s for i, s in self.der_syms.items()}
-        discretes = [v for v in variables if v.role in ("discrete_real", "discrete_value")]
-        events = read_events(self, discretes)
-        return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, events)
+        return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, self.reader.read())
 
     def _reject_tables(self):
         """Constructs rumoca carries that the compiler does not lower, named as the user wrote them."""

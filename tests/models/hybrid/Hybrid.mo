@@ -89,4 +89,45 @@ package Hybrid "Hybrid test models; each test has an independent reference (clos
       terminate("done heating");
     end when;
   end Stop;
+
+  type Direction = enumeration(Up "rising", Down "falling");
+
+  model Relay "x runs between 0.1 and 0.9 at 1/s; the direction (an enumeration) flips where y = 2 x leaves
+    [0.2, 1.8] (a vector when on an algebraic variable); rises counts the edges of up"
+    Real x(start = 0.5, fixed = true);
+    Real y "an algebraic variable the events read";
+    Direction dir(start = Direction.Up);
+    Boolean up "dir == Up, a Boolean without when";
+    Integer rises(start = 0);
+    Boolean late "time > 0.9";
+  equation
+    y = 2*x;
+    der(x) = if dir == Direction.Up then 1 else -1;
+    when {y > 1.8, y < 0.2} then
+      dir = if y > 1 then Direction.Down else Direction.Up;
+    end when;
+    up = dir == Direction.Up;
+    when edge(up) then
+      rises = pre(rises) + 1;
+    end when;
+    late = time > 0.9;
+  end Relay;
+
+  model LoopEvent "z + 0.5 sin(z) = x (Newton) with x = t; the when-clause samples x where z passes 0.5"
+    Real x(start = 0, fixed = true);
+    Real z(start = 0);
+    discrete Real xc(start = -1) "x where z passed 0.5";
+  equation
+    der(x) = 1;
+    z + 0.5*sin(z) = x;
+    when z > 0.5 then
+      xc = x;
+    end when;
+  end LoopEvent;
+
+  model NoEvents "noEvent and smooth: relations evaluated directly; the model stays continuous"
+    Real x(start = 1, fixed = true);
+  equation
+    der(x) = noEvent(if x > 0.5 then -x else -0.5*x) + smooth(0, if x > 2 then x - 2 else 0);
+  end NoEvents;
 end Hybrid;
