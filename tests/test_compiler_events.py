@@ -14,6 +14,7 @@ from numpy.testing import assert_allclose
 from scipy.integrate import solve_ivp
 
 from cosim.compile import lower
+from cosim.errors import UnsupportedConstructError
 
 HYBRID = Path(__file__).resolve().parent / "models" / "hybrid" / "Hybrid.mo"
 # The crossing is located by scipy's brentq to a few ulps; the step past it is this long (an importer's
@@ -254,3 +255,31 @@ def test_no_event_and_smooth_give_no_indicator():
     assert_allclose(model.derivatives([1.0], []), [-1.0])
     assert_allclose(model.derivatives([0.4], []), [-0.2])
     assert_allclose(model.derivatives([3.0], []), [-2.0])  # smooth(0, ...) adds x - 2
+
+
+def test_elsewhen_reinit_in_each_branch_and_an_if_inside_a_sampled_when():
+    model = hybrid("Branches")
+    _, states, _ = integrate(model, 1.0)
+    # x = 1 - t: the when-branch at t = 0.5 (d = pre(x) = 0.5, v = 3), the elsewhen at 0.8 (d = 2, v = 4);
+    # sample(0, 0.3) ticks at 0, 0.3, 0.6, 0.9 (the first in the event iteration after initialisation), x < 0.5
+    # at the last two.
+    times, d = changes(states, 0)
+    assert_allclose(times, [0.5, 0.8], atol=1e-9)
+    assert_allclose(d, [0.5, 2.0], atol=1e-9)
+    assert [s[1][1] for s in states if s[0] in times] == [3.0, 4.0]
+    times, ticks = changes([(-1.0, None, np.zeros(model.events.n_memory))] + states, 1)
+    assert_allclose(times, [0.0, 0.3, 0.6, 0.9], atol=1e-15)
+    assert ticks == [1, 2, 3, 4]
+    times, low = changes(states, 2)
+    assert_allclose(times, [0.6, 0.9], atol=1e-15)
+    assert low == [1, 2]
+
+
+def test_floor_is_rejected_by_its_name_with_file_and_line(tmp_path):
+    folder = tmp_path / "T"
+    folder.mkdir()
+    (folder / "T.mo").write_text("package T\n  model M\n    Real x(start = 1);\n    Real y;\n  equation\n"
+                                 "    der(x) = -x;\n    y = floor(x);\n  end M;\nend T;\n")
+    with pytest.raises(UnsupportedConstructError, match=r"floor\(\)") as err:
+        lower(folder / "T.mo", "T.M")
+    assert err.value.file.endswith("T.mo") and err.value.line == 7

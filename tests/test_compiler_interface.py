@@ -152,7 +152,7 @@ UNSUPPORTED = {
     Real x(start = 1);
   equation
     der(x) = -x + mod(x, 0.3);
-  end M;""", "mod() (an event-generating integer division", 6),
+  end M;""", "mod() (event-generating integer division)", 6),
 }
 
 

@@ -15,7 +15,8 @@ import casadi as ca
 from cosim.compile.model import DiscreteVariable, EventPart
 from cosim.errors import StructureError, UnsupportedConstructError
 
-__all__ = []
+__all__ = ["EventReader", "EventSystem", "Relation", "HybridContext", "memory_symbols", "between_events",
+           "event_part", "DISCRETE_ROLES"]
 
 _COMPARISONS = {"less": ca.lt, "less_equal": ca.le, "greater": ca.gt, "greater_equal": ca.ge,
                 "equal": ca.eq, "not_equal": ca.ne}
@@ -99,7 +100,7 @@ class EventReader:
         if kind == "clock":
             return self.clock(body, entry)
         self.tr.unsupported(f"the condition form '{kind}'" if kind != "quotient_owner"
-                            else "mod(), rem() and div() (event-generating integer division)", entry)
+                            else "mod(), rem() or div() (event-generating integer division)", entry)
 
     def fire(self, j):
         """True in the event pass where condition ``j`` rises (a vector condition: where any element rises)."""
@@ -153,8 +154,11 @@ class EventReader:
         """The :class:`EventSystem` of the model, or None when the model has no event (continuous)."""
         self._owners()
         self._discrete_reals()
+        self._transactions()
         self._actions()
         system = self.system
+        if any(r is None for r in system.relations):
+            self.tr.unsupported("a relation rumoca lists that is not a comparison", self.storage["relations"])
         system.clocks = [c for c in system.clocks if c is not None]
         if not (system.discretes or system.relations or system.asserts or system.terminates or system.clocks):
             return None
@@ -200,6 +204,19 @@ class EventReader:
                                 "(when-equation)", eq)
         var = self.tr.variables_by_index[coordinate["discrete_real"]]
         return var, self.tr.expr(body["rhs"])
+
+    def _transactions(self):
+        """An algorithm's when-statements, as rumoca orders them: each step assigns its targets when it is active;
+        a later step overrides an earlier one. They restate the owners' assignments in statement order."""
+        for transaction in self.storage.get("model_event_transactions", []):
+            values = {}
+            for step in transaction["steps"]:
+                active = self.active({"when": {"trigger": step["trigger"], "guard": step["guard"]}})
+                for definition in step["definitions"]:
+                    var = self.tr.variables_by_index[definition["target"]["variable"]]
+                    previous = values.get(var.name, self.system.pre[var.name])
+                    values[var.name] = ca.if_else(active, self.tr.expr(definition["value"]), previous)
+            self.system.assignments.update(values)
 
     def _actions(self):
         for action in self.storage.get("event_actions", []):

@@ -37,7 +37,6 @@ _BUILTIN_2 = {"min": ca.fmin, "max": ca.fmax, "atan2": ca.atan2}
 _REJECTED_TABLES = {
     "delays": "delay()",
     "previous_values": "previous() (clocked synchronous construct)",
-    "model_event_transactions": "a when-clause form rumoca lowers to an event transaction",
 }
 _COMPARISON_OPERATORS = ("less", "less_equal", "greater", "greater_equal")
 # References to values the compiler does not lower, by the construct a user wrote.
@@ -222,8 +221,8 @@ class _Translator:
         elif kind == "call":
             return self._call(i, body, ctx)
         elif kind == "runtime_quotient_owner":
-            self.unsupported(f"{body.get('builtin', 'mod')}() (an event-generating integer division, like "
-                             "mod, rem, div)", self.provenance[i])
+            self.unsupported(f"{body.get('builtin', 'mod')}() (event-generating integer division)",
+                             self.provenance[i])
         elif kind == "function_value":
             return ctx["values"][body["definition_ordinal"]]
         what = body.get("operator") or body.get("builtin") if isinstance(body, dict) else None

@@ -130,4 +130,30 @@ package Hybrid "Hybrid test models; each test has an independent reference (clos
   equation
     der(x) = noEvent(if x > 0.5 then -x else -0.5*x) + smooth(0, if x > 2 then x - 2 else 0);
   end NoEvents;
+
+  model Branches "elsewhen with a discrete Real and a reinit in each branch; an if inside an algorithm when
+    (a guard) on sample(0, 0.3); x = 1 - t"
+    Real x(start = 1, fixed = true);
+    Real v(start = 2, fixed = true);
+    discrete Real d(start = 0);
+    Integer ticks(start = 0);
+    Integer low(start = 0) "ticks with x < 0.5";
+  equation
+    der(x) = -1;
+    der(v) = 0;
+    when x < 0.5 then
+      d = pre(x);
+      reinit(v, 3);
+    elsewhen x < 0.2 then
+      d = 2;
+      reinit(v, 4);
+    end when;
+  algorithm
+    when sample(0, 0.3) then
+      ticks := pre(ticks) + 1;
+      if x < 0.5 then
+        low := pre(low) + 1;
+      end if;
+    end when;
+  end Branches;
 end Hybrid;
