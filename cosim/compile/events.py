@@ -16,7 +16,7 @@ from cosim.compile.model import DiscreteVariable, EventPart
 from cosim.errors import StructureError, UnsupportedConstructError
 
 __all__ = ["EventReader", "EventSystem", "Relation", "HybridContext", "memory_symbols", "between_events",
-           "event_part", "DISCRETE_ROLES"]
+           "referenced_names", "event_part", "DISCRETE_ROLES"]
 
 _COMPARISONS = {"less": ca.lt, "less_equal": ca.le, "greater": ca.gt, "greater_equal": ca.ge,
                 "equal": ca.eq, "not_equal": ca.ne}
@@ -252,6 +252,14 @@ def memory_symbols(events):
     """The symbols of ``m`` in memory order: discrete values, relations, held conditions, clock counters."""
     return ([v.sym for v in events.discretes] + [r.sym for r in events.relations]
             + [h for h, _ in events.held] + [c[0] for c in events.clocks])
+
+
+def referenced_names(events):
+    """Names of every symbol the event expressions read (to evaluate only the continuous unknowns they need)."""
+    exprs = [r.g for r in events.relations] + list(events.assignments.values()) + [lv for _, lv in events.held]
+    exprs += [e for _, active, value, _ in events.reinits for e in (active, value)]
+    exprs += [active for active, _ in events.asserts + events.terminates]
+    return set().union(*[_names(e) for e in exprs]) if exprs else set()
 
 
 def between_events(events, variables):

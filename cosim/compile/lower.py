@@ -332,24 +332,24 @@ def lower_system(system):
 
 
 def _event_part(system, params, active, outputs, observed, symbols, functions, p_defaults):
-    """The EventPart: event expressions may read every continuous unknown, evaluated by ode/out/observe."""
+    """The EventPart. Event expressions may read continuous unknowns (derivatives, algebraic variables): those
+    they read are evaluated by ode/out/observe at (x, u, p, t, m), the others not at all."""
     X, U, P, T, M = symbols
     ode, out, observe = functions
+    used = hybrid.referenced_names(system.events)
     active_names = [s.name for s in active]
-    out_rows = [k for k, v in enumerate(outputs) if v.name not in active_names]
-    W = [system.derivatives[s.name] for s in active] + [outputs[k].sym for k in out_rows] + \
-        [v.sym for v in observed]
+    ders = [system.derivatives[s.name] for s in active]
+    groups = [(ode, [k for k, d in enumerate(ders) if d.name() in used], ders),
+              (out, [k for k, v in enumerate(outputs) if v.name not in active_names and v.name in used],
+               [v.sym for v in outputs]),
+              (observe, [k for k, v in enumerate(observed) if v.name in used], [v.sym for v in observed])]
+    W = [syms[k] for _, rows, syms in groups for k in rows]
 
     def w_value(x, u, p, t, m):
-        parts = [ode(x, u, p, t, m)]
-        if out_rows:
-            parts.append(out(x, u, p, t, m)[out_rows])
-        if observed:
-            parts.append(observe(x, u, p, t, m))
-        return ca.vertcat(*parts)
+        return ca.vertcat(*[f(x, u, p, t, m)[rows] for f, rows, _ in groups if rows])
 
-    ctx = hybrid.HybridContext(X, U, P, T, W, w_value, active_names, params.substitute, p_defaults,
-                               _file_line(system.variables[0].location)[0] if system.variables else system.name)
+    location = _file_line(system.variables[0].location)[0] if system.variables else system.name
+    ctx = hybrid.HybridContext(X, U, P, T, W, w_value, active_names, params.substitute, p_defaults, location)
     return hybrid.event_part(system.events, ctx, M)
 
 
