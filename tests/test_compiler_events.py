@@ -315,3 +315,12 @@ def test_event_functions_generate_c_that_computes_the_same_values(tmp_path, name
 
 def _as_list(result):
     return list(result) if isinstance(result, (tuple, list)) else [result]
+
+
+def test_when_initial_fires_once_at_initialisation():
+    model = hybrid("InitialWhen")
+    ev = model.events
+    m = np.array(ev.initial([0.0], [], model.parameter_values, 0.0)).ravel()
+    assert m[0] == 6.0  # n = pre(n) + 1 with pre(n) = start = 5, once
+    _, states, _ = integrate(model, 1.0)
+    assert [s[2][0] for s in states] == [6.0]  # not again in the event iteration after initialisation

@@ -436,9 +436,12 @@ def event_part(events, ctx, M):
     x_new, m_new, status = step(Xm, Um, Pm, Tm, Mm, ctx.w_value(Xm, Um, Pm, Tm, Mm), 0)
     update = ca.Function("update", [Xm, Um, Pm, Tm, Mm], [x_new, m_new, status], names + ["m_pre"],
                          ["x_new", "m_new", "status"])
-    m = ca.Function("m_start", [ctx.P], [_start_memory(events, ctx, M)])(Pm)
-    for _ in range(INIT_PASSES):
-        m = step(Xm, Um, Pm, Tm, m, ctx.w_value(Xm, Um, Pm, Tm, m), 1)[1]
+    start = ca.Function("m_start", [ctx.P], [_start_memory(events, ctx, M)])(Pm)
+    keep = ca.DM([1.0 if k < len(events.discretes) else 0.0 for k in range(M.shape[0])])
+    m = start
+    for _ in range(INIT_PASSES):  # pre() of a discrete variable is its start value in every init pass
+        m_pre = keep * start + (1 - keep) * m
+        m = step(Xm, Um, Pm, Tm, m_pre, ctx.w_value(Xm, Um, Pm, Tm, m), 1)[1]
     initial = ca.Function("initial", [Xm, Um, Pm, Tm], [m], names, ["m"])
     state_relations = [r for r in events.relations if r.kind == "state"]
     z = ca.Function("z", [ctx.X, ctx.U, ctx.P, ctx.T, M, _vec(ctx.W)], [_vec([r.g for r in state_relations])])

@@ -156,4 +156,14 @@ package Hybrid "Hybrid test models; each test has an independent reference (clos
       end if;
     end when;
   end Branches;
+
+  model InitialWhen "when initial() fires once, at initialisation"
+    Real x(start = 0, fixed = true);
+    Integer n(start = 5);
+  equation
+    der(x) = 1;
+    when initial() then
+      n = pre(n) + 1;
+    end when;
+  end InitialWhen;
 end Hybrid;
