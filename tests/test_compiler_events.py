@@ -324,3 +324,15 @@ def test_when_initial_fires_once_at_initialisation():
     assert m[0] == 6.0  # n = pre(n) + 1 with pre(n) = start = 5, once
     _, states, _ = integrate(model, 1.0)
     assert [s[2][0] for s in states] == [6.0]  # not again in the event iteration after initialisation
+
+
+def test_if_equation_with_a_state_branch_and_a_time_branch():
+    model = hybrid("IfEquation")
+    events, states, segments = integrate(model, 2.0)
+    # Hand-computed: x = exp(-t) down to 0.5 at ln 2 (a state event), then y = 0 holds x = 0.5 until the time
+    # event at 0.9 (time < 0.9 is false from 0.9 on), then x = 0.5 exp(-0.5 (t - 0.9)).
+    assert_allclose(events[:2], [np.log(2), 0.9], atol=1e-9)
+    times = np.array([0.3, 0.8, 1.5, 2.0])
+    expected = [np.exp(-0.3), 0.5, 0.5 * np.exp(-0.3), 0.5 * np.exp(-0.55)]
+    x = [segments[next(i for i, s in enumerate(segments) if s[0] <= t <= s[1])][2](t)[0] for t in times]
+    assert_allclose(x, expected, rtol=1e-8)

@@ -166,4 +166,18 @@ package Hybrid "Hybrid test models; each test has an independent reference (clos
       n = pre(n) + 1;
     end when;
   end InitialWhen;
+
+  model IfEquation "An if-equation with a branch on a state and one on time"
+    Real x(start = 1, fixed = true);
+    Real y;
+  equation
+    der(x) = -y;
+    if x > 0.5 then
+      y = x;
+    elseif time < 0.9 then
+      y = 0;
+    else
+      y = 0.5*x;
+    end if;
+  end IfEquation;
 end Hybrid;
