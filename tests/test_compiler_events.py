@@ -336,3 +336,15 @@ def test_if_equation_with_a_state_branch_and_a_time_branch():
     expected = [np.exp(-0.3), 0.5, 0.5 * np.exp(-0.3), 0.5 * np.exp(-0.55)]
     x = [segments[next(i for i, s in enumerate(segments) if s[0] <= t <= s[1])][2](t)[0] for t in times]
     assert_allclose(x, expected, rtol=1e-8)
+
+
+def test_initial_equations_of_discrete_variables():
+    model = hybrid("InitialValues")
+    assert {d.name: d.start for d in model.events.discretes} == {"k": 3.0, "d": 3.0}
+    m = np.array(model.events.initial([2.0], [], model.parameter_values, 0.0)).ravel()
+    assert list(m[:2]) == [3.0, 4.0]  # d = 2 x at the state given
+    _, states, _ = integrate(model, 1.0)
+    times, k = changes(states, 0)
+    assert_allclose(times, [np.log(1.5)], atol=1e-9)  # x = 1.5 exp(-t) reaches 1
+    assert k == [4.0]
+    assert_allclose(states[-1][2][1], 1.0, atol=1e-9)  # d = x at the event

@@ -52,6 +52,7 @@ class EventSystem:
     terminates: list = field(default_factory=list)   # (active, "file:line: message")
     clocks: list = field(default_factory=list)       # (counter symbol, tick symbol, start, interval)
     init: object = None                              # SX symbol: 1 during initialisation
+    initial_values: dict = field(default_factory=dict)  # discrete name -> value from an initial equation
 
 
 def _comparison(op, a, b):
@@ -152,6 +153,9 @@ class EventReader:
 
     def read(self):
         """The :class:`EventSystem` of the model, or None when the model has no event (continuous)."""
+        for entry in self.storage.get("initial_discrete_values", []):
+            var = self.tr.variables_by_index[entry["target"]]
+            self.system.initial_values[var.name] = self.tr.expr(entry["value"])
         self._owners()
         self._discrete_reals()
         self._transactions()
@@ -195,15 +199,28 @@ class EventReader:
 
     def _solve_discrete(self, eq):
         """A discrete Real equation ``d = expr`` (rumoca writes it as the residual ``d - expr``)."""
-        node = self.tr.nodes[eq["residual"]]
-        body = node.get("binary", {})
+        solved = self._discrete_lhs(eq["residual"])
+        if solved is None:
+            self.tr.unsupported("a discrete Real equation that is not of the form 'v = expression' "
+                                "(when-equation)", eq)
+        return solved
+
+    def _discrete_lhs(self, residual):
+        """(variable, value) of a residual ``d - expr`` with a discrete Real ``d``, else None."""
+        body = self.tr.nodes[residual].get("binary", {})
         lhs = self.tr.nodes[body["lhs"]] if body.get("operator") == "subtract" else {}
         coordinate = lhs.get("coordinate")
         if not isinstance(coordinate, dict) or "discrete_real" not in coordinate:
-            self.tr.unsupported("a discrete Real equation that is not of the form 'v = expression' "
-                                "(when-equation)", eq)
-        var = self.tr.variables_by_index[coordinate["discrete_real"]]
-        return var, self.tr.expr(body["rhs"])
+            return None
+        return self.tr.variables_by_index[coordinate["discrete_real"]], self.tr.expr(body["rhs"])
+
+    def initial_equation(self, operation):
+        """Take an initial equation ``d = expr`` of a discrete Real as its initial value; True if taken."""
+        body = operation.get("residual")
+        solved = self._discrete_lhs(body["residual"]) if isinstance(body, dict) else None
+        if solved is not None:
+            self.system.initial_values[solved[0].name] = solved[1]
+        return solved is not None
 
     def _transactions(self):
         """An algorithm's when-statements, as rumoca orders them: each step assigns its targets when it is active;
@@ -283,6 +300,7 @@ class HybridContext:
     states: list         # names of the active states, in X order
     substitute: object   # parameter substitution (dependent parameters, constants)
     p_values: list       # default values of the tunable parameters
+    x_values: list       # initial states at the default parameters
     location: str
 
 
@@ -417,13 +435,18 @@ def _next_time(events, ctx, M):
     return ca.Function("next_time", [ctx.T, ctx.P, M], [best], ["t", "p", "m"], ["t_next"])
 
 
+def _start_value(v, events, ctx):
+    """A discrete variable's value before the first event: its initial equation, else its start value."""
+    start = events.initial_values.get(v.name, v.start)
+    return ctx.substitute(start) if start is not None else ca.SX(0)
+
+
 def _start_memory(events, ctx, M):
-    starts = []
-    for v in events.discretes:
-        start = ctx.substitute(v.start) if v.start is not None else ca.SX(0)
-        starts.append(start)
+    starts = [_start_value(v, events, ctx) for v in events.discretes]
     zeros = [ca.SX(0)] * (M.numel() - len(starts))
-    return _vec(starts + zeros)
+    start = _vec(starts + zeros)
+    _check_free([start], [ctx.X, ctx.U, ctx.P, ctx.T], ctx.location)
+    return ca.Function("m_start", [ctx.X, ctx.U, ctx.P, ctx.T], [start])
 
 
 def event_part(events, ctx, M):
@@ -436,7 +459,7 @@ def event_part(events, ctx, M):
     x_new, m_new, status = step(Xm, Um, Pm, Tm, Mm, ctx.w_value(Xm, Um, Pm, Tm, Mm), 0)
     update = ca.Function("update", [Xm, Um, Pm, Tm, Mm], [x_new, m_new, status], names + ["m_pre"],
                          ["x_new", "m_new", "status"])
-    start = ca.Function("m_start", [ctx.P], [_start_memory(events, ctx, M)])(Pm)
+    start = _start_memory(events, ctx, M)(Xm, Um, Pm, Tm)
     keep = ca.DM([1.0 if k < len(events.discretes) else 0.0 for k in range(M.shape[0])])
     m = start
     for _ in range(INIT_PASSES):  # pre() of a discrete variable is its start value in every init pass
@@ -448,15 +471,16 @@ def event_part(events, ctx, M):
     indicators = ca.Function("indicators", [Xm, Um, Pm, Tm, Mm],
                              [z(Xm, Um, Pm, Tm, Mm, ctx.w_value(Xm, Um, Pm, Tm, Mm))], names + ["m"], ["z"])
     return EventPart(
-        discretes=tuple(_discrete_variable(v, ctx) for v in events.discretes),
+        discretes=tuple(_discrete_variable(v, events, ctx) for v in events.discretes),
         n_memory=M.shape[0], n_indicators=len(state_relations), indicators=indicators, update=update,
         initial=initial, next_time=_next_time(events, ctx, M),
         messages=tuple(msg for _, msg in events.asserts) + tuple(msg for _, msg in events.terminates[:1]),
     )
 
 
-def _discrete_variable(v, ctx):
-    start = ctx.substitute(v.start) if v.start is not None else ca.SX(0)
-    value = float(ca.Function("start", [ctx.P], [start])(ctx.p_values))
+def _discrete_variable(v, events, ctx):
+    start = _start_value(v, events, ctx)
+    value = float(ca.Function("start", [ctx.X, ctx.U, ctx.P, ctx.T], [start])(
+        ctx.x_values, [0.0] * ctx.U.numel(), ctx.p_values, 0.0))
     return DiscreteVariable(v.name, v.kind, v.unit, v.description, value,
                             "output" if v.causality == "output" else "local")

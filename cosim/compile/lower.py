@@ -327,11 +327,11 @@ def lower_system(system):
         observed=tuple(ModelVariable(v.name, v.unit, v.description, _start(v)) for v in observed),
         x0=x0, constants=dict(params.constants), notes=tuple(notes),
         events=None if M is None else _event_part(system, params, active, outputs, observed, (X, U, P, T, M),
-                                                  (ode, out, observe), p_defaults),
+                                                  (ode, out, observe), (p_defaults, x0_values)),
     )
 
 
-def _event_part(system, params, active, outputs, observed, symbols, functions, p_defaults):
+def _event_part(system, params, active, outputs, observed, symbols, functions, defaults):
     """The EventPart. Event expressions may read continuous unknowns (derivatives, algebraic variables): those
     they read are evaluated by ode/out/observe at (x, u, p, t, m), the others not at all."""
     X, U, P, T, M = symbols
@@ -349,7 +349,7 @@ def _event_part(system, params, active, outputs, observed, symbols, functions, p
         return ca.vertcat(*[f(x, u, p, t, m)[rows] for f, rows, _ in groups if rows])
 
     location = _file_line(system.variables[0].location)[0] if system.variables else system.name
-    ctx = hybrid.HybridContext(X, U, P, T, W, w_value, active_names, params.substitute, p_defaults, location)
+    ctx = hybrid.HybridContext(X, U, P, T, W, w_value, active_names, params.substitute, *defaults, location)
     return hybrid.event_part(system.events, ctx, M)
 
 

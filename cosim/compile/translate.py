@@ -354,7 +354,8 @@ class _Translator:
         for k, rel in enumerate(storage.get("relations", [])):
             self.expr(rel["relation"]["expression"])
         equations = [self._equation(op) for op in storage["continuous_equation_operations"]]
-        initial = [self._equation(op) for op in storage.get("initialization_equation_operations", [])]
+        initial = [self._equation(op) for op in storage.get("initialization_equation_operations", [])
+                   if not self.reader.initial_equation(op)]
         derivatives = {raw[i]["name"]: s for i, s in self.der_syms.items()}
         return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, self.reader.read())
 

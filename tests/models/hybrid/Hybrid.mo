@@ -180,4 +180,20 @@ package Hybrid "Hybrid test models; each test has an independent reference (clos
       y = 0.5*x;
     end if;
   end IfEquation;
+
+  model InitialValues "Initial equations of discrete variables: an Integer from a parameter, a Real from a state"
+    parameter Integer k0 = 3;
+    Real x(start = 1.5, fixed = true);
+    Integer k;
+    discrete Real d;
+  initial equation
+    k = k0;
+    d = 2*x;
+  equation
+    der(x) = -x;
+    when x < 1 then
+      k = pre(k) + 1;
+      d = x;
+    end when;
+  end InitialValues;
 end Hybrid;
