@@ -151,6 +151,7 @@ def test_thermostat_switching_times_match_scipy_on_hand_written_equations():
 
 def test_sample_and_hold_holds_the_hand_computed_samples():
     model = hybrid("SampleHold")
+    assert any(n.startswith("sample(start = 0.1 s, interval = 0.2 s) is fixed at build time") for n in model.notes)
     events, states, segments = integrate(model, 1.0)
     instants = 0.1 + 0.2 * np.arange(5)
     assert_allclose(events, instants, atol=1e-15)  # time events on the exact lattice

@@ -255,12 +255,7 @@ def lower_system(system):
     algebraics = [v for v in system.variables if v.role in ("algebraic", "output")]
     inputs = system.by_role("input")
     equations = [(params.substitute(e.residual), e.location) for e in system.equations]
-    M = None
-    if system.events is not None:
-        M = ca.vertcat(*hybrid.memory_symbols(system.events)) if hybrid.memory_symbols(system.events) \
-            else ca.SX(0, 1)
-        pre_from, pre_to = hybrid.between_events(system.events, {v.name: v.sym for v in system.variables})
-        equations = [(ca.substitute(e, ca.vertcat(*pre_from), ca.vertcat(*pre_to)), loc) for e, loc in equations]
+    M, equations = _hybrid_memory(system, equations)
     input_names = {u.name for u in inputs}
     ders = [system.derivatives[s.name] for s in states]
     demoted, extra = [], []
@@ -312,6 +307,10 @@ def lower_system(system):
             notes.append(f"nonlinear algebraic loop in {', '.join(u.name() for u in ca.vertsplit(vs))} "
                          f"(equations at {', '.join(sorted(set(locs)))}) solved by Newton's method "
                          f"({NEWTON_ITERATIONS} iterations from the start values)")
+    if system.events is not None:
+        notes += [f"sample(start = {start:g} s, interval = {interval:g} s) is fixed at build time (rumoca evaluates "
+                  "its arguments): a parameter in them does not follow its run-time value"
+                  for _, _, start, interval in system.events.clocks]
     x0, x0_notes = _initial_state(system, params, active, P)
     notes += x0_notes
     p_defaults = [params.defaults[p.name] for p in params.free]
@@ -329,6 +328,17 @@ def lower_system(system):
         events=None if M is None else _event_part(system, params, active, outputs, observed, (X, U, P, T, M),
                                                   (ode, out, observe), (p_defaults, x0_values)),
     )
+
+
+def _hybrid_memory(system, equations):
+    """The event memory's symbols (None for a continuous model) and the continuous equations as they hold
+    between events."""
+    if system.events is None:
+        return None, equations
+    memory = hybrid.memory_symbols(system.events)
+    pre_from, pre_to = hybrid.between_events(system.events, {v.name: v.sym for v in system.variables})
+    equations = [(ca.substitute(e, ca.vertcat(*pre_from), ca.vertcat(*pre_to)), loc) for e, loc in equations]
+    return (ca.vertcat(*memory) if memory else ca.SX(0, 1)), equations
 
 
 def _event_part(system, params, active, outputs, observed, symbols, functions, defaults):
