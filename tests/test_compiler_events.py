@@ -349,3 +349,17 @@ def test_initial_equations_of_discrete_variables():
     assert_allclose(times, [np.log(1.5)], atol=1e-9)  # x = 1.5 exp(-t) reaches 1
     assert k == [4.0]
     assert_allclose(states[-1][2][1], 1.0, atol=1e-9)  # d = x at the event
+
+
+def test_boolean_and_integer_inputs_keep_their_kind_and_a_when_fires_on_the_input():
+    model = hybrid("Inputs")
+    assert [(u.name, u.kind) for u in model.inputs] == [("b", "boolean"), ("k", "integer")]
+    ev = model.events
+    m = np.array(ev.initial([0.0], [0.0, 2.0], [], 0.0)).ravel()
+    assert_allclose(np.array(model.ode([0.0], [0.0, 2.0], [], 0.0, m)).ravel(), [2.0])
+    counts = []
+    for b in (1.0, 1.0, 0.0, 1.0):  # the importer sets the input and runs the event iteration at each change
+        for _ in range(3):
+            m = np.array(ev.update([0.0], [b, 2.0], [], 0.0, m)[1]).ravel()
+        counts.append(m[0])
+    assert counts == [1.0, 1.0, 1.0, 2.0]

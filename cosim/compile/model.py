@@ -21,12 +21,15 @@ class ModelVariable:
         The declaration's description string.
     start : float
         Start value (parameters: the default; states: the initial value at default parameters).
+    kind : str
+        ``real``, or for an input: ``integer``, ``boolean`` or ``enumeration`` (its value passed as a float).
     """
 
     name: str
     unit: str = ""
     description: str = ""
     start: float = 0.0
+    kind: str = "real"
 
 
 @dataclass(frozen=True)

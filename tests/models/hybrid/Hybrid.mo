@@ -196,4 +196,16 @@ package Hybrid "Hybrid test models; each test has an independent reference (clos
       d = x;
     end when;
   end InitialValues;
+
+  model Inputs "Boolean and Integer inputs: a when on a Boolean input, an Integer input in an equation"
+    input Boolean b;
+    input Integer k;
+    output Integer n(start = 0) "rising edges of b";
+    Real x(start = 0, fixed = true);
+  equation
+    der(x) = k;
+    when b then
+      n = pre(n) + 1;
+    end when;
+  end Inputs;
 end Hybrid;
