@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 
+from cosim.compile import arrays
+from cosim.compile.functions import inline
 from cosim.errors import UnsupportedConstructError
 
 __all__ = ["Variable", "Equation", "DaeSystem", "translate"]
@@ -130,8 +132,11 @@ class _Translator:
         exprs = storage["expressions"]
         self.nodes = exprs["nodes"]
         self.provenance = exprs.get("provenance", [])
-        self.operands = self._operand_table(exprs["operands"])
+        self.operands = self._operand_table(exprs["operands"], "operand_count")
+        self.subscripts = self._operand_table(exprs.get("subscripts", []), "subscript_count")
         self.value_types = [vt["scalar"] for vt in storage["value_types"]]
+        self.dims = [vt.get("dimensions") or [] for vt in storage["value_types"]]
+        self.element_of = {}  # element symbol name -> (variable index, row-major position)
         self.time = ca.SX.sym("time")
         self.syms = []
         self.der_syms = {}
@@ -149,6 +154,11 @@ class _Translator:
             *self._file_line(self.flat.locate(_span_of(span_holder))),
         )
 
+    def reject(self, what, span_holder):
+        """A construct rumoca's IR carries that the compiler does not lower (not an event construct)."""
+        raise UnsupportedConstructError(f"{what} is not supported (see docs/compiler.md)",
+                                        *self._file_line(self.flat.locate(_span_of(span_holder))))
+
     @staticmethod
     def _file_line(location):
         file, _, line = location.rpartition(":")
@@ -156,12 +166,12 @@ class _Translator:
             return file, int(line)
         return location, None
 
-    def _operand_table(self, operands):
-        """Variadic nodes take their operands from one flat array, in node order."""
+    def _operand_table(self, operands, count_key):
+        """Variadic nodes take their operands (and subscripts) from one flat array, in node order."""
         table, pos = {}, 0
         for i, node in enumerate(self.nodes):
             (kind, body), = node.items()
-            count = body.get("operand_count", 0) if isinstance(body, dict) else 0
+            count = body.get(count_key, 0) if isinstance(body, dict) else 0
             if count:
                 table[i] = operands[pos:pos + count]
                 pos += count
@@ -194,6 +204,10 @@ class _Translator:
                 return ca.logic_not(a)
             if body["operator"] == "plus":
                 return a
+        elif kind in arrays.NODES:
+            return arrays.NODES[kind](self, i, body, ctx)
+        elif kind == "binary" and body["operator"] == "multiply":
+            return arrays.multiply(self.expr(body["lhs"], ctx), self.expr(body["rhs"], ctx))
         elif kind == "binary":
             op = _BINARY.get(body["operator"])
             if op is not None:
@@ -209,7 +223,7 @@ class _Translator:
         elif kind == "call":
             return self._call(i, body, ctx)
         elif kind == "function_value":
-            return ctx["values"][body["definition_ordinal"]]
+            return ctx["defs"][body["definition_ordinal"]]
         what = body.get("operator") or body.get("builtin") if isinstance(body, dict) else None
         self.unsupported(f"the construct {kind}{' ' + what if what else ''}", self.provenance[i])
 
@@ -223,6 +237,8 @@ class _Translator:
             return self.der_syms[index]
         if ref == "function_parameter":
             return ctx["args"][index["ordinal"]]
+        if ref == "binder":
+            return ca.SX(ctx["binders"][(index["domain"], index["ordinal"])])
         self.unsupported(f"a reference to a {ref} variable", self.provenance[i])
 
     def _builtin(self, i, name, ctx):
@@ -237,6 +253,10 @@ class _Translator:
             return _BUILTIN_1[name](args[0])
         if name in _BUILTIN_2 and len(args) == 2:
             return _BUILTIN_2[name](args[0], args[1])
+        if name in arrays.BUILTINS:
+            function, integer_args = arrays.BUILTINS[name]
+            args = [self.integer(a, i) if k in integer_args else a for k, a in enumerate(args)]
+            return function(*args)
         self.unsupported(f"the built-in {name}()", self.provenance[i])
 
     def _call(self, i, body, ctx):
@@ -244,32 +264,46 @@ class _Translator:
         key = ("call", owner, None if ctx is None else ctx["serial"])
         if key not in self.memo:
             args = [self.expr(j, ctx) for j in self.operands[owner]]
-            self.memo[key] = self._inline(body["function"], args, owner)
+            self.memo[key] = inline(self, body["function"], args)
         return self.memo[key][body["output"]]
 
-    def _inline(self, index, args, call_node):
-        function = self.storage["functions"][index]
-        if function.get("external"):
-            self.unsupported(f"the external function {function['name']}", function)
-        n_out = len(function["outputs"])
-        # a serial, not id(): a finished call's context is freed and its id reused by the next call, whose
-        # body nodes would then hit the first call's memo entries
-        fctx = {"args": args, "values": [], "serial": next(self.call_serials)}
-        final = [None] * n_out
-        for statement in function["statements"]:
-            (kind, body), = statement.items()
-            if kind != "assignment":
-                self.unsupported(f"the '{kind}' statement in function {function['name']}", statement)
-            value = self.expr(body["rhs"], fctx)
-            fctx["values"].append(value)
-            if body["target"] < n_out:
-                final[body["target"]] = value
-        for k, value in enumerate(final):
-            if value is None:
-                self.unsupported(
-                    f"function {function['name']} leaving output {function['outputs'][k]['name']} unassigned",
-                    function)
-        return final
+    def context(self, parent=None, **values):
+        """A fresh evaluation context (function arguments, definitions, loop binders) with its own memo serial:
+        a serial, not id(): a finished call's context is freed and its id reused by the next call, whose body
+        nodes would then hit the first call's memo entries."""
+        ctx = dict(parent or {"binders": {}})
+        ctx.update(values, serial=next(self.call_serials))
+        return ctx
+
+    def integer(self, value, node_id):
+        """An integer the build must know (a subscript, a size, a loop bound): parameters are replaced by
+        their bindings until none is left."""
+        for _ in range(len(self.element_of) + 1):
+            free = ca.symvar(value)
+            if not free:
+                number = float(ca.evalf(value))
+                if number == round(number):
+                    return int(round(number))
+                break
+            bindings = [self._binding(s.name()) for s in free]
+            if any(b is None for b in bindings):
+                break
+            value = ca.substitute(value, ca.vertcat(*free), ca.vertcat(*bindings))
+        self.reject(f"an array size, subscript or loop range that is not an Integer known at build time ({value})",
+                    self.provenance[node_id])
+
+    def _binding(self, name):
+        """The binding of a parameter element, None for anything else."""
+        if name not in self.element_of:
+            return None
+        i, k = self.element_of[name]
+        v = self.storage["variables"][i]
+        node = v["attributes"].get("binding")
+        node = v["attributes"].get("start") if node is None else node
+        if v["role"] not in ("parameter", "constant") or node is None:
+            return None
+        value = self.expr(node)
+        return value if value.numel() == 1 else arrays.elements(value)[k]
 
     # -- variables and equations ----------------------------------------------
     def run(self):
@@ -281,43 +315,80 @@ class _Translator:
         for v in raw:
             if v["role"] not in _STRUCTURAL_ROLES:
                 self.unsupported(f"the {v['role'].replace('_', ' ')} variable {v['name']}", v)
-        self.syms = [ca.SX.sym(v["name"]) for v in raw]
-        self.der_syms = {i: ca.SX.sym(f"der({v['name']})") for i, v in enumerate(raw) if v["role"] == "state"}
+        self._declare(raw)
         system_warnings = []
         for rel in storage.get("relations", []):
             if "quotient_owner" in rel:
                 self.unsupported("mod/div/rem", storage.get("conditions", [rel]))
             system_warnings.append(
                 f"{self.flat.locate(_span_of(rel))}: 'if' without noEvent is evaluated without events")
-        variables = []
-        for i, v in enumerate(raw):
-            a = v["attributes"]
-            variables.append(Variable(
-                name=v["name"],
-                role=v["role"],
-                kind=self.value_types[v["value_type"]],
-                sym=self.syms[i],
-                unit=a.get("unit") or "",
-                description=a.get("description") or "",
-                start=None if a.get("start") is None else self.expr(a["start"]),
-                binding=None if a.get("binding") is None else self.expr(a["binding"]),
-                fixed=bool(a.get("fixed")) and a.get("fixed") not in ([False], [None]),
-                tunable=bool(a.get("is_tunable", True)),
-                state_select=a.get("state_select") or "Default",
-                causality=a.get("causality") or "local",
-                location=self.flat.locate(_span_of(v.get("declaration"))),
-            ))
-        equations = [self._equation(op) for op in storage["continuous_equation_operations"]]
-        initial = [self._equation(op) for op in storage.get("initialization_equation_operations", [])]
-        derivatives = {raw[i]["name"]: s for i, s in self.der_syms.items()}
+        variables = [var for i, v in enumerate(raw) for var in self._variables(i, v)]
+        equations = [e for op in storage["continuous_equation_operations"] for e in self._equations(op)]
+        initial = [e for op in storage.get("initialization_equation_operations", []) for e in self._equations(op)]
+        derivatives = {name: s for i, der in self.der_syms.items()
+                       for name, s in zip(self._element_names(raw[i]), arrays.elements(der))}
         return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, system_warnings)
 
-    def _equation(self, operation):
-        (kind, body), = operation.items()
-        if kind != "residual":
-            self.unsupported(f"the equation form '{kind}'", operation)
-        return Equation(self.expr(body["residual"]), self.flat.locate(_span_of(body.get("provenance"))))
+    def _element_names(self, v):
+        return [v["name"] + s for s in arrays.element_suffixes(self.dims[v["value_type"]])]
 
+    def _declare(self, raw):
+        """One symbol per array element (``T[2]``), and the variable's value as an SX of its shape."""
+        self.syms, self.der_syms = [], {}
+        for i, v in enumerate(raw):
+            dims = self.dims[v["value_type"]]
+            if len(dims) > 2 or not all(isinstance(d, int) for d in dims):
+                self.reject(f"the array {v['name']} with dimensions {dims} (at most two, known at build time)", v)
+            names = self._element_names(v)
+            for k, name in enumerate(names):
+                self.element_of[name] = (i, k)
+            self.syms.append(arrays.shaped([ca.SX.sym(n) for n in names], dims))
+            if v["role"] == "state":
+                self.der_syms[i] = arrays.shaped([ca.SX.sym(f"der({n})") for n in names], dims)
+
+    def _variables(self, i, v):
+        """The scalar variables of one declaration: one per element of an array, attributes split likewise."""
+        a = v["attributes"]
+        syms = arrays.elements(self.syms[i])
+
+        def per_element(node):
+            if node is None:
+                return [None] * len(syms)
+            value = self.expr(node)
+            return [value] * len(syms) if value.numel() == 1 else arrays.elements(value)
+
+        fixed = a.get("fixed")
+        fixed = [bool(f) for f in fixed] if isinstance(fixed, list) and len(fixed) == len(syms) else \
+            [bool(fixed) and fixed not in ([False], [None])] * len(syms)
+        location = self.flat.locate(_span_of(v.get("declaration")))
+        return [Variable(
+            name=name, role=v["role"], kind=self.value_types[v["value_type"]], sym=sym,
+            unit=a.get("unit") or "", description=a.get("description") or "",
+            start=start, binding=binding, fixed=f, tunable=bool(a.get("is_tunable", True)),
+            state_select=a.get("state_select") or "Default", causality=a.get("causality") or "local",
+            location=location,
+        ) for name, sym, start, binding, f in zip(
+            self._element_names(v), syms, per_element(a.get("start")), per_element(a.get("binding")), fixed)]
+
+    def _equations(self, operation):
+        """The scalar equations of one IR equation: an array equation gives one per element, a ``for``
+        equation (a structured one) one per value of its loop variables."""
+        (kind, body), = operation.items()
+        location = self.flat.locate(_span_of(operation))
+        if kind == "residual":
+            return [Equation(r, location) for r in arrays.elements(self.expr(body["residual"]))]
+        if kind != "structured":
+            self.unsupported(f"the equation form '{kind}'", operation)
+        result = []
+        for binders in arrays.domain_values(self, body["domain"]):
+            ctx = self.context(binders=binders)
+            position = [binders[key] - 1 for key in sorted(binders)]
+            for node in body["bodies"]:
+                value = self.expr(node, ctx)
+                if value.numel() > 1:  # an array equation projected on its elements, row-major
+                    value = value[tuple(position)] if len(position) == 2 else value[position[0]]
+                result.append(Equation(value, location))
+        return result
 
 def translate(flat):
     """Translate a :class:`~cosim.compile.frontend.FlatModel` into a :class:`DaeSystem` of SX expressions.
