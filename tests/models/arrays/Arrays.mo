@@ -1,0 +1,181 @@
+package Arrays "Array, loop, function and initialisation test models of the compiler (tests/test_compiler_arrays.py, tests/test_compiler_initial.py)"
+
+  function horner "Polynomial c[1]*x^(n-1) + ... + c[n], by Horner's rule over the array argument"
+    input Real c[:];
+    input Real x;
+    output Real y;
+  algorithm
+    y := 0;
+    for i in 1:size(c, 1) loop
+      y := y*x + c[i];
+    end for;
+  end horner;
+
+  function norm2 "Euclidean norm with a local accumulator"
+    input Real v[:];
+    output Real n;
+  protected
+    Real s;
+  algorithm
+    s := 0;
+    for i in 1:size(v, 1) loop
+      s := s + v[i]^2;
+    end for;
+    n := sqrt(s);
+  end norm2;
+
+  function clip "Saturation by an if statement"
+    input Real x;
+    input Real lim;
+    output Real y;
+  algorithm
+    if x > lim then
+      y := lim;
+    elseif x < -lim then
+      y := -lim;
+    else
+      y := x;
+    end if;
+  end clip;
+
+  function cumulative "Running sums: an array result assigned element by element in a loop"
+    input Real v[:];
+    output Real w[size(v, 1)];
+  algorithm
+    w[1] := v[1];
+    for i in 2:size(v, 1) loop
+      w[i] := w[i - 1] + v[i];
+    end for;
+  end cumulative;
+
+  function positives "Sum and product of the positive elements, and twice each element in a local array"
+    input Real v[:];
+    output Real total;
+    output Real prod;
+  protected
+    Real t[size(v, 1)];
+  algorithm
+    total := 0;
+    prod := 1;
+    for i in 1:size(v, 1) loop
+      t[i] := 2*v[i];
+      if v[i] > 0 then
+        total := total + v[i];
+        prod := prod*v[i];
+      end if;
+    end for;
+    total := total + sum(t);
+  end positives;
+
+  model Rod "Heat conduction along a rod of N cells: held temperature at the left end, loss to ambient at the right"
+    parameter Integer N = 10 "number of cells";
+    parameter Real C = 2.0 "heat capacity of one cell [J/K]";
+    parameter Real G = 5.0 "thermal conductance between neighbouring cells [W/K]";
+    parameter Real G_amb = 0.5 "conductance from the last cell to ambient [W/K]";
+    parameter Real T_left = 400 "temperature held at the left end [K]";
+    parameter Real T_amb = 300 "ambient temperature [K]";
+    Real T[N](each start = 300) "cell temperatures [K]";
+    Real Q_left "heat flow into the left end [W]";
+    Real T_mean "mean temperature [K]";
+  equation
+    Q_left = G*(T_left - T[1]);
+    C*der(T[1]) = Q_left - G*(T[1] - T[2]);
+    for i in 2:N - 1 loop
+      C*der(T[i]) = G*(T[i - 1] - 2*T[i] + T[i + 1]);
+    end for;
+    C*der(T[N]) = G*(T[N - 1] - T[N]) - G_amb*(T[N] - T_amb);
+    T_mean = sum(T)/N;
+  end Rod;
+
+  model RodSteady "The rod started at its steady state"
+    extends Rod;
+  initial equation
+    der(T) = zeros(N);
+  end RodSteady;
+
+  model LinearSystem "Matrix-vector products, array parameters and the array built-ins"
+    parameter Integer n = 3;
+    parameter Real A[n, n] = [-2, 1, 0; 0.5, -3, 1; 0, 1, -1.5];
+    parameter Real b[n] = linspace(1, 2, n);
+    parameter Real c[n] = {1, -1, 2};
+    parameter Real w[n] = fill(0.25, n);
+    input Real u;
+    Real x[n](start = {1, 0.5, -0.5});
+    output Real y "c'x";
+    output Real s "sum(x) + w'x";
+    output Real last "x[n] through a parameter subscript";
+    output Real row[n] "A[2, :] .* x elementwise, in a for equation";
+    output Real pair[2] "A[1:2, 2:3]*x[2:3]";
+  equation
+    der(x) = A*x + b*u;
+    y = c*x;
+    s = sum(x) + w*x + sum(ones(n)) - size(A, 1) + sum(zeros(n));
+    last = x[n];
+    for i in 1:n loop
+      row[i] = A[2, i]*x[i];
+    end for;
+    pair = A[1:2, 2:3]*x[2:3];
+  end LinearSystem;
+
+  model FunctionLoops "Functions with for loops over array arguments, if statements and array results"
+    parameter Real c[4] = {0.5, -1, 2, 3};
+    Real x(start = 0.2);
+    output Real p "horner(c, x)";
+    output Real n "norm2({x, 2x, cos(time)})";
+    output Real k "clip(x, 0.3)";
+    output Real cs[4] "cumulative(c)";
+    output Real tot;
+    output Real prod;
+  equation
+    der(x) = 1 - x + 0.5*sin(3*time);
+    p = horner(c, x);
+    n = norm2({x, 2*x, cos(time)});
+    k = clip(x, 0.3);
+    cs = cumulative(c);
+    (tot, prod) = positives({x - 0.5, 2, -1, x});
+  end FunctionLoops;
+
+  model Tank "Tank with outflow through an orifice, started at its level of equilibrium (a nonlinear initial problem)"
+    parameter Real A = 2.0 "cross-section [m2]";
+    parameter Real q = 0.3 "inflow [m3/s]";
+    parameter Real a = 0.2 "outflow coefficient [m2.5/s]";
+    Real h(start = 1) "level [m]";
+    Real q_out "outflow [m3/s]";
+  equation
+    q_out = a*sqrt(h);
+    A*der(h) = q - q_out;
+  initial equation
+    der(h) = 0;
+  end Tank;
+
+  model Mixed "Initial equations mixing a state, derivatives, an algebraic variable and parameters"
+    parameter Real m = 1.5;
+    parameter Real k = 100;
+    parameter Real d = 3;
+    parameter Real F = 5;
+    Real x(start = 0.3);
+    Real v(start = 1);
+    Real w(start = 0, fixed = true);
+    Real spring "spring force [N]";
+  equation
+    der(x) = v;
+    m*der(v) = F - spring - d*v;
+    spring = k*x;
+    der(w) = -w + x;
+  initial equation
+    der(v) = 0;
+    spring + 2*der(x) = F;
+  end Mixed;
+
+  model Explicit "Initial equations that fix states from parameters (solved explicitly, as before)"
+    parameter Real x0 = 0.4;
+    Real x;
+    Real y(start = 2);
+  equation
+    der(x) = -x;
+    der(y) = -2*y;
+  initial equation
+    x = 2*x0;
+  end Explicit;
+
+end Arrays;
