@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 
 from cosim.compile import arrays
+from cosim.compile.der_expressions import promote_der_arguments
 from cosim.compile.functions import inline
 from cosim.errors import UnsupportedConstructError
 
@@ -397,6 +398,7 @@ def translate(flat):
     model names their places.
     """
     system = _Translator(flat).run()
+    promote_der_arguments(system)
     if system.warnings:
         warnings.warn(
             f"{flat.name}: {len(system.warnings)} 'if' expression(s) without noEvent are evaluated without "

@@ -178,4 +178,26 @@ package Arrays "Array, loop, function and initialisation test models of the comp
     x = 2*x0;
   end Explicit;
 
+  model DerExpression "der() of expressions: two inertias coupled by a spring-damper on der(phi2 - phi1), and der(k*z)"
+    parameter Real J1 = 0.5 "inertia 1 [kg.m2]";
+    parameter Real J2 = 1.5 "inertia 2 [kg.m2]";
+    parameter Real c = 40 "spring stiffness [N.m/rad]";
+    parameter Real d = 0.8 "damping [N.m.s/rad]";
+    parameter Real k = 2;
+    parameter Real tau = 1 "torque on inertia 1 [N.m]";
+    Real phi1(start = 0);
+    Real phi2(start = 0.1);
+    Real w1(start = 0);
+    Real w2(start = 0);
+    Real rate "relative speed der(phi2 - phi1) [rad/s]";
+    Real z(start = 1);
+  equation
+    der(phi1) = w1;
+    der(phi2) = w2;
+    rate = der(phi2 - phi1);
+    J1*der(w1) = tau + c*(phi2 - phi1) + d*rate;
+    J2*der(w2) = -c*(phi2 - phi1) - d*rate;
+    der(k*z) = -z;
+  end DerExpression;
+
 end Arrays;
