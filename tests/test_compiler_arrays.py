@@ -92,6 +92,31 @@ def test_functions_with_for_loops_over_array_arguments_match_numpy():
     assert _call(m.ode, [0.2], [], p, 1.0)[0] == pytest.approx(1 - 0.2 + 0.5 * np.sin(3.0), rel=1e-12)
 
 
+def test_der_of_expressions_follows_the_hand_derived_ode():
+    # rate = der(phi2 - phi1) = w2 - w1; der(k z) = -z  =>  z' = -z / k:
+    # J1 w1' = tau + c (phi2 - phi1) + d (w2 - w1), J2 w2' = -c (phi2 - phi1) - d (w2 - w1).
+    J1, J2, c, d, k, tau = 0.5, 1.5, 40.0, 0.8, 2.0, 1.0
+
+    def rhs(t, s):
+        phi1, phi2, w1, w2, z = s
+        spring = c * (phi2 - phi1) + d * (w2 - w1)
+        return [w1, w2, (tau + spring) / J1, -spring / J2, -z / k]
+
+    m = lower(MODELS, "Arrays.DerExpression")
+    assert [s.name for s in m.states] == ["phi1", "phi2", "w1", "w2", "z"]
+    x0 = [0.0, 0.1, 0.0, 0.0, 1.0]
+    assert [s.start for s in m.states] == x0
+    p = _defaults(m)
+    t_eval = np.linspace(0, 3, 61)
+    ref = solve_ivp(rhs, (0, 3), x0, t_eval=t_eval, rtol=1e-10, atol=1e-12)
+    got = solve_ivp(lambda t, x: _call(m.ode, x, [], p, t), (0, 3), x0, t_eval=t_eval, rtol=1e-10, atol=1e-12)
+    assert ref.success and got.success
+    np.testing.assert_allclose(got.y, ref.y, rtol=0, atol=1e-7)
+    rate = [_call(m.observe, got.y[:, j], [], p, t)[[v.name for v in m.observed].index("rate")]
+            for j, t in enumerate(t_eval)]
+    np.testing.assert_allclose(rate, ref.y[3] - ref.y[2], atol=1e-7)
+
+
 def _package(tmp_path, body):
     path = tmp_path / "T.mo"
     path.write_text("package T\n" + textwrap.dedent(body).strip("\n") + "\nend T;\n")

@@ -6,7 +6,7 @@ ODE's right-hand side, the algebraic chains; a nonlinear algebraic loop joins th
 unknowns), which leaves equations in the states and parameters. They determine the states they mention
 (directly or through ``der()``) plus the states declared ``fixed = true`` (``x = start``); the other states keep
 their start values. Linear equations are solved symbolically; nonlinear ones by Newton's method from the start
-values, written as CasADi expressions (:mod:`cosim.compile.newton`) so that ``x0`` stays a CasADi function of
+values (damped: a step that does not lower the residual is halved), written as CasADi expressions (:mod:`cosim.compile.newton`) so that ``x0`` stays a CasADi function of
 ``p`` that C code can be generated for. Inputs take their start values and ``time`` is 0.
 """
 
@@ -169,12 +169,12 @@ def _solve(V, R, guess, P, where, file, line):
         rhs = -ca.substitute(R, V, ca.SX.zeros(V.shape))
         solution = rhs / jac if V.numel() == 1 else ca.solve(jac, rhs)
         return ca.Function("initial_linear", [P], [ca.simplify(solution)]), "linear, solved symbolically"
-    solver = newton("_initial", V, R, P)
+    solver = newton("_initial", V, R, P, damped=True)
     Pm = ca.MX.sym("p", P.shape[0])
     guess_m = ca.Function("initial_guess", [P], [guess])(Pm)
     solved = solver(guess_m, ca.repmat(Pm, 1, NEWTON_ITERATIONS))
     return ca.Function("initial_newton", [Pm], [solved]), (
-        f"nonlinear, {NEWTON_ITERATIONS} Newton iterations from the start values")
+        f"nonlinear, {NEWTON_ITERATIONS} damped Newton iterations from the start values")
 
 
 def _check_rank(jac, P, where, file, line):
