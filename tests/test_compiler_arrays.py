@@ -75,6 +75,26 @@ def test_array_parameters_builtins_and_matrix_vector_products_match_numpy():
         np.testing.assert_allclose([out["pair[1]"], out["pair[2]"]], A2[:2, 1:3] @ x[1:3], rtol=1e-12)
 
 
+def test_matrix_states_nested_for_equations_and_more_builtins_match_numpy():
+    A, v = np.array([[1.0, 2], [3, 4]]), np.array([1.0, 2, 3])
+    m = lower(MODELS, "Arrays.MoreArrays")
+    assert [s.name for s in m.states][:4] == ["m[1,1]", "m[1,2]", "m[2,1]", "m[2,2]"]
+    assert [s.start for s in m.states] == [1, 0, 0.5, 2, 1, 1, 1, 1]
+    p = _defaults(m)
+    x = np.random.default_rng(7).normal(size=8)
+    M, chain = x[:4].reshape(2, 2), x[4:]
+    expected = np.concatenate([(-A @ M).ravel(), [-chain[0]], chain[:-1] - chain[1:]])
+    np.testing.assert_allclose(_call(m.ode, x, [], p, 0.0), expected, rtol=1e-12)
+    out = dict(zip([o.name for o in m.outputs], _call(m.out, x, [], p, 0.0)))
+    np.testing.assert_array_equal([out[f"joined[{i}]"] for i in range(1, 6)], [1, 2, 3, 7, 8])
+    assert out["weighted"] == pytest.approx(chain @ np.arange(1, 5), rel=1e-12)
+    np.testing.assert_array_equal([out["row[1]"], out["row[2]"]], A[1])
+    skew = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    np.testing.assert_array_equal([[out[f"sk[{i},{j}]"] for j in (1, 2, 3)] for i in (1, 2, 3)], skew)
+    grid = [[10 * i + j + M[i - 1, 0] for j in (1, 2, 3)] for i in (1, 2)]
+    np.testing.assert_allclose([[out[f"grid[{i},{j}]"] for j in (1, 2, 3)] for i in (1, 2)], grid, rtol=1e-14)
+
+
 def test_functions_with_for_loops_over_array_arguments_match_numpy():
     c = np.array([0.5, -1, 2, 3])
     m = lower(MODELS, "Arrays.FunctionLoops")
@@ -154,6 +174,18 @@ REJECTED = {
   equation
     der(x) = -total({x, 2*x});
   end M;""", "for-loop over the elements of an array", 7),
+    "model algorithm with a loop": ("""
+  model M
+    Real x[2](each start = 1);
+    Real y;
+  algorithm
+    y := 0;
+    for i in 1:2 loop
+      y := y + x[i];
+    end for;
+  equation
+    der(x) = -x*y;
+  end M;""", "algorithm section of a model is not supported", 5),
     "three-dimensional array": ("""
   model M
     parameter Real a[2, 2, 2] = fill(1.0, 2, 2, 2);

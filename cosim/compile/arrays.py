@@ -142,6 +142,7 @@ BUILTINS = {
     "diagonal": (lambda v: ca.diag(v), ()),
     "outer_product": (lambda a, b: ca.mtimes(a, b.T), ()),
     "cross": (lambda a, b: ca.cross(a, b), ()),
+    "skew": (lambda v: ca.skew(v), ()),
     "promoted_cat1": (lambda *parts: ca.vertcat(*parts), ()),
     "promoted_cat2": (lambda *parts: ca.horzcat(*parts), ()),
 }

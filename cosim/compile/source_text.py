@@ -36,6 +36,9 @@ _KNOWN = [
      "loop over its indices (for i in 1:size(v, 1))"),
     (re.compile(r"while-statement"), re.compile(r"\bwhile\b"), "while-statement",
      "rumoca 0.10.2 does not carry it into its IR; write a for-loop with a fixed bound"),
+    (re.compile(r"unsupported model algorithm in canonical DAE: (?P<reason>[^\n]+)"),
+     re.compile(r"\balgorithm\b"), "algorithm section of a model",
+     "write equations, or move the algorithm into a function"),
     (re.compile(r"der\(\.\.\.\) must have exactly one resolved variable-reference operand"),
      re.compile(r"\bder\s*\((?!\s*[A-Za-z_][\w.]*\s*(\[[^\]]*\])?\s*\))"), "der() of this expression",
      "write der() of a variable or of an expression in variables of this class"),
@@ -58,6 +61,8 @@ def locate_rumoca_error(message, files):
         if not found:
             continue
         function = found.groupdict().get("function")
+        if found.groupdict().get("reason"):
+            instead = f"rumoca 0.10.2 says: {found.group('reason').strip()}; {instead}"
         for path in files:
             text = masked(path.read_text(encoding="utf-8"))
             start, end = _function_span(text, function) if function else (0, len(text))

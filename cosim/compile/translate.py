@@ -258,7 +258,7 @@ class _Translator:
             function, integer_args = arrays.BUILTINS[name]
             args = [self.integer(a, i) if k in integer_args else a for k, a in enumerate(args)]
             return function(*args)
-        self.unsupported(f"the built-in {name}()", self.provenance[i])
+        self.reject(f"the built-in {name}()", self.provenance[i])
 
     def _call(self, i, body, ctx):
         owner = body["owner"]

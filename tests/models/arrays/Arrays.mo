@@ -117,6 +117,37 @@ package Arrays "Array, loop, function and initialisation test models of the comp
     pair = A[1:2, 2:3]*x[2:3];
   end LinearSystem;
 
+  model MoreArrays "cat, skew, a reduction, a matrix row, matrix states, nested for-equations, an if on the loop index"
+    parameter Integer N = 4;
+    parameter Real A[2, 2] = [1, 2; 3, 4];
+    parameter Real v[3] = {1, 2, 3};
+    Real m[2, 2](start = [1, 0; 0.5, 2]);
+    Real chain[N](each start = 1);
+    output Real joined[5];
+    output Real weighted;
+    output Real row[2];
+    output Real sk[3, 3];
+    output Real grid[2, 3];
+  equation
+    der(m) = -A*m;
+    for i in 1:N loop
+      if i == 1 then
+        der(chain[i]) = -chain[i];
+      else
+        der(chain[i]) = chain[i - 1] - chain[i];
+      end if;
+    end for;
+    joined = cat(1, v, {7, 8});
+    weighted = sum(chain[i]*i for i in 1:N);
+    row = A[2];
+    sk = skew(v);
+    for i in 1:2 loop
+      for j in 1:3 loop
+        grid[i, j] = i*10 + j + m[i, 1];
+      end for;
+    end for;
+  end MoreArrays;
+
   model FunctionLoops "Functions with for loops over array arguments, if statements and array results"
     parameter Real c[4] = {0.5, -1, 2, 3};
     Real x(start = 0.2);
