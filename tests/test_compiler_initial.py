@@ -67,6 +67,15 @@ def test_initial_equations_mixing_states_derivatives_algebraics_and_parameters(F
     np.testing.assert_allclose(x0, [F / k, 0.0, 0.0], atol=1e-14)
 
 
+@pytest.mark.parametrize("k", [2.0, 0.5])
+def test_initial_equations_on_der_of_an_expression_and_on_an_algebraic_variable(k):
+    # der(x1 - x2) = -k x1 + 1 - (x1 - x2) = 0 with x2 at its start 0.5  =>  x1 = (1 + 0.5) / (k + 1);
+    # power = y^2 = 4 k, Newton from y = 3  =>  y = 2 sqrt(k); z keeps its start.
+    m = lower(MODELS, "Arrays.Indirect")
+    assert [s.name for s in m.states] == ["x1", "x2", "y", "z"]
+    np.testing.assert_allclose(_x0(m, k=k)[0], [1.5 / (k + 1), 0.5, 2 * np.sqrt(k), 1.0], rtol=1e-12)
+
+
 def test_explicit_initial_equation_keeps_its_value_and_other_states_their_start():
     m = lower(MODELS, "Arrays.Explicit")
     np.testing.assert_array_equal(_x0(m)[0], [0.8, 2.0])
@@ -99,7 +108,7 @@ BAD = {
     "too many": ("""
   model M
     Real x(start = 1);
-    Real y(start = 0);
+    Real y(start = 0, fixed = true);
   equation
     der(x) = -x + y;
     der(y) = -y;

@@ -4,14 +4,18 @@ An initial equation may mix states, derivatives, algebraic variables and paramet
 steady state). The derivatives and algebraic variables are replaced by what the lowering solved them to (the
 ODE's right-hand side, the algebraic chains; a nonlinear algebraic loop joins the initial problem with its own
 unknowns), which leaves equations in the states and parameters. They determine the states they mention
-(directly or through ``der()``) plus the states declared ``fixed = true`` (``x = start``); the other states keep
-their start values. Linear equations are solved symbolically; nonlinear ones by Newton's method from the start
+(directly or through ``der()``) plus the states declared ``fixed = true`` (``x = start``); when that is fewer
+states than equations (an equation on an algebraic variable, on ``der()`` of an expression), each equation left
+without a state of its own takes the first state it depends on that is not fixed. The other states keep their
+start values (a start without ``fixed = true`` is a guess the initial equations may override). Linear equations are solved symbolically; nonlinear ones by Newton's method from the start
 values (damped: a step that does not lower the residual is halved), written as CasADi expressions (:mod:`cosim.compile.newton`) so that ``x0`` stays a CasADi function of
 ``p`` that C code can be generated for. Inputs take their start values and ``time`` is 0.
 """
 
 import casadi as ca
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import maximum_bipartite_matching
 
 from cosim.compile.newton import NEWTON_ITERATIONS, newton
 from cosim.errors import StructureError
@@ -97,8 +101,30 @@ def _problem(system, params, active, blocks):
                 block_syms.append(u)
                 var = next(v for v in system.variables if v.sym.name() == u.name())
                 guesses.append(params.substitute(var.start) if var.start is not None else ca.SX(0.0))
+    _join_indirect_states(residuals, mentioned, active, len(block_syms))
     unknown_states = [s for s in active if s.name in mentioned]
     return residuals, locations, unknown_states, block_syms, guesses
+
+
+def _join_indirect_states(residuals, mentioned, active, n_block):
+    """Fewer states mentioned than equations (an equation on an algebraic variable, on der() of an
+    expression): each equation the mentioned states cannot be matched to takes the first state it depends on
+    that is neither fixed nor taken. Extends ``mentioned``."""
+    if len(mentioned) + n_block >= len(residuals):
+        return
+    incidence = [[k for k, name in enumerate(mentioned) if name in _names(r)] for r in residuals]
+    rows = [i for i, ks in enumerate(incidence) for _ in ks]
+    cols = [k for ks in incidence for k in ks]
+    graph = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(residuals), max(len(mentioned), 1)))
+    matched = maximum_bipartite_matching(graph, perm_type="column") if rows else -np.ones(len(residuals))
+    for i in np.flatnonzero(matched < 0):
+        if len(mentioned) + n_block >= len(residuals):
+            return
+        depends = _names(residuals[i])
+        for s in active:
+            if s.name in depends and s.name not in mentioned and not s.fixed:
+                mentioned.append(s.name)
+                break
 
 
 def initial_state(system, params, active, P, blocks):

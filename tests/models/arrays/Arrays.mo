@@ -198,6 +198,25 @@ package Arrays "Array, loop, function and initialisation test models of the comp
     spring + 2*der(x) = F;
   end Mixed;
 
+  model Indirect "An initial equation on der() of an expression and one on an algebraic variable: the states they
+    depend on through them are determined, in declaration order"
+    parameter Real k = 2;
+    Real x1(start = 1);
+    Real x2(start = 0.5);
+    Real y(start = 3);
+    Real z(start = 1);
+    Real power "algebraic";
+  equation
+    der(x1) = -k*x1 + 1;
+    der(x2) = x1 - x2;
+    power = y^2;
+    der(y) = -y;
+    der(z) = -z;
+  initial equation
+    der(x1 - x2) = 0;
+    power = 4*k;
+  end Indirect;
+
   model Explicit "Initial equations that fix states from parameters (solved explicitly, as before)"
     parameter Real x0 = 0.4;
     Real x;
