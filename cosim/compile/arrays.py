@@ -29,8 +29,7 @@ def shaped(items, dims):
 
 def elements(value):
     """The scalar elements of an SX, row-major (a column vector: top to bottom)."""
-    rows, cols = value.shape
-    return [value[i, j] for i in range(rows) for j in range(cols)]
+    return ca.vertsplit(ca.vec(value.T)) if value.numel() else []
 
 
 def _is_scalar(value):

@@ -380,6 +380,12 @@ class _Translator:
             return [Equation(r, location) for r in arrays.elements(self.expr(body["residual"]))]
         if kind != "structured":
             self.unsupported(f"the equation form '{kind}'", operation)
+        if body.get("scalar_view") == "RowMajorProjection":
+            try:  # an array equation whose body does not read its index: evaluated once, split in elements
+                return [Equation(e, location) for node in body["bodies"]
+                        for e in arrays.elements(self.expr(node, self.context()))]
+            except KeyError:  # it reads the index (a binder): element by element below
+                pass
         result = []
         for binders in arrays.domain_values(self, body["domain"]):
             ctx = self.context(binders=binders)
