@@ -2,6 +2,7 @@
 source lines, user functions inlined. Constructs the compiler does not support are rejected here, with the
 file and line where they appear."""
 
+import dataclasses
 import itertools
 import warnings
 from dataclasses import dataclass, field
@@ -323,7 +324,25 @@ class _Translator:
                 self.unsupported("mod/div/rem", storage.get("conditions", [rel]))
             system_warnings.append(
                 f"{self.flat.locate(_span_of(rel))}: 'if' without noEvent is evaluated without events")
-        variables = [var for i, v in enumerate(raw) for var in self._variables(i, v)]
+        variables = []
+        for i, v in enumerate(raw):
+            a = v["attributes"]
+            variables.append(Variable(
+                name=v["name"],
+                role=v["role"],
+                kind=self.value_types[v["value_type"]],
+                sym=self.syms[i],
+                unit=a.get("unit") or "",
+                description=a.get("description") or "",
+                start=None if a.get("start") is None else self.expr(a["start"]),
+                binding=None if a.get("binding") is None else self.expr(a["binding"]),
+                fixed=bool(a.get("fixed")) and a.get("fixed") not in ([False], [None]),
+                tunable=bool(a.get("is_tunable", True)),
+                state_select=a.get("state_select") or "Default",
+                causality=a.get("causality") or "local",
+                location=self.flat.locate(_span_of(v.get("declaration"))),
+            ))
+        variables = [element for var in variables for element in _elements(var)]
         equations = [e for op in storage["continuous_equation_operations"] for e in self._equations(op)]
         initial = [e for op in storage.get("initialization_equation_operations", []) for e in self._equations(op)]
         derivatives = {name: s for i, der in self.der_syms.items()
@@ -346,30 +365,6 @@ class _Translator:
             self.syms.append(arrays.shaped([ca.SX.sym(n) for n in names], dims))
             if v["role"] == "state":
                 self.der_syms[i] = arrays.shaped([ca.SX.sym(f"der({n})") for n in names], dims)
-
-    def _variables(self, i, v):
-        """The scalar variables of one declaration: one per element of an array, attributes split likewise."""
-        a = v["attributes"]
-        syms = arrays.elements(self.syms[i])
-
-        def per_element(node):
-            if node is None:
-                return [None] * len(syms)
-            value = self.expr(node)
-            return [value] * len(syms) if value.numel() == 1 else arrays.elements(value)
-
-        fixed = a.get("fixed")
-        fixed = [bool(f) for f in fixed] if isinstance(fixed, list) and len(fixed) == len(syms) else \
-            [bool(fixed) and fixed not in ([False], [None])] * len(syms)
-        location = self.flat.locate(_span_of(v.get("declaration")))
-        return [Variable(
-            name=name, role=v["role"], kind=self.value_types[v["value_type"]], sym=sym,
-            unit=a.get("unit") or "", description=a.get("description") or "",
-            start=start, binding=binding, fixed=f, tunable=bool(a.get("is_tunable", True)),
-            state_select=a.get("state_select") or "Default", causality=a.get("causality") or "local",
-            location=location,
-        ) for name, sym, start, binding, f in zip(
-            self._element_names(v), syms, per_element(a.get("start")), per_element(a.get("binding")), fixed)]
 
     def _equations(self, operation):
         """The scalar equations of one IR equation: an array equation gives one per element, a ``for``
@@ -396,6 +391,22 @@ class _Translator:
                     value = value[tuple(position)] if len(position) == 2 else value[position[0]]
                 result.append(Equation(value, location))
         return result
+
+
+def _elements(var):
+    """An array variable as one scalar variable per element (``T[2]``), start and binding split likewise."""
+    if var.sym.numel() == 1:
+        return [var]
+    syms = arrays.elements(var.sym)
+
+    def per_element(value):
+        if value is None or value.numel() == 1:
+            return [value] * len(syms)
+        return arrays.elements(value)
+
+    return [dataclasses.replace(var, name=sym.name(), sym=sym, start=start, binding=binding)
+            for sym, start, binding in zip(syms, per_element(var.start), per_element(var.binding))]
+
 
 def translate(flat):
     """Translate a :class:`~cosim.compile.frontend.FlatModel` into a :class:`DaeSystem` of SX expressions.
