@@ -109,6 +109,15 @@ def test_functions_with_for_loops_over_array_arguments_match_numpy():
         v = np.array([x - 0.5, 2, -1, x])
         assert out["tot"] == pytest.approx(v[v > 0].sum() + 2 * v.sum(), rel=1e-12)
         assert out["prod"] == pytest.approx(np.prod(v[v > 0]), rel=1e-12)
+        w, a, b = [x, -2 * x, 3, x - 2], 0.0, 0.0
+        for i in range(4):
+            a += sum(w[i] * w[j] for j in range(i + 1))
+            if w[i] > 0:
+                b += w[i]
+                a += b
+            else:
+                b -= 1
+        assert (out["pa"], out["pb"]) == (pytest.approx(a, rel=1e-12), pytest.approx(b, rel=1e-12))
     assert _call(m.ode, [0.2], [], p, 1.0)[0] == pytest.approx(1 - 0.2 + 0.5 * np.sin(3.0), rel=1e-12)
 
 

@@ -67,6 +67,26 @@ package Arrays "Array, loop, function and initialisation test models of the comp
     total := total + sum(t);
   end positives;
 
+  function pairs "Nested loops, and an if statement whose branch reads a value it assigned"
+    input Real v[:];
+    output Real a;
+    output Real b;
+  algorithm
+    a := 0;
+    b := 0;
+    for i in 1:size(v, 1) loop
+      for j in 1:i loop
+        a := a + v[i]*v[j];
+      end for;
+      if v[i] > 0 then
+        b := b + v[i];
+        a := a + b;
+      else
+        b := b - 1;
+      end if;
+    end for;
+  end pairs;
+
   model Rod "Heat conduction along a rod of N cells: held temperature at the left end, loss to ambient at the right"
     parameter Integer N = 10 "number of cells";
     parameter Real C = 2.0 "heat capacity of one cell [J/K]";
@@ -157,8 +177,11 @@ package Arrays "Array, loop, function and initialisation test models of the comp
     output Real cs[4] "cumulative(c)";
     output Real tot;
     output Real prod;
+    output Real pa;
+    output Real pb;
   equation
     der(x) = 1 - x + 0.5*sin(3*time);
+    (pa, pb) = pairs({x, -2*x, 3, x - 2});
     p = horner(c, x);
     n = norm2({x, 2*x, cos(time)});
     k = clip(x, 0.3);
