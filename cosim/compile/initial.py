@@ -7,9 +7,12 @@ unknowns), which leaves equations in the states and parameters. They determine t
 (directly or through ``der()``) plus the states declared ``fixed = true`` (``x = start``); when that is fewer
 states than equations (an equation on an algebraic variable, on ``der()`` of an expression), each equation left
 without a state of its own takes the first state it depends on that is not fixed. The other states keep their
-start values (a start without ``fixed = true`` is a guess the initial equations may override). Linear equations are solved symbolically; nonlinear ones by Newton's method from the start
-values (damped: a step that does not lower the residual is halved), written as CasADi expressions (:mod:`cosim.compile.newton`) so that ``x0`` stays a CasADi function of
-``p`` that C code can be generated for. Inputs take their start values and ``time`` is 0.
+start values (a start without ``fixed = true`` is a guess the initial equations may override).
+
+Linear equations are solved symbolically (``x0`` is an SX function, as before). Nonlinear ones are solved by
+Newton's method from the start values, damped (a step that does not lower the residual is halved), written as
+CasADi expressions (:mod:`cosim.compile.newton`), so that ``x0`` stays a CasADi function of ``p`` that C code can
+be generated for. Inputs take their start values and ``time`` is 0.
 """
 
 import casadi as ca
@@ -49,28 +52,16 @@ def _starts(active, params):
 
 def _knowns_at_start(system, blocks, params):
     """Substitution of every derivative, algebraic variable and demoted state by its solved expression, of the
-    inputs by their start values and of time by 0."""
+    inputs by their start values and of time by 0 (also inside the solved expressions)."""
+    inputs = system.by_role("input")
+    at_start = [params.substitute(u.start) if u.start is not None else ca.SX(0.0) for u in inputs] + [ca.SX(0.0)]
+    at = ca.vertcat(*[u.sym for u in inputs], system.time)
     names = list(blocks.solved)
     by_name = {v.sym.name(): v.sym for v in system.variables}
     by_name.update({d.name(): d for d in system.derivatives.values()})
-    syms = [by_name[n] for n in names]
-    values = [blocks.solved[n] for n in names]
-    for u in system.by_role("input"):
-        syms.append(u.sym)
-        values.append(params.substitute(u.start) if u.start is not None else ca.SX(0.0))
-    syms.append(system.time)
-    values.append(ca.SX(0.0))
-    return syms, values
-
-
-def _substitute(expr, syms, values):
-    """Substitute repeatedly: a solved expression may refer to a nonlinear block's symbols only, but the
-    inputs and time inside it need a second pass."""
-    for _ in range(3):
-        if not syms or not ca.depends_on(expr, ca.vertcat(*syms)):
-            return expr
-        expr = ca.substitute(expr, ca.vertcat(*syms), ca.vertcat(*values))
-    return expr
+    syms = [by_name[n] for n in names] + [u.sym for u in inputs] + [system.time]
+    values = list(ca.substitute([blocks.solved[n] for n in names], [at], [ca.vertcat(*at_start)])) + at_start
+    return ca.vertcat(*syms), ca.vertcat(*values)
 
 
 def _problem(system, params, active, blocks):
@@ -86,7 +77,7 @@ def _problem(system, params, active, blocks):
             state = der_to_state.get(n, n)
             if state in state_names and state not in mentioned:
                 mentioned.append(state)
-        residuals.append(_substitute(residual, syms, values))
+        residuals.append(ca.substitute(residual, syms, values))
         locations.append(e.location)
     for s in active:
         if s.fixed and s.name in mentioned:
@@ -95,7 +86,7 @@ def _problem(system, params, active, blocks):
     block_syms, guesses = [], []
     for vs, residual, locs in blocks.nonlinear:
         if any(ca.depends_on(r, vs) for r in residuals):
-            residuals += list(ca.vertsplit(_substitute(residual, syms, values)))
+            residuals += list(ca.vertsplit(ca.substitute(residual, syms, values)))
             locations += locs
             for u in ca.vertsplit(vs):
                 block_syms.append(u)
@@ -180,21 +171,23 @@ def initial_state(system, params, active, P, blocks):
     S = ca.SX.sym("initial_solution", len(unknown_states))
     value = {s.name: S[k] for k, s in enumerate(unknown_states)}
     X0 = ca.vertcat(*[value.get(s.name, start) for s, start in zip(active, starts)])
+    if isinstance(solution, ca.SX):
+        return _function(system, params, P, ca.substitute(X0, S, solution[:S.shape[0]])), notes
     _function(system, params, P, ca.substitute(X0, S, ca.DM.zeros(S.shape)))  # checks what X0 depends on
     assemble = ca.Function("assemble_x0", [P, S], [X0])
     Pm = ca.MX.sym("p", P.shape[0])
-    return ca.Function("x0", [Pm], [assemble(Pm, solution(Pm)[:len(unknown_states)])], ["p"], ["x0"]), notes
+    return ca.Function("x0", [Pm], [assemble(Pm, solution(Pm)[:S.shape[0]])], ["p"], ["x0"]), notes
 
 
 def _solve(V, R, guess, P, where, file, line):
-    """A function of P solving ``0 = R(V, P)`` for V: symbolic when linear, unrolled Newton iterations
-    otherwise."""
+    """V solving ``0 = R(V, P)``: an SX expression of P when linear, else a function of P running the
+    unrolled Newton iterations."""
     jac = ca.jacobian(R, V)
     if not ca.depends_on(jac, V):
         _check_rank(jac, P, where, file, line)
         rhs = -ca.substitute(R, V, ca.SX.zeros(V.shape))
         solution = rhs / jac if V.numel() == 1 else ca.solve(jac, rhs)
-        return ca.Function("initial_linear", [P], [ca.simplify(solution)]), "linear, solved symbolically"
+        return ca.simplify(solution), "linear, solved symbolically"
     solver = newton("_initial", V, R, P, damped=True)
     Pm = ca.MX.sym("p", P.shape[0])
     guess_m = ca.Function("initial_guess", [P], [guess])(Pm)
