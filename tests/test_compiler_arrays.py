@@ -195,6 +195,15 @@ REJECTED = {
   equation
     der(x) = -x*y;
   end M;""", "algorithm section of a model is not supported", 5),
+    "der of an expression in a declaration": ("""
+  model M
+    Real x(start = 1);
+    Real z(start = 0);
+    Real y = der(x + z);
+  equation
+    der(x) = -x;
+    der(z) = 1;
+  end M;""", "der() of this expression is not supported: write der() of a variable here", 5),
     "three-dimensional array": ("""
   model M
     parameter Real a[2, 2, 2] = fill(1.0, 2, 2, 2);

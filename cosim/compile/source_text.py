@@ -41,7 +41,7 @@ _KNOWN = [
      "write equations, or move the algorithm into a function"),
     (re.compile(r"der\(\.\.\.\) must have exactly one resolved variable-reference operand"),
      re.compile(r"\bder\s*\((?!\s*[A-Za-z_][\w.]*\s*(\[[^\]]*\])?\s*\))"), "der() of this expression",
-     "write der() of a variable or of an expression in variables of this class"),
+     "write der() of a variable here, or move it into an equation (der() of an expression is supported there)"),
 ]
 
 
