@@ -204,6 +204,37 @@ REJECTED = {
     der(x) = -x;
     der(z) = 1;
   end M;""", "der() of this expression is not supported: write der() of a variable here", 5),
+    "break": ("""
+  function total
+    input Real v[:];
+    output Real s;
+  algorithm
+    s := 0;
+    for i in 1:size(v, 1) loop
+      if v[i] < 0 then
+        break;
+      end if;
+      s := s + v[i];
+    end for;
+  end total;
+  model M
+    Real x(start = 1);
+  equation
+    der(x) = -total({x, -1, x});
+  end M;""", "break-statement in function total", 9),
+    "assert in a function": ("""
+  function f
+    input Real x;
+    output Real y;
+  algorithm
+    assert(x > -10, "x too small");
+    y := 2*x;
+  end f;
+  model M
+    Real x(start = 1);
+  equation
+    der(x) = -f(x);
+  end M;""", "assert() inside function f", 6),
     "three-dimensional array": ("""
   model M
     parameter Real a[2, 2, 2] = fill(1.0, 2, 2, 2);

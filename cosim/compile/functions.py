@@ -14,6 +14,9 @@ from cosim.compile import arrays
 
 __all__ = ["inline"]
 
+# Statement kinds of the IR the inlining does not lower, by their Modelica names.
+_MODELICA_NAMES = {"assertion": "assert()"}
+
 
 class _Frame:
     """One call: the arguments, the values defined so far (by number) and each variable's current value."""
@@ -46,7 +49,9 @@ class _Frame:
             elif kind == "for":
                 self.run_for(body, binders)
             else:
-                self.tr.reject(f"the '{kind}' statement in function {self.function['name']}", statement)
+                name = _MODELICA_NAMES.get(kind, f"'{kind}' statement")
+                self.tr.reject(f"{name} inside function {self.function['name']} (put it in the model's equations)",
+                               statement)
 
     def run_for(self, body, binders):
         """Unroll a ``for`` statement: the loop-carried values are rebound before every pass of the body."""

@@ -26,23 +26,52 @@ def _function_span(text, name):
     return (match.start(), match.end()) if match else (0, len(text))
 
 
+_WHILE = "rumoca 0.10.2 does not carry it into its IR; write a for-loop with a fixed bound"
 _KNOWN = [
-    # (pattern in rumoca's message, pattern of the construct in the text, what it is, what to do instead)
-    (re.compile(r"`(?P<function>\w+)` contains a statement without a checked DAE owner"),
-     re.compile(r"\bwhile\b"), "while-statement",
-     "rumoca 0.10.2 does not carry it into its IR; write a for-loop with a fixed bound"),
-    (re.compile(r"`(?P<function>\w+)` requires a compact dependent-domain transition"),
-     re.compile(r"\bfor\s+\w+\s+in\s+[^:;]*?\s+loop\b"), "for-loop over the elements of an array",
-     "loop over its indices (for i in 1:size(v, 1))"),
-    (re.compile(r"while-statement"), re.compile(r"\bwhile\b"), "while-statement",
-     "rumoca 0.10.2 does not carry it into its IR; write a for-loop with a fixed bound"),
-    (re.compile(r"unsupported model algorithm in canonical DAE: (?P<reason>[^\n]+)"),
-     re.compile(r"\balgorithm\b"), "algorithm section of a model",
-     "write equations, or move the algorithm into a function"),
-    (re.compile(r"der\(\.\.\.\) must have exactly one resolved variable-reference operand"),
-     re.compile(r"\bder\s*\((?!\s*[A-Za-z_][\w.]*\s*(\[[^\]]*\])?\s*\))"), "der() of this expression",
+    # (pattern in rumoca's message, pattern of the construct in the text (formatted with the message's named
+    # groups), what it is, what to do instead). The first entry whose construct is found in the text wins.
+    (r"`(?P<function>\w+)` contains a statement without a checked DAE owner", r"\bwhile\b", "while-statement",
+     _WHILE),
+    (r"`(?P<function>\w+)` requires a compact dependent-domain transition", r"\bfor\s+\w+\s+in\s+[^:;]*?\s+loop\b",
+     "for-loop over the elements of an array", "loop over its indices (for i in 1:size(v, 1))"),
+    (r"`function loop reduction`: `(?P<function>\w+)`", r"\bbreak\b", "break-statement",
+     "rumoca 0.10.2 cannot unroll a loop that may stop early; run the whole range and guard the body with if"),
+    (r"`function loop reduction`: `(?P<function>\w+)`", r"\bfor\b", "for-loop",
+     "rumoca 0.10.2 cannot bound it: loop over a range whose size is known at build time"),
+    (r"`function return`: `(?P<function>\w+)`", r"\breturn\b", "return-statement",
+     "rumoca 0.10.2 rejects it; use if-statements"),
+    (r"(?P<call>\w+)\(\) is not allowed in functions", r"\b{call}\s*\(", "{call}() in a function",
+     "the language forbids it"),
+    (r"while-statement", r"\bwhile\b", "while-statement", _WHILE),
+    (r"unsupported model algorithm in canonical DAE: (?P<reason>[^\n]+)", r"\balgorithm\b",
+     "algorithm section of a model", "rumoca 0.10.2 says: {reason}; write equations, or move the algorithm into a "
+     "function"),
+    (r"der\(\.\.\.\) must have exactly one resolved variable-reference operand",
+     r"\bder\s*\((?!\s*[A-Za-z_][\w.]*\s*(\[[^\]]*\])?\s*\))", "der() of this expression",
      "write der() of a variable here, or move it into an equation (der() of an expression is supported there)"),
 ]
+
+
+def _find(message, files):
+    """(what, instead, function, file, line) of the first known construct the message names and the text has;
+    None when the message is not about one; file and line None when the text does not show it."""
+    known = None
+    for said, construct, what, instead in _KNOWN:
+        found = re.search(said, message)
+        if not found:
+            continue
+        groups = {k: v.strip() for k, v in found.groupdict().items()}
+        what, instead = what.format(**groups), instead.format(**groups)
+        known = known or (what, instead, groups.get("function"), None, None)
+        for path in files:
+            text = masked(path.read_text(encoding="utf-8"))
+            start, end = _function_span(text, groups["function"]) if "function" in groups else (0, len(text))
+            if "function" in groups and (start, end) == (0, len(text)):
+                continue
+            hit = re.search(construct.format(**groups), text[start:end])
+            if hit:
+                return what, instead, groups.get("function"), str(path), _line(text, start + hit.start())
+    return known
 
 
 def locate_rumoca_error(message, files):
@@ -56,23 +85,12 @@ def locate_rumoca_error(message, files):
     files : list of Path
         The Modelica files rumoca read, the model's own first.
     """
-    for said, construct, what, instead in _KNOWN:
-        found = said.search(message)
-        if not found:
-            continue
-        function = found.groupdict().get("function")
-        if found.groupdict().get("reason"):
-            instead = f"rumoca 0.10.2 says: {found.group('reason').strip()}; {instead}"
-        for path in files:
-            text = masked(path.read_text(encoding="utf-8"))
-            start, end = _function_span(text, function) if function else (0, len(text))
-            if function and (start, end) == (0, len(text)):
-                continue
-            hit = construct.search(text, start, end)
-            if hit:
-                where = f" in function {function}" if function else ""
-                return UnsupportedConstructError(f"the {what}{where} is not supported: {instead}",
-                                                 str(path), _line(text, hit.start()))
-        return UnsupportedConstructError(f"the {what} is not supported: {instead} (rumoca: {message})",
+    found = _find(message, files)
+    if found is None:
+        return None
+    what, instead, function, file, line = found
+    where = f" in function {function}" if function else ""
+    if file is None:
+        return UnsupportedConstructError(f"the {what}{where} is not supported: {instead} (rumoca: {message})",
                                          str(files[0]))
-    return None
+    return UnsupportedConstructError(f"the {what}{where} is not supported: {instead}", file, line)
