@@ -204,6 +204,16 @@ REJECTED = {
     der(x) = -x;
     der(z) = 1;
   end M;""", "der() of this expression is not supported: write der() of a variable here", 5),
+    "der of an expression in a for-equation": ("""
+  model M
+    Real x[2](each start = 1);
+    Real y[2](each start = 0);
+  equation
+    for i in 1:2 loop
+      der(x[i] + y[i]) = -x[i];
+      der(y[i]) = 1;
+    end for;
+  end M;""", "der() of this expression is not supported", 7),
     "break": ("""
   function total
     input Real v[:];

@@ -33,6 +33,14 @@ def _closing(text, start):
 
 
 
+def _plainly_inside(between):
+    """Whether the text from an equation keyword to a ``der(`` stays in that equation section and outside
+    ``for`` loops (whose index the new equation, outside the loop, could not see)."""
+    if re.search(r"\b(?:end\s+(?!(?:for|if|when|while)\b)\w+\s*;|(?:public|protected|algorithm)\b)", between):
+        return False
+    return len(re.findall(r"\bfor\b", between)) == 2 * len(re.findall(r"\bend\s+for\b", between))
+
+
 def rewrite_der_expressions(text, tag=""):
     """``text`` with every ``der(expression)`` replaced by ``der`` of a new variable bound to the expression.
 
@@ -55,8 +63,8 @@ def rewrite_der_expressions(text, tag=""):
         if close is None or _REFERENCE.fullmatch(blank[match.end():close]):
             continue
         sections = [s for s in _SECTION.finditer(blank, 0, match.start())]
-        if not sections:
-            continue
+        if not sections or not _plainly_inside(blank[sections[-1].end():match.start()]):
+            continue  # rumoca then reports it, and the front end says where (source_text.py)
         name = f"_der{tag}_{match.start()}"
         expression = " ".join(text[match.end():close].split())
         edits.append((sections[-1].start(), 0, f"protected Real {name}(stateSelect = StateSelect.never); "

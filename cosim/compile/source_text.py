@@ -48,7 +48,7 @@ _KNOWN = [
      "function"),
     (r"der\(\.\.\.\) must have exactly one resolved variable-reference operand",
      r"\bder\s*\((?!\s*[A-Za-z_][\w.]*\s*(\[[^\]]*\])?\s*\))", "der() of this expression",
-     "write der() of a variable here, or move it into an equation (der() of an expression is supported there)"),
+     "write der() of a variable here (der() of an expression is supported in equations, outside for-loops)"),
 ]
 
 
