@@ -2,11 +2,14 @@
 cosim errors with file and line, and gives source locations for IR spans."""
 
 import re
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import rumoca
 
+from cosim.compile.der_expressions import rewrite_der_expressions
+from cosim.compile.source_text import locate_rumoca_error
 from cosim.errors import ModelicaError, StructureError
 from cosim.modelica_text import check_redeclares
 
@@ -95,19 +98,42 @@ def load_flat_model(path, model):
             message, file, line = found
             raise ModelicaError(message, file=file, line=line)
     check_redeclares(path.read_text(encoding="utf-8"), str(path))
-    try:
-        # No local names rumoca's Session or Model: they are unsendable PyO3 objects, and a frame a Dask worker's
-        # profiler still holds when this returns would drop them on the profiler's thread (a RuntimeError printed
-        # by tornado, the objects leaked).
-        ir = rumoca.Session().load(str(path), model=model).to_dict("dae")
-    except rumoca.RumocaError as err:
-        text = str(err)
-        if "resolve/parse failed" in text or "not found" in text.lower():
-            raise ModelicaError(f"no model named {model!r} in {path.parent}", file=str(path)) from err
-        if "unbalanced" in text:
-            detail = text.split("unbalanced model:")[-1].strip()
-            raise StructureError(
-                f"model {model} is unbalanced: {detail}", file=str(path)
-            ) from err
-        raise ModelicaError(f"{model}: {text.splitlines()[0]}", file=str(path)) from err
+    files = [path] + [mo for mo in sorted(path.parent.glob("*.mo")) if mo != path]
+    with tempfile.TemporaryDirectory(prefix="cosim-der-") as scratch:
+        try:
+            ir = _load(path, model, files, Path(scratch))
+        except rumoca.RumocaError as err:
+            raise _front_end_error(err, path, model, files) from err
     return FlatModel(name=model, path=path, ir=ir)
+
+
+def _load(path, model, files, scratch):
+    """rumoca's DAE IR of ``model``; when a file has ``der()`` of an expression, from rewritten copies of the
+    directory's files (:func:`~cosim.compile.der_expressions.rewrite_der_expressions`), with the source map
+    naming the original files (the rewriting keeps every line)."""
+    rewritten = {mo: rewrite_der_expressions(mo.read_text(encoding="utf-8"), str(k)) for k, mo in enumerate(files)}
+    if any(count for _, count in rewritten.values()):
+        for mo, (text, _) in rewritten.items():
+            (scratch / mo.name).write_text(text, encoding="utf-8")
+        source = scratch / path.name
+    else:
+        source = path
+    # No local names rumoca's Session or Model: they are unsendable PyO3 objects, and a frame a Dask worker's
+    # profiler still holds when this returns would drop them on the profiler's thread (a RuntimeError printed
+    # by tornado, the objects leaked).
+    ir = rumoca.Session().load(str(source), model=model).to_dict("dae")
+    if source != path:
+        originals = {str(scratch / mo.name): str(mo) for mo in files}
+        ir["source_map"]["files"] = [[file_id, originals.get(name, name), text]
+                                     for file_id, name, text in ir["source_map"]["files"]]
+    return ir
+
+
+def _front_end_error(err, path, model, files):
+    text = str(err)
+    if "resolve/parse failed" in text or "not found" in text.lower():
+        return ModelicaError(f"no model named {model!r} in {path.parent}", file=str(path))
+    if "unbalanced" in text:
+        detail = text.split("unbalanced model:")[-1].strip()
+        return StructureError(f"model {model} is unbalanced: {detail}", file=str(path))
+    return locate_rumoca_error(text, files) or ModelicaError(f"{model}: {text.splitlines()[0]}", file=str(path))

@@ -10,7 +10,9 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
 
 from cosim.compile import events as hybrid
+from cosim.compile.initial import initial_state
 from cosim.compile.model import LoweredModel, ModelVariable
+from cosim.compile.newton import NEWTON_ITERATIONS, newton
 from cosim.errors import StructureError
 
 __all__ = ["lower_system"]
@@ -311,7 +313,7 @@ def lower_system(system):
         notes += [f"sample(start = {start:g} s, interval = {interval:g} s) is fixed at build time (rumoca evaluates "
                   "its arguments): a parameter in them does not follow its run-time value"
                   for _, _, start, interval in system.events.clocks]
-    x0, x0_notes = _initial_state(system, params, active, P)
+    x0, x0_notes = initial_state(system, params, active, P, blocks)
     notes += x0_notes
     p_defaults = [params.defaults[p.name] for p in params.free]
     x0_values = np.array(x0(p_defaults), dtype=float).ravel() if active else np.zeros(0)
@@ -369,19 +371,6 @@ def _start(var):
     return float(ca.evalf(var.start))
 
 
-# Newton iterations unrolled into the generated code (CasADi cannot generate C for its own rootfinders).
-NEWTON_ITERATIONS = 30
-
-
-def _newton(k, unknowns, residual, context):
-    """A Newton solver for one nonlinear block as a CasADi function of (guess, context) that C code can be
-    generated for: one SX step v - J(v)^-1 r(v), folded NEWTON_ITERATIONS times (a loop in the C code)."""
-    jac = ca.jacobian(residual, unknowns)
-    step = ca.Function(f"newton_step{k}", [unknowns, context],
-                       [unknowns - ca.solve(jac, residual)])
-    return step.fold(NEWTON_ITERATIONS)
-
-
 def _functions(X, U, P, T, xdot, y, obs, nonlinear, system, M=None):
     """CasADi functions of (x, u, p, t), and the event memory m for a hybrid model; nonlinear blocks are
     solved by a generated Newton iteration."""
@@ -397,7 +386,7 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, system, M=None):
     solved = []
     for k, (vs, residual, _) in enumerate(nonlinear):
         context = ca.vertcat(*args, *block_syms[:k])
-        solver = _newton(k, vs, residual, context)
+        solver = newton(k, vs, residual, context)
         guess = ca.DM([_start(_var_named(system, u.name())) for u in ca.vertsplit(vs)])
         ctx_value = ca.vertcat(*margs, *solved)
         solved.append(solver(guess, ca.repmat(ctx_value, 1, NEWTON_ITERATIONS)))
@@ -409,31 +398,3 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, system, M=None):
 
 def _var_named(system, name):
     return next(v for v in system.variables if v.name == name)
-
-
-def _initial_state(system, params, active, P):
-    """x0(p) from start values, overridden by initial equations (which may involve only states and parameters)."""
-    notes = []
-    starts = {}
-    for s in active:
-        start = params.substitute(s.start) if s.start is not None else ca.SX(0.0)
-        starts[s.name] = start
-        if _depends(start, {p.name for p in params.free}):
-            notes.append(f"{s.location}: start of {s.name} depends on parameters; the FMU uses its value at the "
-                         "default parameters (set the state to change it)")
-    if system.initial_equations:
-        targets = [s.sym for s in active if _names(ca.vertcat(*[e.residual for e in system.initial_equations]))
-                   & {s.name}]
-        eqs = [(params.substitute(e.residual), e.location) for e in system.initial_equations]
-        blocks = _causalise(eqs, targets, set())
-        if blocks.nonlinear or blocks.constraints:
-            raise StructureError("initial equations must determine the states they mention, explicitly",
-                                 *_file_line(eqs[0][1]))
-        for s in targets:
-            starts[s.name()] = blocks.solved[s.name()]
-    X0 = ca.vertcat(*[starts[s.name] for s in active]) if active else ca.SX(0, 1)
-    others = _names(X0) - {p.name for p in params.free}
-    if others:
-        raise StructureError(f"{system.name}: start values depend on {', '.join(sorted(others))}, which are not "
-                             "parameters")
-    return ca.Function("x0", [P], [X0], ["p"], ["x0"]), notes

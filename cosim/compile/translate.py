@@ -2,12 +2,16 @@
 source lines, user functions inlined. Constructs the compiler does not support are rejected here, with the
 file and line where they appear."""
 
+import dataclasses
 import itertools
 from dataclasses import dataclass
 
 import casadi as ca
 
+from cosim.compile import arrays
+from cosim.compile.der_expressions import promote_der_arguments
 from cosim.compile.events import EventReader, Relation
+from cosim.compile.functions import inline
 from cosim.errors import UnsupportedConstructError
 
 __all__ = ["Variable", "Equation", "DaeSystem", "translate"]
@@ -131,8 +135,11 @@ class _Translator:
         exprs = storage["expressions"]
         self.nodes = exprs["nodes"]
         self.provenance = exprs.get("provenance", [])
-        self.operands = self._operand_table(exprs["operands"])
+        self.operands = self._operand_table(exprs["operands"], "operand_count")
+        self.subscripts = self._operand_table(exprs.get("subscripts", []), "subscript_count")
         self.value_types = [vt["scalar"] for vt in storage["value_types"]]
+        self.dims = [vt.get("dimensions") or [] for vt in storage["value_types"]]
+        self.element_of = {}  # element symbol name -> (variable index, row-major position)
         self.time = ca.SX.sym("time")
         self.syms = []
         self.der_syms = {}
@@ -159,6 +166,11 @@ class _Translator:
             *self._file_line(self.flat.locate(_span_of(span_holder))),
         )
 
+    def reject(self, what, span_holder):
+        """A construct rumoca's IR carries that the compiler does not lower (not an event construct)."""
+        raise UnsupportedConstructError(f"{what} is not supported (see docs/compiler.md)",
+                                        *self._file_line(self.flat.locate(_span_of(span_holder))))
+
     @staticmethod
     def _file_line(location):
         file, _, line = location.rpartition(":")
@@ -166,12 +178,12 @@ class _Translator:
             return file, int(line)
         return location, None
 
-    def _operand_table(self, operands):
-        """Variadic nodes take their operands from one flat array, in node order."""
+    def _operand_table(self, operands, count_key):
+        """Variadic nodes take their operands (and subscripts) from one flat array, in node order."""
         table, pos = {}, 0
         for i, node in enumerate(self.nodes):
             (kind, body), = node.items()
-            count = body.get("operand_count", 0) if isinstance(body, dict) else 0
+            count = body.get(count_key, 0) if isinstance(body, dict) else 0
             if count:
                 table[i] = operands[pos:pos + count]
                 pos += count
@@ -204,6 +216,10 @@ class _Translator:
                 return ca.logic_not(a)
             if body["operator"] == "plus":
                 return a
+        elif kind in arrays.NODES:
+            return arrays.NODES[kind](self, i, body, ctx)
+        elif kind == "binary" and body["operator"] == "multiply":
+            return arrays.multiply(self.expr(body["lhs"], ctx), self.expr(body["rhs"], ctx))
         elif kind == "binary":
             if body["operator"] in _COMPARISON_OPERATORS or i in self.relation_nodes:
                 return self._relation(i, body, ctx)
@@ -224,7 +240,7 @@ class _Translator:
             self.unsupported(f"{body.get('builtin', 'mod')}() (event-generating integer division)",
                              self.provenance[i])
         elif kind == "function_value":
-            return ctx["values"][body["definition_ordinal"]]
+            return ctx["defs"][body["definition_ordinal"]]
         what = body.get("operator") or body.get("builtin") if isinstance(body, dict) else None
         self.unsupported(f"the construct {kind}{' ' + what if what else ''}", self.provenance[i])
 
@@ -246,6 +262,8 @@ class _Translator:
             self.unsupported(_COORDINATE_NAMES[ref], self.provenance[i])
         if ref == "function_parameter":
             return ctx["args"][index["ordinal"]]
+        if ref == "binder":
+            return ca.SX(ctx["binders"][(index["domain"], index["ordinal"])])
         self.unsupported(f"a reference to a {ref} variable", self.provenance[i])
 
     def _pre(self, index):
@@ -258,7 +276,12 @@ class _Translator:
         """A relation outside noEvent/smooth and outside functions is held between events (a symbol of m)."""
         lhs, rhs = self.expr(body["lhs"], ctx), self.expr(body["rhs"], ctx)
         direct = _BINARY[body["operator"]](lhs, rhs)
-        if ctx is not None or i in self.no_event_nodes:
+        if i in self.no_event_nodes:
+            return direct
+        if ctx is not None and "args" not in ctx and ca.symvar(direct):  # a for-equation's body, not a function
+            self.reject("a relation generating events inside a for-equation (write noEvent(...) around it, or "
+                        "the equations one by one)", self.provenance[i])
+        if ctx is not None:
             return direct
         if i not in self.relation_nodes:
             if not ca.depends_on(direct, self.time):
@@ -281,39 +304,57 @@ class _Translator:
             return _BUILTIN_1[name](args[0])
         if name in _BUILTIN_2 and len(args) == 2:
             return _BUILTIN_2[name](args[0], args[1])
-        self.unsupported(f"the built-in {name}()", self.provenance[i])
+        if name in arrays.BUILTINS:
+            function, integer_args = arrays.BUILTINS[name]
+            args = [self.integer(a, i) if k in integer_args else a for k, a in enumerate(args)]
+            return function(*args)
+        self.reject(f"the built-in {name}()", self.provenance[i])
 
     def _call(self, i, body, ctx):
         owner = body["owner"]
         key = ("call", owner, None if ctx is None else ctx["serial"])
         if key not in self.memo:
             args = [self.expr(j, ctx) for j in self.operands[owner]]
-            self.memo[key] = self._inline(body["function"], args, owner)
+            self.memo[key] = inline(self, body["function"], args)
         return self.memo[key][body["output"]]
 
-    def _inline(self, index, args, call_node):
-        function = self.storage["functions"][index]
-        if function.get("external"):
-            self.unsupported(f"the external function {function['name']}", function)
-        n_out = len(function["outputs"])
-        # a serial, not id(): a finished call's context is freed and its id reused by the next call, whose
-        # body nodes would then hit the first call's memo entries
-        fctx = {"args": args, "values": [], "serial": next(self.call_serials)}
-        final = [None] * n_out
-        for statement in function["statements"]:
-            (kind, body), = statement.items()
-            if kind != "assignment":
-                self.unsupported(f"the '{kind}' statement in function {function['name']}", statement)
-            value = self.expr(body["rhs"], fctx)
-            fctx["values"].append(value)
-            if body["target"] < n_out:
-                final[body["target"]] = value
-        for k, value in enumerate(final):
-            if value is None:
-                self.unsupported(
-                    f"function {function['name']} leaving output {function['outputs'][k]['name']} unassigned",
-                    function)
-        return final
+    def context(self, parent=None, **values):
+        """A fresh evaluation context (function arguments, definitions, loop binders) with its own memo serial:
+        a serial, not id(): a finished call's context is freed and its id reused by the next call, whose body
+        nodes would then hit the first call's memo entries."""
+        ctx = dict(parent or {"binders": {}})
+        ctx.update(values, serial=next(self.call_serials))
+        return ctx
+
+    def integer(self, value, node_id):
+        """An integer the build must know (a subscript, a size, a loop bound): parameters are replaced by
+        their bindings until none is left."""
+        for _ in range(len(self.element_of) + 1):
+            free = ca.symvar(value)
+            if not free:
+                number = float(ca.evalf(value))
+                if number == round(number):
+                    return int(round(number))
+                break
+            bindings = [self._binding(s.name()) for s in free]
+            if any(b is None for b in bindings):
+                break
+            value = ca.substitute(value, ca.vertcat(*free), ca.vertcat(*bindings))
+        self.reject(f"an array size, subscript or loop range that is not an Integer known at build time ({value})",
+                    self.provenance[node_id])
+
+    def _binding(self, name):
+        """The binding of a parameter element, None for anything else."""
+        if name not in self.element_of:
+            return None
+        i, k = self.element_of[name]
+        v = self.storage["variables"][i]
+        node = v["attributes"].get("binding")
+        node = v["attributes"].get("start") if node is None else node
+        if v["role"] not in ("parameter", "constant") or node is None:
+            return None
+        value = self.expr(node)
+        return value if value.numel() == 1 else arrays.elements(value)[k]
 
     # -- variables and equations ----------------------------------------------
     def run(self):
@@ -323,8 +364,7 @@ class _Translator:
         for v in raw:
             if v["role"] not in _ROLES:
                 self.unsupported(f"the {v['role'].replace('_', ' ')} variable {v['name']}", v)
-        self.syms = [ca.SX.sym(v["name"]) for v in raw]
-        self.der_syms = {i: ca.SX.sym(f"der({v['name']})") for i, v in enumerate(raw) if v["role"] == "state"}
+        self._declare(raw)
         self._mark_no_event()
         for k, rel in enumerate(storage.get("relations", [])):
             if "relation" not in rel:
@@ -353,10 +393,12 @@ class _Translator:
         self.reader = EventReader(self, [v for v in variables if v.role in ("discrete_real", "discrete_value")])
         for k, rel in enumerate(storage.get("relations", [])):
             self.expr(rel["relation"]["expression"])
-        equations = [self._equation(op) for op in storage["continuous_equation_operations"]]
-        initial = [self._equation(op) for op in storage.get("initialization_equation_operations", [])
-                   if not self.reader.initial_equation(op)]
-        derivatives = {raw[i]["name"]: s for i, s in self.der_syms.items()}
+        variables = [element for var in variables for element in _elements(var)]
+        equations = [e for op in storage["continuous_equation_operations"] for e in self._equations(op)]
+        initial = [e for op in storage.get("initialization_equation_operations", [])
+                   if not self.reader.initial_equation(op) for e in self._equations(op)]
+        derivatives = {name: s for i, der in self.der_syms.items()
+                       for name, s in zip(self._element_names(raw[i]), arrays.elements(der))}
         return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, self.reader.read())
 
     def _reject_tables(self):
@@ -396,11 +438,63 @@ class _Translator:
                     stack += self.operands.get(body["owner"], [])
             stack += self.operands.get(i, [])
 
-    def _equation(self, operation):
+    def _element_names(self, v):
+        return [v["name"] + s for s in arrays.element_suffixes(self.dims[v["value_type"]])]
+
+    def _declare(self, raw):
+        """One symbol per array element (``T[2]``), and the variable's value as an SX of its shape."""
+        self.syms, self.der_syms = [], {}
+        for i, v in enumerate(raw):
+            dims = self.dims[v["value_type"]]
+            if len(dims) > 2 or not all(isinstance(d, int) for d in dims):
+                self.reject(f"the array {v['name']} with dimensions {dims} (at most two, known at build time)", v)
+            names = self._element_names(v)
+            for k, name in enumerate(names):
+                self.element_of[name] = (i, k)
+            self.syms.append(arrays.shaped([ca.SX.sym(n) for n in names], dims))
+            if v["role"] == "state":
+                self.der_syms[i] = arrays.shaped([ca.SX.sym(f"der({n})") for n in names], dims)
+
+    def _equations(self, operation):
+        """The scalar equations of one IR equation: an array equation gives one per element, a ``for``
+        equation (a structured one) one per value of its loop variables."""
         (kind, body), = operation.items()
-        if kind != "residual":
+        location = self.flat.locate(_span_of(operation))
+        if kind == "residual":
+            return [Equation(r, location) for r in arrays.elements(self.expr(body["residual"]))]
+        if kind != "structured":
             self.unsupported(f"the equation form '{kind}'", operation)
-        return Equation(self.expr(body["residual"]), self.flat.locate(_span_of(body.get("provenance"))))
+        if body.get("scalar_view") == "RowMajorProjection":
+            try:  # an array equation whose body does not read its index: evaluated once, split in elements
+                return [Equation(e, location) for node in body["bodies"]
+                        for e in arrays.elements(self.expr(node, self.context()))]
+            except KeyError:  # it reads the index (a binder): element by element below
+                pass
+        result = []
+        for binders in arrays.domain_values(self, body["domain"]):
+            ctx = self.context(binders=binders)
+            position = [binders[key] - 1 for key in sorted(binders)]
+            for node in body["bodies"]:
+                value = self.expr(node, ctx)
+                if value.numel() > 1:  # an array equation projected on its elements, row-major
+                    value = value[tuple(position)] if len(position) == 2 else value[position[0]]
+                result.append(Equation(value, location))
+        return result
+
+
+def _elements(var):
+    """An array variable as one scalar variable per element (``T[2]``), start and binding split likewise."""
+    if var.sym.numel() == 1:
+        return [var]
+    syms = arrays.elements(var.sym)
+
+    def per_element(value):
+        if value is None or value.numel() == 1:
+            return [value] * len(syms)
+        return arrays.elements(value)
+
+    return [dataclasses.replace(var, name=sym.name(), sym=sym, start=start, binding=binding)
+            for sym, start, binding in zip(syms, per_element(var.start), per_element(var.binding))]
 
 
 def translate(flat):
@@ -409,4 +503,6 @@ def translate(flat):
     A model with discrete variables, relations outside ``noEvent``, ``when``, ``assert`` or ``terminate`` gets
     ``events`` (an :class:`~cosim.compile.events.EventSystem`); a continuous model gets ``None``.
     """
-    return _Translator(flat).run()
+    system = _Translator(flat).run()
+    promote_der_arguments(system)
+    return system

@@ -1,0 +1,213 @@
+"""The initial state ``x0(p)``: start values, overridden by the initial equations.
+
+An initial equation may mix states, derivatives, algebraic variables and parameters (``der(x) = 0`` for a
+steady state). The derivatives and algebraic variables are replaced by what the lowering solved them to (the
+ODE's right-hand side, the algebraic chains; a nonlinear algebraic loop joins the initial problem with its own
+unknowns), which leaves equations in the states and parameters. They determine the states they mention
+(directly or through ``der()``) plus the states declared ``fixed = true`` (``x = start``); when that is fewer
+states than equations (an equation on an algebraic variable, on ``der()`` of an expression), each equation left
+without a state of its own takes the first state it depends on that is not fixed. The other states keep their
+start values (a start without ``fixed = true`` is a guess the initial equations may override).
+
+Linear equations are solved symbolically (``x0`` is an SX function, as before). Nonlinear ones are solved by
+Newton's method from the start values, damped (a step that does not lower the residual is halved), written as
+CasADi expressions (:mod:`cosim.compile.newton`), so that ``x0`` stays a CasADi function of ``p`` that C code can
+be generated for. Inputs take their start values and ``time`` is 0.
+"""
+
+import casadi as ca
+import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import maximum_bipartite_matching
+
+from cosim.compile.newton import NEWTON_ITERATIONS, newton
+from cosim.errors import StructureError
+
+__all__ = ["initial_state"]
+
+
+def _names(expr):
+    return {s.name() for s in ca.symvar(expr)}
+
+
+def _where(locations):
+    """(message part, file, line) of a list of ``file:line`` locations."""
+    first = locations[0] if locations else ""
+    file, _, line = first.rpartition(":")
+    located = (file, int(line)) if file and line.isdigit() else (first or None, None)
+    return ", ".join(sorted(set(locations))), *located
+
+
+def _starts(active, params):
+    notes, starts = [], []
+    free = {p.name for p in params.free}
+    for s in active:
+        start = params.substitute(s.start) if s.start is not None else ca.SX(0.0)
+        starts.append(start)
+        if _names(start) & free:
+            notes.append(f"{s.location}: start of {s.name} depends on parameters; the FMU uses its value at the "
+                         "default parameters (set the state to change it)")
+    return starts, notes
+
+
+def _knowns_at_start(system, blocks, params):
+    """Substitution of every derivative, algebraic variable and demoted state by its solved expression, of the
+    inputs by their start values and of time by 0 (also inside the solved expressions)."""
+    inputs = system.by_role("input")
+    at_start = [params.substitute(u.start) if u.start is not None else ca.SX(0.0) for u in inputs] + [ca.SX(0.0)]
+    at = ca.vertcat(*[u.sym for u in inputs], system.time)
+    names = list(blocks.solved)
+    by_name = {v.sym.name(): v.sym for v in system.variables}
+    by_name.update({d.name(): d for d in system.derivatives.values()})
+    syms = [by_name[n] for n in names] + [u.sym for u in inputs] + [system.time]
+    values = list(ca.substitute([blocks.solved[n] for n in names], [at], [ca.vertcat(*at_start)])) + at_start
+    return ca.vertcat(*syms), ca.vertcat(*values)
+
+
+def _problem(system, params, active, blocks):
+    """The initial equations as residuals in the states (and nonlinear-block unknowns), with the states they
+    determine."""
+    syms, values = _knowns_at_start(system, blocks, params)
+    der_to_state = {system.derivatives[s.name].name(): s.name for s in active if s.name in system.derivatives}
+    state_names = [s.name for s in active]
+    residuals, locations, mentioned = [], [], []
+    for e in system.initial_equations:
+        residual = params.substitute(e.residual)
+        for n in _names(residual):
+            state = der_to_state.get(n, n)
+            if state in state_names and state not in mentioned:
+                mentioned.append(state)
+        residuals.append(ca.substitute(residual, syms, values))
+        locations.append(e.location)
+    for s in active:
+        if s.fixed and s.name in mentioned:
+            residuals.append(s.sym - params.substitute(s.start))
+            locations.append(s.location)
+    block_syms, guesses = [], []
+    for vs, residual, locs in blocks.nonlinear:
+        if any(ca.depends_on(r, vs) for r in residuals):
+            residuals += list(ca.vertsplit(ca.substitute(residual, syms, values)))
+            locations += locs
+            for u in ca.vertsplit(vs):
+                block_syms.append(u)
+                var = next(v for v in system.variables if v.sym.name() == u.name())
+                guesses.append(params.substitute(var.start) if var.start is not None else ca.SX(0.0))
+    _join_indirect_states(residuals, mentioned, active, len(block_syms))
+    unknown_states = [s for s in active if s.name in mentioned]
+    return residuals, locations, unknown_states, block_syms, guesses
+
+
+def _join_indirect_states(residuals, mentioned, active, n_block):
+    """Fewer states mentioned than equations (an equation on an algebraic variable, on der() of an
+    expression): each equation the mentioned states cannot be matched to takes the first state it depends on
+    that is neither fixed nor taken. Extends ``mentioned``."""
+    if len(mentioned) + n_block >= len(residuals):
+        return
+    incidence = [[k for k, name in enumerate(mentioned) if name in _names(r)] for r in residuals]
+    rows = [i for i, ks in enumerate(incidence) for _ in ks]
+    cols = [k for ks in incidence for k in ks]
+    graph = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(residuals), max(len(mentioned), 1)))
+    matched = maximum_bipartite_matching(graph, perm_type="column") if rows else -np.ones(len(residuals))
+    for i in np.flatnonzero(matched < 0):
+        if len(mentioned) + n_block >= len(residuals):
+            return
+        depends = _names(residuals[i])
+        for s in active:
+            if s.name in depends and s.name not in mentioned and not s.fixed:
+                mentioned.append(s.name)
+                break
+
+
+def initial_state(system, params, active, P, blocks):
+    """``x0(p)`` as a CasADi function, and notes for the build.
+
+    Parameters
+    ----------
+    system : DaeSystem
+        The translated model (its ``initial_equations``).
+    params : parameter resolution of the lowering
+        ``free`` (tunable parameters), ``substitute(expr)`` (dependent parameters replaced).
+    active : list of Variable
+        The states of the lowered model, in order.
+    P : casadi.SX
+        The tunable parameters, stacked.
+    blocks : causalisation result of the lowering
+        ``solved`` (name -> expression) and ``nonlinear`` (unknowns, residuals, locations).
+
+    Returns
+    -------
+    (casadi.Function, list of str)
+
+    Raises
+    ------
+    StructureError
+        The initial equations do not determine as many states as there are equations, or they are singular.
+    """
+    starts, notes = _starts(active, params)
+    if not system.initial_equations or not active:
+        X0 = ca.vertcat(*starts) if active else ca.SX(0, 1)
+        return _function(system, params, P, X0), notes
+    residuals, locations, unknown_states, block_syms, guesses = _problem(system, params, active, blocks)
+    unknowns = [s.sym for s in unknown_states] + block_syms
+    where, file, line = _where(locations)
+    if len(residuals) != len(unknowns):
+        names = ", ".join(s.name for s in unknown_states) or "none"
+        raise StructureError(
+            f"the initial equations at {where} give {len(residuals)} equations for the {len(unknowns)} unknowns "
+            f"they determine (states mentioned or fixed: {names}; the other states keep their start values)",
+            file, line)
+    V = ca.vertcat(*unknowns)
+    R = ca.vertcat(*residuals)
+    others = [(s.sym, start) for s, start in zip(active, starts) if s not in unknown_states]
+    if others:  # the states the initial equations leave alone sit at their start values
+        R = ca.substitute(R, ca.vertcat(*[o for o, _ in others]), ca.vertcat(*[v for _, v in others]))
+    stray = _names(R) - _names(V) - {p.name for p in params.free}
+    if stray:
+        raise StructureError(f"the initial equations at {where} depend on {', '.join(sorted(stray))}, which "
+                             "the lowering could not express in states and parameters", file, line)
+    guess = ca.vertcat(*[starts[active.index(s)] for s in unknown_states] + guesses)
+    solution, how = _solve(V, R, guess, P, where, file, line)
+    notes.append(f"initial equations at {where} determine {', '.join(s.name for s in unknown_states)} ({how})")
+    S = ca.SX.sym("initial_solution", len(unknown_states))
+    value = {s.name: S[k] for k, s in enumerate(unknown_states)}
+    X0 = ca.vertcat(*[value.get(s.name, start) for s, start in zip(active, starts)])
+    if isinstance(solution, ca.SX):
+        return _function(system, params, P, ca.substitute(X0, S, solution[:S.shape[0]])), notes
+    _function(system, params, P, ca.substitute(X0, S, ca.DM.zeros(S.shape)))  # checks what X0 depends on
+    assemble = ca.Function("assemble_x0", [P, S], [X0])
+    Pm = ca.MX.sym("p", P.shape[0])
+    return ca.Function("x0", [Pm], [assemble(Pm, solution(Pm)[:S.shape[0]])], ["p"], ["x0"]), notes
+
+
+def _solve(V, R, guess, P, where, file, line):
+    """V solving ``0 = R(V, P)``: an SX expression of P when linear, else a function of P running the
+    unrolled Newton iterations."""
+    jac = ca.jacobian(R, V)
+    if not ca.depends_on(jac, V):
+        _check_rank(jac, P, where, file, line)
+        rhs = -ca.substitute(R, V, ca.SX.zeros(V.shape))
+        solution = rhs / jac if V.numel() == 1 else ca.solve(jac, rhs)
+        return ca.simplify(solution), "linear, solved symbolically"
+    solver = newton("_initial", V, R, P, damped=True)
+    Pm = ca.MX.sym("p", P.shape[0])
+    guess_m = ca.Function("initial_guess", [P], [guess])(Pm)
+    solved = solver(guess_m, ca.repmat(Pm, 1, NEWTON_ITERATIONS))
+    return ca.Function("initial_newton", [Pm], [solved]), (
+        f"nonlinear, {NEWTON_ITERATIONS} damped Newton iterations from the start values")
+
+
+def _check_rank(jac, P, where, file, line):
+    """A linear initial problem singular at random parameters is singular (with probability 1)."""
+    values = np.random.default_rng(12345).uniform(0.5, 1.5, P.shape[0])
+    numeric = np.array(ca.Function("initial_jacobian", [P], [jac])(values), dtype=float)
+    if np.linalg.matrix_rank(numeric) < jac.shape[0]:
+        raise StructureError(f"the initial equations at {where} are singular: they do not determine the states "
+                             "they mention (a steady state that any constant shift also satisfies?)", file, line)
+
+
+def _function(system, params, P, X0):
+    others = _names(X0) - {p.name for p in params.free}
+    if others:
+        raise StructureError(f"{system.name}: start values depend on {', '.join(sorted(others))}, which are not "
+                             "parameters")
+    return ca.Function("x0", [P], [X0], ["p"], ["x0"])

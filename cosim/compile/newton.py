@@ -1,0 +1,46 @@
+"""Newton's method as CasADi expressions that C code can be generated for (CasADi cannot generate C for its own
+rootfinders): one SX step ``v - J(v)^-1 r(v)``, folded a fixed number of times (a loop in the C code)."""
+
+import casadi as ca
+
+__all__ = ["NEWTON_ITERATIONS", "newton"]
+
+# Newton iterations unrolled into the generated code.
+NEWTON_ITERATIONS = 30
+# A damped step tries the full Newton step, then halves it up to this many times.
+HALVINGS = 8
+
+
+def newton(k, unknowns, residual, context, damped=False):
+    """A solver for ``0 = residual(unknowns, context)``: a CasADi function of (guess, context repeated
+    NEWTON_ITERATIONS times as columns) returning the unknowns after NEWTON_ITERATIONS steps.
+
+    Parameters
+    ----------
+    k : int or str
+        Distinguishes the step functions' names.
+    unknowns, residual, context : casadi.SX
+        Column vectors; ``residual`` depends on ``unknowns`` and ``context`` only.
+    damped : bool
+        Take the longest of the steps 1, 1/2, 1/4, ... that lowers the residual's norm (and stays where the
+        residual is defined: ``sqrt`` of a negative overshoot is NaN, which compares false), for start values
+        far from the root (an initialisation).
+
+    Returns
+    -------
+    casadi.Function
+    """
+    jac = ca.jacobian(residual, unknowns)
+    delta = ca.solve(jac, residual)
+    new = _damped(unknowns, residual, delta) if damped else unknowns - delta
+    step = ca.Function(f"newton_step{k}", [unknowns, context], [new])
+    return step.fold(NEWTON_ITERATIONS)
+
+
+def _damped(unknowns, residual, delta):
+    before = ca.sumsqr(residual)
+    new = unknowns - delta / 2**HALVINGS  # when no tried step lowers the residual: the shortest one
+    for j in reversed(range(HALVINGS)):
+        candidate = unknowns - delta / 2**j
+        new = ca.if_else(ca.sumsqr(ca.substitute(residual, unknowns, candidate)) < before, candidate, new)
+    return new

@@ -1,0 +1,96 @@
+"""rumoca 0.10.2's errors without a line for constructs it does not carry (a ``while`` statement, a ``for`` loop
+over the elements of an array in a function, ``der()`` of an expression it could not take): find the construct
+in the Modelica text, lexically (comments and strings masked, nothing parsed), and name it with file and line.
+"""
+
+import re
+
+from cosim.errors import UnsupportedConstructError
+
+__all__ = ["masked", "locate_rumoca_error"]
+
+_LEXICAL = re.compile(r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\])*"', re.S)
+
+
+def masked(text):
+    """``text`` with comments and string literals blanked (same length, same newlines)."""
+    return _LEXICAL.sub(lambda m: re.sub(r"[^\n]", " ", m.group(0)), text)
+
+
+def _line(text, position):
+    return text.count("\n", 0, position) + 1
+
+
+def _function_span(text, name):
+    match = re.search(rf"\bfunction\s+{re.escape(name)}\b.*?\bend\s+{re.escape(name)}\s*;", text, re.S)
+    return (match.start(), match.end()) if match else (0, len(text))
+
+
+_WHILE = "rumoca 0.10.2 does not carry it into its IR; write a for-loop with a fixed bound"
+_KNOWN = [
+    # (pattern in rumoca's message, pattern of the construct in the text (formatted with the message's named
+    # groups), what it is, what to do instead). The first entry whose construct is found in the text wins.
+    (r"`(?P<function>\w+)` contains a statement without a checked DAE owner", r"\bwhile\b", "while-statement",
+     _WHILE),
+    (r"`(?P<function>\w+)` requires a compact dependent-domain transition", r"\bfor\s+\w+\s+in\s+[^:;]*?\s+loop\b",
+     "for-loop over the elements of an array", "loop over its indices (for i in 1:size(v, 1))"),
+    (r"`function loop reduction`: `(?P<function>\w+)`", r"\bbreak\b", "break-statement",
+     "rumoca 0.10.2 cannot unroll a loop that may stop early; run the whole range and guard the body with if"),
+    (r"`function loop reduction`: `(?P<function>\w+)`", r"\bfor\b", "for-loop",
+     "rumoca 0.10.2 cannot bound it: loop over a range whose size is known at build time"),
+    (r"`function return`: `(?P<function>\w+)`", r"\breturn\b", "return-statement",
+     "rumoca 0.10.2 rejects it; use if-statements"),
+    (r"(?P<call>\w+)\(\) is not allowed in functions", r"\b{call}\s*\(", "{call}() in a function",
+     "the language forbids it"),
+    (r"while-statement", r"\bwhile\b", "while-statement", _WHILE),
+    (r"unsupported model algorithm in canonical DAE: (?P<reason>[^\n]+)", r"\balgorithm\b",
+     "algorithm section of a model", "rumoca 0.10.2 says: {reason}; write equations, or move the algorithm into a "
+     "function"),
+    (r"der\(\.\.\.\) must have exactly one resolved variable-reference operand",
+     r"\bder\s*\((?!\s*[A-Za-z_][\w.]*\s*(\[[^\]]*\])?\s*\))", "der() of this expression",
+     "write der() of a variable here (der() of an expression is supported in equations, outside for-loops)"),
+]
+
+
+def _find(message, files):
+    """(what, instead, function, file, line) of the first known construct the message names and the text has;
+    None when the message is not about one; file and line None when the text does not show it."""
+    known = None
+    for said, construct, what, instead in _KNOWN:
+        found = re.search(said, message)
+        if not found:
+            continue
+        groups = {k: v.strip() for k, v in found.groupdict().items()}
+        what, instead = what.format(**groups), instead.format(**groups)
+        known = known or (what, instead, groups.get("function"), None, None)
+        for path in files:
+            text = masked(path.read_text(encoding="utf-8"))
+            start, end = _function_span(text, groups["function"]) if "function" in groups else (0, len(text))
+            if "function" in groups and (start, end) == (0, len(text)):
+                continue
+            hit = re.search(construct.format(**groups), text[start:end])
+            if hit:
+                return what, instead, groups.get("function"), str(path), _line(text, start + hit.start())
+    return known
+
+
+def locate_rumoca_error(message, files):
+    """An :class:`UnsupportedConstructError` with file and line for a rumoca error about a construct it does
+    not carry, or None when ``message`` is not one of those.
+
+    Parameters
+    ----------
+    message : str
+        rumoca's error text.
+    files : list of Path
+        The Modelica files rumoca read, the model's own first.
+    """
+    found = _find(message, files)
+    if found is None:
+        return None
+    what, instead, function, file, line = found
+    where = f" in function {function}" if function else ""
+    if file is None:
+        return UnsupportedConstructError(f"the {what}{where} is not supported: {instead} (rumoca: {message})",
+                                         str(files[0]))
+    return UnsupportedConstructError(f"the {what}{where} is not supported: {instead}", file, line)
