@@ -10,7 +10,8 @@ import casadi as ca
 import fmpy
 import numpy as np
 import pytest
-from fmpy.fmi3 import FMU3Model
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi3 import FMU3Model, fmi3Float64
 from fmpy.validation import validate_fmu
 
 from cosim.compile import build_fmu
@@ -75,6 +76,13 @@ def test_linear_fmu_with_euler_converges_to_the_closed_form_at_first_order(fmus)
 def test_tunable_parameter_changes_the_solution(fmus):
     r = _simulate(fmus["Linear"], "CVode", 1.0, output=["x1"], start_values={"a": 0.5})
     assert np.max(np.abs(r["x1"] - np.exp(-0.5 * r["time"]))) < 1e-7
+
+
+def test_states_not_set_start_from_x0_of_the_actual_parameters(fmus):
+    r = _simulate(fmus["Linear"], "CVode", 1.0, output=["x1"], start_values={"x10": 2.0})
+    assert np.max(np.abs(r["x1"] - 2.0 * np.exp(-2.0 * r["time"]))) < 1e-7
+    r = _simulate(fmus["Linear"], "CVode", 1.0, output=["x1"], start_values={"x10": 2.0, "x1": 3.0})
+    assert np.max(np.abs(r["x1"] - 3.0 * np.exp(-2.0 * r["time"]))) < 1e-7  # a state set by the importer wins
 
 
 def test_model_description_has_units_states_and_structure(fmus):
@@ -201,11 +209,11 @@ def test_integer_variable_has_its_fmi_type(ball):
     messages = []
     _, model, vr = _open(ball, log=lambda env, status, category, message: messages.append(message.decode()))
     assert model.getInt64([vr["n"]]) == [0]
-    with pytest.raises(Exception):
+    with pytest.raises(FMICallException):
         model.getFloat64([vr["n"]])
     assert "is a Int64 variable, not Float64" in messages[-1]
-    model.setContinuousStates((fmpy.fmi3.fmi3Float64 * 2)(-1e-3, -4.0), 2)  # just below the floor, falling
-    z = (fmpy.fmi3.fmi3Float64 * 1)()
+    model.setContinuousStates((fmi3Float64 * 2)(-1e-3, -4.0), 2)  # just below the floor, falling
+    z = (fmi3Float64 * 1)()
     model.getEventIndicators(z, 1)
     assert z[0] == -1e-3
     model.enterEventMode()
@@ -282,7 +290,7 @@ def test_failed_assert_is_an_error_with_its_message(tmp_path):
     messages = []
     _, model, _ = _open(fmu, log=lambda env, status, category, message: messages.append((status, message.decode())))
     _events_at(model, [0.3])
-    with pytest.raises(Exception, match="fmi3UpdateDiscreteStates"):
+    with pytest.raises(FMICallException, match="fmi3UpdateDiscreteStates"):
         _events_at(model, [0.7])
     assert messages[-1] == (3, "t = 0.69999999999999996: assertion failed: Clock.mo:7: k must stay below 2")  # 3: fmi3Error
     model.freeInstance()

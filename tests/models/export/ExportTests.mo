@@ -2,7 +2,8 @@ package ExportTests "Small models with closed-form solutions for the FMU exporte
   model Linear "A decay and an undamped oscillator: y = exp(-a t) + sin(w t) / w"
     parameter Real a = 2 "Decay rate";
     parameter Real w = 3 "Angular frequency";
-    Real x1(start = 1, fixed = true) "Decaying state";
+    parameter Real x10 = 1 "Initial value of x1";
+    Real x1(start = x10, fixed = true) "Decaying state";
     Real q(start = 0, fixed = true) "Oscillator position";
     Real v(start = 1, fixed = true) "Oscillator velocity";
     output Real y "Decay plus position";
