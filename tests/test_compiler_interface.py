@@ -118,42 +118,41 @@ def _package(tmp_path, body, name="T"):
 
 
 UNSUPPORTED = {
-    "when": ("""
-  model M
-    Real x(start = 1); discrete Real n(start = 0);
-  equation
-    der(x) = -x;
-    when x < 0.5 then
-      n = pre(n) + 1;
-    end when;
-  end M;""", "when-equation", 8),
-    "reinit": ("""
+    "delay": ("""
   model M
     Real x(start = 1);
-    Real v(start = 0);
-  equation
-    der(x) = v;
-    der(v) = -9.81;
-    when x < 0 then
-      reinit(v, -0.8*pre(v));
-    end when;
-  end M;""", "reinit", 10),
-    "sample": ("""
-  model M
-    Real x(start = 1);
-    discrete Real s(start = 0);
+    Real y;
   equation
     der(x) = -x;
-    when sample(0, 0.1) then
-      s = x;
+    y = delay(x, 0.1);
+  end M;""", "delay()", 8),
+    "terminal": ("""
+  model M
+    Real x(start = 1);
+    discrete Real y(start = 0);
+  equation
+    der(x) = -x;
+    when terminal() then
+      y = x;
     end when;
-  end M;""", "when-equation", 9),
+  end M;""", "terminal()", 8),
+    "clocked": ("""
+  model M
+    Real x(start = 1);
+    Real y;
+    Real z;
+    Clock c = Clock(0.1);
+  equation
+    der(x) = -x;
+    y = sample(x, c);
+    z = previous(y) + 1;
+  end M;""", "clocked synchronous construct", 10),
     "mod": ("""
   model M
     Real x(start = 1);
   equation
     der(x) = -x + mod(x, 0.3);
-  end M;""", "mod/div/rem", 6),
+  end M;""", "mod() (an event-generating integer division", 6),
 }
 
 

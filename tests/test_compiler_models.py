@@ -120,12 +120,6 @@ def test_initial_equation_integer_parameter_extends_and_math_functions(compiler_
     assert_close_to_range(res["y"], ref[0], "y")
 
 
-def test_plain_if_runs_without_events(compiler_fmu):
-    res = simulate(compiler_fmu("PlainIf"), 3.0, ["x"])
-    ref = reference(lambda t, s: [-s[0] if s[0] > 0.5 else -0.5 * s[0]], [1.0], res["time"])
-    assert_close_to_range(res["x"], ref[0], "x")
-
-
 def test_one_function_called_at_two_sites_uses_each_sites_arguments(compiler_fmu):
     # der(x) = (u - x)|u - x|/tc at each site: the first with u = 1, tc = 0.5, the second with u = -0.5, tc = 2.
     # Every call site inlines the function with its own arguments; a body shared between sites would give the

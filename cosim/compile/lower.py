@@ -9,6 +9,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
 
+from cosim.compile import events as hybrid
 from cosim.compile.model import LoweredModel, ModelVariable
 from cosim.errors import StructureError
 
@@ -254,6 +255,12 @@ def lower_system(system):
     algebraics = [v for v in system.variables if v.role in ("algebraic", "output")]
     inputs = system.by_role("input")
     equations = [(params.substitute(e.residual), e.location) for e in system.equations]
+    M = None
+    if system.events is not None:
+        M = ca.vertcat(*hybrid.memory_symbols(system.events)) if hybrid.memory_symbols(system.events) \
+            else ca.SX(0, 1)
+        pre_from, pre_to = hybrid.between_events(system.events, {v.name: v.sym for v in system.variables})
+        equations = [(ca.substitute(e, ca.vertcat(*pre_from), ca.vertcat(*pre_to)), loc) for e, loc in equations]
     input_names = {u.name for u in inputs}
     ders = [system.derivatives[s.name] for s in states]
     demoted, extra = [], []
@@ -283,7 +290,7 @@ def lower_system(system):
     def value_of(var):
         return var.sym if var.name in active_names else solved[var.sym.name()]
 
-    outputs = [v for v in system.variables if v.causality == "output"]
+    outputs = [v for v in system.variables if v.causality == "output" and v.role not in hybrid.DISCRETE_ROLES]
     observed = [v for v in algebraics + [states[k] for k in demoted] if v.causality != "output"]
     X = ca.vertcat(*[s.sym for s in active]) if active else ca.SX(0, 1)
     U = ca.vertcat(*[u.sym for u in inputs]) if inputs else ca.SX(0, 1)
@@ -293,12 +300,13 @@ def lower_system(system):
     y = ca.vertcat(*[value_of(v) for v in outputs]) if outputs else ca.SX(0, 1)
     obs = ca.vertcat(*[value_of(v) for v in observed]) if observed else ca.SX(0, 1)
     known = {s.name for s in active} | input_names | {p.name for p in params.free} | {T.name()}
+    known |= set() if M is None else {m.name() for m in ca.vertsplit(M)}
     block_names = {u.name() for vs, _, _ in blocks.nonlinear for u in ca.vertsplit(vs)}
     for expr, what in ((xdot, "state derivatives"), (y, "outputs")):
         stray = _names(expr) - known - block_names
         if stray:
             raise StructureError(f"{system.name}: {what} still depend on {', '.join(sorted(stray))} after lowering")
-    ode, out, observe = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, system)
+    ode, out, observe = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, system, M)
     if blocks.nonlinear:
         for vs, _, locs in blocks.nonlinear:
             notes.append(f"nonlinear algebraic loop in {', '.join(u.name() for u in ca.vertsplit(vs))} "
@@ -318,7 +326,31 @@ def lower_system(system):
         ode=ode, out=out, observe=observe,
         observed=tuple(ModelVariable(v.name, v.unit, v.description, _start(v)) for v in observed),
         x0=x0, constants=dict(params.constants), notes=tuple(notes),
+        events=None if M is None else _event_part(system, params, active, outputs, observed, (X, U, P, T, M),
+                                                  (ode, out, observe), p_defaults),
     )
+
+
+def _event_part(system, params, active, outputs, observed, symbols, functions, p_defaults):
+    """The EventPart: event expressions may read every continuous unknown, evaluated by ode/out/observe."""
+    X, U, P, T, M = symbols
+    ode, out, observe = functions
+    active_names = [s.name for s in active]
+    out_rows = [k for k, v in enumerate(outputs) if v.name not in active_names]
+    W = [system.derivatives[s.name] for s in active] + [outputs[k].sym for k in out_rows] + \
+        [v.sym for v in observed]
+
+    def w_value(x, u, p, t, m):
+        parts = [ode(x, u, p, t, m)]
+        if out_rows:
+            parts.append(out(x, u, p, t, m)[out_rows])
+        if observed:
+            parts.append(observe(x, u, p, t, m))
+        return ca.vertcat(*parts)
+
+    ctx = hybrid.HybridContext(X, U, P, T, W, w_value, active_names, params.substitute, p_defaults,
+                               _file_line(system.variables[0].location)[0] if system.variables else system.name)
+    return hybrid.event_part(system.events, ctx, M)
 
 
 def _start(var):
@@ -340,27 +372,29 @@ def _newton(k, unknowns, residual, context):
     return step.fold(NEWTON_ITERATIONS)
 
 
-def _functions(X, U, P, T, xdot, y, obs, nonlinear, system):
-    """CasADi functions of (x, u, p, t); nonlinear blocks are solved by a generated Newton iteration."""
-    names = ["x", "u", "p", "t"]
+def _functions(X, U, P, T, xdot, y, obs, nonlinear, system, M=None):
+    """CasADi functions of (x, u, p, t), and the event memory m for a hybrid model; nonlinear blocks are
+    solved by a generated Newton iteration."""
+    names = ["x", "u", "p", "t"] + ([] if M is None else ["m"])
+    args = [X, U, P, T] + ([] if M is None else [M])
     if not nonlinear:
-        return (ca.Function("ode", [X, U, P, T], [xdot], names, ["xdot"]),
-                ca.Function("out", [X, U, P, T], [y], names, ["y"]),
-                ca.Function("observe", [X, U, P, T], [obs], names, ["v"]))
+        return (ca.Function("ode", args, [xdot], names, ["xdot"]),
+                ca.Function("out", args, [y], names, ["y"]),
+                ca.Function("observe", args, [obs], names, ["v"]))
     block_syms = [vs for vs, _, _ in nonlinear]
-    explicit = ca.Function("explicit", [X, U, P, T, *block_syms], [xdot, y, obs])
-    Xm, Um, Pm, Tm = (ca.MX.sym(n, s.shape[0]) for n, s in zip(names, (X, U, P, T)))
+    explicit = ca.Function("explicit", [*args, *block_syms], [xdot, y, obs])
+    margs = [ca.MX.sym(n, s.shape[0]) for n, s in zip(names, args)]
     solved = []
     for k, (vs, residual, _) in enumerate(nonlinear):
-        context = ca.vertcat(X, U, P, T, *block_syms[:k])
+        context = ca.vertcat(*args, *block_syms[:k])
         solver = _newton(k, vs, residual, context)
         guess = ca.DM([_start(_var_named(system, u.name())) for u in ca.vertsplit(vs)])
-        ctx_value = ca.vertcat(Xm, Um, Pm, Tm, *solved)
+        ctx_value = ca.vertcat(*margs, *solved)
         solved.append(solver(guess, ca.repmat(ctx_value, 1, NEWTON_ITERATIONS)))
-    xd, yy, oo = explicit(Xm, Um, Pm, Tm, *solved)
-    return (ca.Function("ode", [Xm, Um, Pm, Tm], [xd], names, ["xdot"]),
-            ca.Function("out", [Xm, Um, Pm, Tm], [yy], names, ["y"]),
-            ca.Function("observe", [Xm, Um, Pm, Tm], [oo], names, ["v"]))
+    xd, yy, oo = explicit(*margs, *solved)
+    return (ca.Function("ode", margs, [xd], names, ["xdot"]),
+            ca.Function("out", margs, [yy], names, ["y"]),
+            ca.Function("observe", margs, [oo], names, ["v"]))
 
 
 def _var_named(system, name):

@@ -3,11 +3,11 @@ source lines, user functions inlined. Constructs the compiler does not support a
 file and line where they appear."""
 
 import itertools
-import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import casadi as ca
 
+from cosim.compile.events import EventReader, Relation
 from cosim.errors import UnsupportedConstructError
 
 __all__ = ["Variable", "Equation", "DaeSystem", "translate"]
@@ -33,19 +33,20 @@ _BUILTIN_1 = {
     "sinh": ca.sinh, "cosh": ca.cosh, "tanh": ca.tanh,
 }
 _BUILTIN_2 = {"min": ca.fmin, "max": ca.fmax, "atan2": ca.atan2}
-# Event structures rumoca fills for constructs with discrete semantics, and how a user wrote them.
-_EVENT_TABLES = {
-    "discrete_real_equations": "when-equation (discrete equations)",
-    "discrete_value_owners": "discrete variable assignment",
-    "model_event_transactions": "when-equation",
-    "event_actions": "reinit or when-equation action",
-    "previous_values": "pre()",
-    "clocks": "clocked construct (sample, Clock)",
-    "clock_ownerships": "clocked construct (sample, Clock)",
-    "time_events": "time event (sample)",
+# IR tables of constructs the compiler does not lower, and the constructs' Modelica names.
+_REJECTED_TABLES = {
     "delays": "delay()",
+    "previous_values": "previous() (clocked synchronous construct)",
+    "model_event_transactions": "a when-clause form rumoca lowers to an event transaction",
 }
-_STRUCTURAL_ROLES = {"state", "algebraic", "input", "output", "parameter", "constant"}
+_COMPARISON_OPERATORS = ("less", "less_equal", "greater", "greater_equal")
+# References to values the compiler does not lower, by the construct a user wrote.
+_COORDINATE_NAMES = {
+    "delay": "delay()",
+    "previous": "previous() (clocked synchronous construct)",
+    "terminal": "terminal() (an FMU has no event at fmi3Terminate in which a when-clause could fire)",
+}
+_ROLES = {"state", "algebraic", "input", "output", "parameter", "constant", "discrete_real", "discrete_value"}
 
 
 @dataclass
@@ -57,9 +58,10 @@ class Variable:
     name : str
         Flat name, e.g. ``motor.w``.
     role : str
-        ``state``, ``algebraic``, ``input``, ``output``, ``parameter`` or ``constant``.
+        ``state``, ``algebraic``, ``input``, ``output``, ``parameter``, ``constant``, ``discrete_real`` or
+        ``discrete_value`` (a discrete Integer, Boolean or enumeration).
     kind : str
-        Value type: ``real``, ``integer`` or ``boolean``.
+        Value type: ``real``, ``integer``, ``boolean`` or ``enumeration``.
     sym : casadi.SX
         The variable's symbol.
     start, binding : casadi.SX or None
@@ -99,7 +101,7 @@ class DaeSystem:
     time: object
     equations: list
     initial_equations: list
-    warnings: list = field(default_factory=list)
+    events: object = None  # cosim.compile.events.EventSystem of a hybrid model
 
     def by_role(self, *roles):
         return [v for v in self.variables if v.role in roles]
@@ -136,16 +138,25 @@ class _Translator:
         self.syms = []
         self.der_syms = {}
         self.memo = {}  # (node, context serial) -> expression; None is the model's own context
+        self.relations = []  # events.Relation: rumoca's (in its order), then relations on time it leaves out
+        self.pre_syms = {}  # variable name -> symbol of pre(variable)
+        self.variables_by_index = []
+        self.reader = None  # events.EventReader, once the variables are known
+        self.relation_nodes = {}
+        self.no_event_nodes = set()
         self.call_serials = itertools.count()
 
     def where(self, node_id):
         prov = self.provenance[node_id] if node_id < len(self.provenance) else None
         return self.flat.locate(_span_of(prov))
 
+    def location(self, entry):
+        """``file:line`` of the first source span inside an IR entry."""
+        return self.flat.locate(_span_of(entry))
+
     def unsupported(self, what, span_holder):
         raise UnsupportedConstructError(
-            f"{what} is not supported: plant models are continuous; put discrete logic in a Python controller "
-            "(see docs/compiler.md)",
+            f"{what} is not supported (see docs/compiler.md)",
             *self._file_line(self.flat.locate(_span_of(span_holder))),
         )
 
@@ -195,6 +206,8 @@ class _Translator:
             if body["operator"] == "plus":
                 return a
         elif kind == "binary":
+            if body["operator"] in _COMPARISON_OPERATORS or i in self.relation_nodes:
+                return self._relation(i, body, ctx)
             op = _BINARY.get(body["operator"])
             if op is not None:
                 return op(self.expr(body["lhs"], ctx), self.expr(body["rhs"], ctx))
@@ -208,6 +221,9 @@ class _Translator:
             return result
         elif kind == "call":
             return self._call(i, body, ctx)
+        elif kind == "runtime_quotient_owner":
+            self.unsupported(f"{body.get('builtin', 'mod')}() (an event-generating integer division, like "
+                             "mod, rem, div)", self.provenance[i])
         elif kind == "function_value":
             return ctx["values"][body["definition_ordinal"]]
         what = body.get("operator") or body.get("builtin") if isinstance(body, dict) else None
@@ -221,9 +237,38 @@ class _Translator:
             return self.syms[index]
         if ref == "derivative":
             return self.der_syms[index]
+        if ref in ("discrete_real", "discrete_value"):
+            return self.syms[index]
+        if ref in ("pre_discrete_real", "pre_discrete_value", "pre_state"):
+            return self._pre(index)
+        if ref == "condition":
+            return self.reader.level(index)
+        if ref in _COORDINATE_NAMES:
+            self.unsupported(_COORDINATE_NAMES[ref], self.provenance[i])
         if ref == "function_parameter":
             return ctx["args"][index["ordinal"]]
         self.unsupported(f"a reference to a {ref} variable", self.provenance[i])
+
+    def _pre(self, index):
+        name = self.storage["variables"][index]["name"]
+        if name not in self.pre_syms:
+            self.pre_syms[name] = ca.SX.sym(f"pre({name})")
+        return self.pre_syms[name]
+
+    def _relation(self, i, body, ctx):
+        """A relation outside noEvent/smooth and outside functions is held between events (a symbol of m)."""
+        lhs, rhs = self.expr(body["lhs"], ctx), self.expr(body["rhs"], ctx)
+        direct = _BINARY[body["operator"]](lhs, rhs)
+        if ctx is not None or i in self.no_event_nodes:
+            return direct
+        if i not in self.relation_nodes:
+            if not ca.depends_on(direct, self.time):
+                return direct
+            self.relation_nodes[i] = len(self.relations)  # a relation on time: rumoca gives only its instant
+            self.relations.append(None)
+        k = self.relation_nodes[i]
+        self.relations[k] = Relation(ca.SX.sym(f"$rel{k}"), lhs - rhs, body["operator"], self.where(i))
+        return self.relations[k].sym
 
     def _builtin(self, i, name, ctx):
         args = [self.expr(j, ctx) for j in self.operands[i]]
@@ -274,21 +319,19 @@ class _Translator:
     # -- variables and equations ----------------------------------------------
     def run(self):
         storage = self.storage
-        for table, what in _EVENT_TABLES.items():
-            if storage.get(table):
-                self.unsupported(what, storage[table][0])
+        self._reject_tables()
         raw = storage["variables"]
         for v in raw:
-            if v["role"] not in _STRUCTURAL_ROLES:
+            if v["role"] not in _ROLES:
                 self.unsupported(f"the {v['role'].replace('_', ' ')} variable {v['name']}", v)
         self.syms = [ca.SX.sym(v["name"]) for v in raw]
         self.der_syms = {i: ca.SX.sym(f"der({v['name']})") for i, v in enumerate(raw) if v["role"] == "state"}
-        system_warnings = []
-        for rel in storage.get("relations", []):
-            if "quotient_owner" in rel:
-                self.unsupported("mod/div/rem", storage.get("conditions", [rel]))
-            system_warnings.append(
-                f"{self.flat.locate(_span_of(rel))}: 'if' without noEvent is evaluated without events")
+        self._mark_no_event()
+        for k, rel in enumerate(storage.get("relations", [])):
+            if "relation" not in rel:
+                self._reject_quotient()
+            self.relation_nodes[rel["relation"]["expression"]] = k
+        self.relations = [None] * len(self.relation_nodes)
         variables = []
         for i, v in enumerate(raw):
             a = v["attributes"]
@@ -307,10 +350,51 @@ class _Translator:
                 causality=a.get("causality") or "local",
                 location=self.flat.locate(_span_of(v.get("declaration"))),
             ))
+        self.variables_by_index = variables
+        self.reader = EventReader(self, [v for v in variables if v.role in ("discrete_real", "discrete_value")])
+        for k, rel in enumerate(storage.get("relations", [])):
+            self.expr(rel["relation"]["expression"])
         equations = [self._equation(op) for op in storage["continuous_equation_operations"]]
         initial = [self._equation(op) for op in storage.get("initialization_equation_operations", [])]
         derivatives = {raw[i]["name"]: s for i, s in self.der_syms.items()}
-        return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, system_warnings)
+        return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, self.reader.read())
+
+    def _reject_tables(self):
+        """Constructs rumoca carries that the compiler does not lower, named as the user wrote them."""
+        for owner in self.storage.get("clock_ownerships", []):
+            if owner.get("sampled"):
+                self.unsupported("sample(expression, clock) (clocked synchronous construct)", owner)
+        used = {c["node"]["clock"] for c in self.storage.get("conditions", [])
+                if isinstance(c["node"], dict) and "clock" in c["node"]}
+        for k, clock in enumerate(self.storage.get("clocks", [])):
+            if k not in used:
+                self.unsupported("Clock (clocked synchronous construct; only sample(start, interval) is lowered)",
+                                 clock)
+        for table, what in _REJECTED_TABLES.items():
+            if self.storage.get(table):
+                self.unsupported(what, self.storage[table][0])
+
+    def _reject_quotient(self):
+        for i, node in enumerate(self.nodes):
+            if "runtime_quotient_owner" in node:
+                self._expr(i, None)
+        self.unsupported("mod(), rem() or div() (event-generating integer division)", None)
+
+    def _mark_no_event(self):
+        """Every node inside noEvent() or smooth(): its relations are evaluated directly, without events."""
+        stack = [j for i, node in enumerate(self.nodes) if "builtin" in node
+                 and node["builtin"]["builtin"] in ("no_event", "noEvent", "smooth") for j in self.operands[i]]
+        while stack:
+            i = stack.pop()
+            if i in self.no_event_nodes:
+                continue
+            self.no_event_nodes.add(i)
+            (kind, body), = self.nodes[i].items()
+            if isinstance(body, dict):
+                stack += [body[key] for key in ("lhs", "rhs", "operand") if isinstance(body.get(key), int)]
+                if kind == "call":
+                    stack += self.operands.get(body["owner"], [])
+            stack += self.operands.get(i, [])
 
     def _equation(self, operation):
         (kind, body), = operation.items()
@@ -322,14 +406,7 @@ class _Translator:
 def translate(flat):
     """Translate a :class:`~cosim.compile.frontend.FlatModel` into a :class:`DaeSystem` of SX expressions.
 
-    Plain ``if`` expressions (without ``noEvent``) are accepted and evaluated without events; one warning per
-    model names their places.
+    A model with discrete variables, relations outside ``noEvent``, ``when``, ``assert`` or ``terminate`` gets
+    ``events`` (an :class:`~cosim.compile.events.EventSystem`); a continuous model gets ``None``.
     """
-    system = _Translator(flat).run()
-    if system.warnings:
-        warnings.warn(
-            f"{flat.name}: {len(system.warnings)} 'if' expression(s) without noEvent are evaluated without "
-            "events (the master's step bounds the error): " + "; ".join(system.warnings),
-            stacklevel=2,
-        )
-    return system
+    return _Translator(flat).run()

@@ -185,7 +185,7 @@ package CompilerTests "Models that exercise the compiler; each test has an indep
     y = x;
   end InitialAndInteger;
 
-  model PlainIf "An if without noEvent is evaluated without events"
+  model PlainIf "An if on a state without noEvent: a state event (a hybrid model)"
     output Real x(unit = "1", start = 1);
   equation
     der(x) = if x > 0.5 then -x else -0.5*x;
