@@ -48,10 +48,10 @@ void model_free(Model *s) { free(s); }
 /* Back to start values, as after instantiation. */
 void model_reset(Model *s) {
     s->t = 0.0;
-    memcpy(s->x, X_START, sizeof s->x);
-    memcpy(s->u, U_START, sizeof s->u);
-    memcpy(s->p, P_START, sizeof s->p);
-    memcpy(s->m, M_START, sizeof s->m);
+    memcpy(s->x, X_START, N_X * sizeof(double));
+    memcpy(s->u, U_START, N_U * sizeof(double));
+    memcpy(s->p, P_START, N_P * sizeof(double));
+    memcpy(s->m, M_START, N_M * sizeof(double));
     memset(s->x_set, 0, sizeof s->x_set);
     model_touch(s);
 }
@@ -174,8 +174,8 @@ int model_event_pass(Model *s, EventFlags *flags) {
         if (x_new[i] != s->x[i]) flags->states_changed = 1;
     for (i = 0; i < N_M; i++)
         if (m_new[i] != s->m[i]) flags->discrete_changed = 1;
-    memcpy(s->x, x_new, sizeof s->x);
-    memcpy(s->m, m_new, sizeof s->m);
+    memcpy(s->x, x_new, N_X * sizeof(double));
+    memcpy(s->m, m_new, N_M * sizeof(double));
     model_touch(s);
     if (status == 1.0) {
         flags->terminate = 1;
