@@ -309,7 +309,8 @@ HYBRID = Path(__file__).resolve().parent / "models" / "hybrid" / "Hybrid.mo"
 @pytest.fixture(scope="module")
 def hybrid_fmus(tmp_path_factory):
     out = tmp_path_factory.mktemp("hybrid_fmus")
-    return {name: build_fmu(HYBRID, f"Hybrid.{name}", out_dir=out) for name in ("BouncingBall", "StepCounter", "Stop")}
+    return {name: build_fmu(HYBRID, f"Hybrid.{name}", out_dir=out) for name in ("BouncingBall", "StepCounter", "Stop",
+                                                                           "Relay")}
 
 
 @pytest.mark.parametrize("solver, tolerance", [("CVode", 1e-6), ("Euler", 30 * 1e-4)])  # Euler: see above
@@ -333,3 +334,19 @@ def test_modelica_terminate_stops_the_fmu_at_its_event(hybrid_fmus, solver):
     r = _simulate(hybrid_fmus["Stop"], solver, 2.0, step=1e-4, output=["T"])
     # CVode locates T = 0.7 to its root tolerance; Euler finds it at the end of the step that crosses it
     assert r["time"][-1] == pytest.approx(0.7, abs=1e-9 if solver == "CVode" else 1e-4)
+
+
+@pytest.mark.parametrize("solver, tolerance", [("CVode", 1e-6), ("Euler", 5e-4)])
+def test_modelica_relay_fmu_exposes_enumeration_and_booleans_with_their_types(hybrid_fmus, solver, tolerance):
+    md = fmpy.read_model_description(str(hybrid_fmus["Relay"]))
+    types = {v.name: v.type for v in md.modelVariables if v.variability == "discrete"}
+    assert types == {"dir": "Int64", "up": "Boolean", "rises": "Int64", "late": "Boolean"}
+    r = _simulate(hybrid_fmus["Relay"], solver, 3.0, step=1e-4, output=["dir", "up", "rises", "late"])
+    # Hand-computed (as in test_compiler_events): x = 0.5 + t reaches 0.9 at 0.4, 0.1 at 1.2, 0.9 at 2.0, 0.1 at
+    # 2.8; dir is the enumeration's ordinal (Up = 1, Down = 2). Euler: each event up to one step late, adding up.
+    changes = {name: np.flatnonzero(np.diff(r[name].astype(float))) + 1 for name in ("dir", "rises", "late")}
+    assert r["time"][changes["dir"]] == pytest.approx([0.4, 1.2, 2.0, 2.8], abs=tolerance)
+    assert list(r["dir"][changes["dir"]]) == [2, 1, 2, 1] and r["dir"].dtype.kind == "i"
+    assert list(r["up"][changes["dir"]]) == [False, True, False, True] and r["up"].dtype == bool
+    assert r["time"][changes["rises"]] == pytest.approx([1.2, 2.8], abs=tolerance)
+    assert r["time"][changes["late"]] == pytest.approx([0.9], abs=1e-12)  # a time event at its instant
