@@ -217,6 +217,12 @@ def test_integer_variable_has_its_fmi_type(ball):
     with pytest.raises(FMICallException):
         model.getFloat64([vr["n"]])
     assert "is a Int64 variable, not Float64" in messages[-1]
+    with pytest.raises(FMICallException):
+        model.setInt64([vr["n"]], [5])  # a discrete variable is computed by the model, not set
+    assert "cannot be set now" in messages[-1]
+    with pytest.raises(FMICallException):
+        model.getInt32([vr["n"]])
+    assert "no variable of this type" in messages[-1]
     model.setContinuousStates((fmi3Float64 * 2)(-1e-3, -4.0), 2)  # just below the floor, falling
     z = (fmi3Float64 * 1)()
     model.getEventIndicators(z, 1)

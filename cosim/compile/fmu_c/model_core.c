@@ -137,7 +137,7 @@ int model_set(Model *s, unsigned int vr, int type, double value, int initialisin
         s->x[vr - VR_X] = value;
         s->x_set[vr - VR_X] = 1;
     } else {
-        char text[96];
+        char text[160];
         snprintf(text, sizeof text, "value reference %u cannot be set now (only parameters, inputs, and states "
                  "before initialisation)", vr);
         logf_(s, 1, "t = %.17g: %s", s->t, text);
