@@ -3,6 +3,7 @@ CVode and Euler, the defects of the former DaeBuilder export (event indicators, 
 built from hand-written EventParts (bouncing ball, time events, terminate, assert) against closed forms."""
 
 import math
+import tempfile
 import warnings
 from pathlib import Path
 
@@ -42,7 +43,9 @@ def _simulate(fmu, solver, stop_time, step=1e-4, **kwargs):
 def _open(fmu, log=None):
     """An FMU3Model instantiated, initialised and in continuous-time mode (events iterated as fmpy does)."""
     md = fmpy.read_model_description(str(fmu))
-    model = FMU3Model(guid=md.guid, unzipDirectory=fmpy.extract(str(fmu)), modelIdentifier=md.modelExchange.modelIdentifier,
+    unzipped = fmpy.extract(str(fmu), unzipdir=tempfile.mkdtemp(dir=Path(fmu).parent))  # removed with tmp_path
+    model = FMU3Model(guid=md.guid, unzipDirectory=unzipped,
+                      modelIdentifier=md.modelExchange.modelIdentifier,
                       instanceName="test")
     model.instantiate(logMessage=log)
     model.enterInitializationMode(startTime=0.0)
@@ -303,7 +306,8 @@ def test_failed_assert_is_an_error_with_its_message(tmp_path):
     _events_at(model, [0.3])
     with pytest.raises(FMICallException, match="fmi3UpdateDiscreteStates"):
         _events_at(model, [0.7])
-    assert messages[-1] == (3, "t = 0.69999999999999996: assertion failed: Clock.mo:7: k must stay below 2")  # 3: fmi3Error
+    fmi3_error = 3
+    assert messages[-1] == (fmi3_error, "t = 0.69999999999999996: assertion failed: Clock.mo:7: k must stay below 2")
     model.freeInstance()
 
 

@@ -149,7 +149,7 @@ def _data_header(model, layout, functions, identifier, token):
     return "\n".join(lines)
 
 
-def _dependencies(f, layout, n_states):
+def _dependencies(f, layout):
     """Per result row of ``f(x, u, ...)``: the value references of the states and inputs it depends on."""
     rows = [[] for _ in range(f.size1_out(0))]
     for i, first in ((0, layout.x), (1, layout.u)):
@@ -206,8 +206,8 @@ def _structure(root, model, layout, functions):
     states and inputs (a discrete variable's are left implicit: it may depend on everything)."""
     structure = ET.SubElement(root, "ModelStructure")
     n = len(model.states)
-    out_deps, ode_deps = _dependencies(functions[1], layout, n), _dependencies(functions[0], layout, n)
-    z_deps = _dependencies(functions[3], layout, n)
+    out_deps, ode_deps = _dependencies(functions[1], layout), _dependencies(functions[0], layout)
+    z_deps = _dependencies(functions[3], layout)
     outputs = [(layout.output_vr(model, y.name), out_deps[k]) for k, y in enumerate(model.outputs)]
     events = model.events
     discretes = [(layout.d + k, None) for k, d in enumerate(events.discretes if events else ())
