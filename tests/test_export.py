@@ -14,6 +14,7 @@ import pytest
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Model, fmi3Float64
 from fmpy.validation import validate_fmu
+from scipy.integrate import solve_ivp
 
 from cosim.compile import build_fmu
 from cosim.compile.export import export_fmu
@@ -320,7 +321,7 @@ HYBRID = Path(__file__).resolve().parent / "models" / "hybrid" / "Hybrid.mo"
 def hybrid_fmus(tmp_path_factory):
     out = tmp_path_factory.mktemp("hybrid_fmus")
     return {name: build_fmu(HYBRID, f"Hybrid.{name}", out_dir=out) for name in ("BouncingBall", "StepCounter", "Stop",
-                                                                           "Relay")}
+                                                                           "Relay", "Thermostat")}
 
 
 @pytest.mark.parametrize("solver, tolerance", [("CVode", 1e-6), ("Euler", 30 * 1e-4)])  # Euler: see above
@@ -360,3 +361,28 @@ def test_modelica_relay_fmu_exposes_enumeration_and_booleans_with_their_types(hy
     assert list(r["up"][changes["dir"]]) == [False, True, False, True] and r["up"].dtype == bool
     assert r["time"][changes["rises"]] == pytest.approx([1.2, 2.8], abs=tolerance)
     assert r["time"][changes["late"]] == pytest.approx([0.9], abs=1e-12)  # a time event at its instant
+
+
+def _thermostat_switch_times(stop=12.0, P=2.0, k=0.1, Ta=10.0, low=19.0, high=21.0):
+    """scipy on the hand-written equations: heater on from the start (initial()), off above 21, on below 19."""
+    times, t, T, on = [], 0.0, 20.0, True
+    while True:
+        def crossing(tt, s, on=on):
+            return s[0] - (high if on else low)
+        crossing.terminal = True
+        sol = solve_ivp(lambda tt, s: [(P if on else 0.0) - k * (s[0] - Ta)], (t, stop), [T], events=crossing,
+                        rtol=1e-12, atol=1e-12)
+        if sol.status != 1:
+            return np.array(times)
+        t, T, on = sol.t_events[0][0], sol.y_events[0][0][0], not on
+        times.append(t)
+
+
+@pytest.mark.parametrize("solver, tolerance", [("CVode", 1e-6), ("Euler", 3 * 1e-3)])  # Euler: 3 steps (1.9 measured)
+def test_modelica_thermostat_fmu_switches_where_scipy_does(hybrid_fmus, solver, tolerance):
+    """CVode locates each crossing of T = 21 exactly at 0; the FMU reports an indicator at exactly 0 on its former
+    side, so the event comes where the relation T > Thi has flipped (else the heater never switched off)."""
+    r = _simulate(hybrid_fmus["Thermostat"], solver, 12.0, step=1e-3, output=["switches"])
+    expected = _thermostat_switch_times()
+    assert len(expected) == 6 and r["switches"][-1] == 6
+    assert np.max(np.abs(_event_times(r, "switches") - expected)) < tolerance

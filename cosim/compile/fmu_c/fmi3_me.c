@@ -129,7 +129,9 @@ fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
 }
 
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance) {
-    ((Fmu3 *)instance)->mode = MODE_CONTINUOUS;
+    Fmu3 *f = (Fmu3 *)instance;
+    f->mode = MODE_CONTINUOUS;
+    model_settle_indicators(f->model);
     return fmi3OK;
 }
 

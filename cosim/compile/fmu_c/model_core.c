@@ -1,5 +1,6 @@
 /* The model core: see model_core.h. The CasADi functions all take (x, u, p, t, m); a continuous model has an
  * empty m, no indicators, an update that changes nothing and next_time = inf. */
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -53,6 +54,7 @@ void model_reset(Model *s) {
     memcpy(s->p, P_START, N_P * sizeof(double));
     memcpy(s->m, M_START, N_M * sizeof(double));
     memset(s->x_set, 0, sizeof s->x_set);
+    memset(s->z_side, 0, sizeof s->z_side);
     model_touch(s);
 }
 
@@ -75,12 +77,27 @@ static const double *outputs(Model *s) {
     return s->y;
 }
 
+/* An indicator exactly 0 is reported on the side it was on when continuous time began (as +-DBL_MIN): a
+ * solver that locates a root exactly at 0 (CVode can) has then not yet crossed, and goes on to where the
+ * indicator is strictly on the other side, where update() sees the relation flipped. Without this, a root at
+ * exactly 0 is an event where no relation changed, and the crossing that follows is not seen at all. */
 const double *model_indicators(Model *s) {
+    int k;
     if (!s->fresh_z) {
         if (call(s, cosim_indicators, s->m, s->z, NULL, NULL)) return NULL;
+        for (k = 0; k < N_Z; k++)
+            if (s->z[k] == 0.0) s->z[k] = s->z_side[k] * DBL_MIN;
         s->fresh_z = 1;
     }
     return s->z;
+}
+
+/* Continuous time begins: remember the side of each indicator (see model_indicators). */
+void model_settle_indicators(Model *s) {
+    const double *z = model_indicators(s);
+    int k;
+    if (!z) return;
+    for (k = 0; k < N_Z; k++) s->z_side[k] = z[k] > 0.0 ? 1.0 : z[k] < 0.0 ? -1.0 : 0.0;
 }
 
 static int discrete_type(int k) {

@@ -24,6 +24,7 @@ typedef struct {
     double x[N_X + 1], u[N_U + 1], p[N_P + 1], m[N_M + 1];
     double xdot[N_X + 1], y[N_Y + 1], z[N_Z + 1];
     int x_set[N_X + 1];          /* state set by the importer before initialisation (x0 does not override) */
+    double z_side[N_Z + 1];      /* sign of each indicator when continuous time last began (0: not known) */
     int fresh_xdot, fresh_y, fresh_z;  /* cached results valid for the current t, x, u, p, m */
     core_logger log;
     void *log_env;
@@ -48,6 +49,7 @@ int model_get(Model *s, unsigned int vr, int type, double *value);
 int model_set(Model *s, unsigned int vr, int type, double value, int initialising);
 const double *model_derivatives(Model *s);
 const double *model_indicators(Model *s);
+void model_settle_indicators(Model *s);
 int model_initialize(Model *s);
 int model_event_pass(Model *s, EventFlags *flags);
 double model_next_time(Model *s);
