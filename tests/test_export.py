@@ -122,6 +122,18 @@ def test_stateless_fmu_outputs_follow_set_time_and_inputs(fmus):
     model.freeInstance()
 
 
+def test_outputs_and_derivatives_follow_set_continuous_states(fmus):
+    _, model, vr = _open(fmus["Linear"])
+    assert model.getFloat64([vr["y"]]) == [1.0]
+    model.setContinuousStates((fmi3Float64 * 3)(2.0, 0.5, 0.25), 3)  # x1, q, v in declaration order
+    assert model.getFloat64([vr["y"]]) == [2.5]
+    xdot = (fmi3Float64 * 3)()
+    model.getContinuousStateDerivatives(xdot, 3)
+    assert list(xdot) == [-4.0, 0.25, -4.5]  # -a x1, v, -w^2 q
+    model.terminate()
+    model.freeInstance()
+
+
 def test_stateless_fmu_simulates_with_euler(fmus):
     r = _simulate(fmus["Stateless"], "Euler", 1.0, step=0.01, output=["y"])
     assert np.allclose(r["y"], 3 * r["time"], atol=1e-12)
