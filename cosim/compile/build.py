@@ -71,7 +71,8 @@ def build_fmu(path, model, out_dir="fmus", name=None, description=""):
 def _compiler_fingerprint():
     digest = hashlib.sha256(__version__.encode())
     here = Path(__file__).parent
-    for source in sorted(here.glob("*.py")) + [here.parent / "modelica_text.py"]:  # the front end's redeclare check
+    sources = sorted(here.glob("*.py")) + sorted((here / "fmu_c").glob("*.[ch]"))  # the FMU's C wrapper too
+    for source in sources + [here.parent / "modelica_text.py"]:  # the front end's redeclare check
         digest.update(source.read_bytes())
     return digest.hexdigest()
 

@@ -1,97 +1,286 @@
-"""Export a lowered model as an FMI 3.0 Model-Exchange FMU through CasADi's DaeBuilder (C code, compiled with
-gcc, linked against libm), with unit definitions added to the modelDescription."""
+"""Export a lowered model as an FMI 3.0 Model-Exchange FMU: CasADi generates C for the model functions, our own
+C wrapper (``fmu_c/``: a model core and an FMI 3 API layer over it) gives them the FMI interface, gcc compiles
+both. The wrapper carries events (indicators, ``fmi3UpdateDiscreteStates``, time events, terminate, asserts),
+Integer and Boolean variables, and recomputes results lazily after any change of time, states or inputs."""
 
+import datetime
 import os
 import shutil
+import subprocess
 import tempfile
-import threading
+import uuid
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 
 import casadi as ca
 import fmpy
 
+from cosim import __version__
 from cosim.compile.units import base_unit
 from cosim.errors import BuildError
 
-__all__ = ["export_fmu"]
+__all__ = ["export_fmu", "C_TEMPLATE_DIR"]
 
-# DaeBuilder writes its files into the working directory: one export at a time per process.
-_CWD_LOCK = threading.Lock()
+C_TEMPLATE_DIR = Path(__file__).parent / "fmu_c"
+"""The C sources of the FMU wrapper (copied into every FMU's ``sources/``)."""
 
-
-def _builder(model, fmu_name):
-    d = ca.DaeBuilder(fmu_name)
-    t = d.add("time", "independent", "continuous")
-    P = [d.add(p.name, "parameter", "tunable", _attrs(p, start=p.start)) for p in model.parameters]
-    U = [d.add(u.name, "input", _attrs(u, start=u.start)) for u in model.inputs]
-    output_names = {y.name for y in model.outputs}
-    X = [d.add(x.name, "output" if x.name in output_names else "local", _attrs(x, start=x.start))
-         for x in model.states]
-    args = [ca.vertcat(*group) if group else ca.MX(0, 1) for group in (X, U, P)] + [t]
-    xdot = model.ode(*args)
-    for k, x in enumerate(X):
-        d.eq(d.der(x), xdot[k])
-    state_names = {x.name for x in model.states}
-    y = model.out(*args)
-    for k, out in enumerate(model.outputs):
-        if out.name in state_names:
-            continue
-        d.eq(d.add(out.name, "output", _attrs(out)), y[k])
-    return d
+_TEMPLATES = ("model_core.h", "model_core.c", "fmi3_me.c")
+_GENERATED = ("model.c", "model.h", "model_data.h")
+# Discrete kinds -> (FMI 3 type element, code in model_data.h D_KIND). An enumeration is exposed as its ordinal,
+# an Int64 (no enumeration type definitions in the modelDescription).
+_KINDS = {"real": ("Float64", 0), "integer": ("Int64", 1), "boolean": ("Boolean", 2), "enumeration": ("Int64", 3)}
 
 
-def _attrs(var, start=None):
-    attrs = {}
-    if start is not None:
-        attrs["start"] = float(start)
-    if var.unit:
-        attrs["unit"] = var.unit
-    if var.description:
-        attrs["description"] = var.description
-    return attrs
+@dataclass(frozen=True)
+class _Layout:
+    """Value references: 0 time, then parameters, inputs, states, derivatives, the outputs that are not states,
+    discrete variables, event indicators, each a contiguous block starting at the given reference."""
+
+    p: int
+    u: int
+    x: int
+    dx: int
+    y: int
+    d: int
+    z: int
+    end: int
+    y_index: tuple  # position in out()'s result of each output of the y block
+
+    @classmethod
+    def of(cls, model):
+        states = {x.name for x in model.states}
+        y_index = tuple(k for k, y in enumerate(model.outputs) if y.name not in states)
+        events = model.events
+        sizes = [len(model.parameters), len(model.inputs), len(model.states), len(model.states), len(y_index),
+                 len(events.discretes) if events else 0, events.n_indicators if events else 0]
+        starts = [1]
+        for size in sizes:
+            starts.append(starts[-1] + size)
+        return cls(*starts, y_index=y_index)
+
+    def output_vr(self, model, name):
+        states = [x.name for x in model.states]
+        if name in states:
+            return self.x + states.index(name)
+        return self.y + [model.outputs[k].name for k in self.y_index].index(name)
 
 
-def _complete_model_description(xml_path, model, description):
-    """Make CasADi's modelDescription valid and complete: define every unit used (FMI requires it), give states
-    their start values (exact, so importers may set them), and drop CasADi's internal helper variables, whose
-    names are not legal under the structured naming convention and which no importer needs."""
-    tree = ET.parse(xml_path)
-    root = tree.getroot()
+def _symbols(f, n_memory=None):
+    """Dense symbols for ``f``'s inputs (SX for an SX function, so that it is inlined unchanged), plus an event
+    memory of ``n_memory`` when given."""
+    sym = ca.SX if f.is_a("SXFunction") else ca.MX
+    args = [sym.sym(f.name_in(i), f.size1_in(i)) for i in range(f.n_in())]
+    if n_memory is not None:
+        args.append(sym.sym("m", n_memory))
+    return sym, args
+
+
+def _named(f, name, n_memory=None):
+    """``f`` as a function called ``name`` with dense results; with ``n_memory``, an extra (ignored) memory
+    argument, so that the C core calls every model function as f(x, u, p, t, m)."""
+    _, args = _symbols(f, n_memory)
+    results = f.call(args[:f.n_in()])
+    return ca.Function(name, args, [ca.densify(r) for r in results])
+
+
+def _continuous_events(model):
+    """The event functions of a model without events: no indicators, an update that changes nothing."""
+    sym, (x, u, p, t, m) = _symbols(model.ode, 0)
+    none = sym(0, 1)
+    return [ca.Function("cosim_indicators", [x, u, p, t, m], [none]),
+            ca.Function("cosim_update", [x, u, p, t, m], [x, none, sym(0.0)]),
+            ca.Function("cosim_initial", [x, u, p, t], [none]),
+            ca.Function("cosim_next_time", [t, p, none], [sym(float("inf"))])]
+
+
+def _c_functions(model):
+    """The CasADi functions the C core calls, named cosim_ode, cosim_out, cosim_x0, cosim_indicators,
+    cosim_update, cosim_initial, cosim_next_time."""
+    events = model.events
+    memory = 0 if events is None else None  # a continuous model's functions get an empty memory argument
+    functions = [_named(model.ode, "cosim_ode", memory), _named(model.out, "cosim_out", memory),
+                 _named(model.x0, "cosim_x0")]
+    if events is None:
+        return functions + _continuous_events(model)
+    return functions + [_named(events.indicators, "cosim_indicators"), _named(events.update, "cosim_update"),
+                        _named(events.initial, "cosim_initial"), _named(events.next_time, "cosim_next_time")]
+
+
+def _c_array(name, ctype, values):
+    body = ", ".join(values) if values else "0"
+    return f"static const {ctype} {name}[{max(len(values), 1)}] = {{{body}}};"
+
+
+def _c_string(text):
+    return '"' + "".join(chr(b) if 32 <= b < 127 and chr(b) not in '"\\?' else f"\\{b:03o}"
+                         for b in text.encode()) + '"'
+
+
+def _data_header(model, layout, functions, identifier, token):
+    """model_data.h: sizes, value-reference blocks, start values and messages for the C core."""
+    events = model.events
+    discretes = events.discretes if events else ()
+    n_memory = events.n_memory if events else 0
+    memory_start = [d.start for d in discretes] + [0.0] * (n_memory - len(discretes))
+    messages = events.messages if events else ()
+    defines = {
+        "MODEL_IDENTIFIER": _c_string(identifier), "INSTANTIATION_TOKEN": _c_string(token),
+        "N_X": len(model.states), "N_U": len(model.inputs), "N_P": len(model.parameters),
+        "N_Y": len(model.outputs), "N_M": n_memory, "N_D": len(discretes),
+        "N_Z": events.n_indicators if events else 0, "N_MSG": len(messages),
+        "VR_P": layout.p, "VR_U": layout.u, "VR_X": layout.x, "VR_DX": layout.dx, "VR_Y": layout.y,
+        "VR_D": layout.d, "VR_Z": layout.z, "N_VR": layout.end,
+        "SZ_ARG": max(f.sz_arg() for f in functions), "SZ_RES": max(f.sz_res() for f in functions),
+        "SZ_IW": max(f.sz_iw() for f in functions), "SZ_W": max(f.sz_w() for f in functions),
+    }
+    lines = ["/* Generated by cosim.compile.export for " + identifier + ": the model's sizes and start values. */",
+             "#ifndef COSIM_MODEL_DATA_H", "#define COSIM_MODEL_DATA_H"]
+    lines += [f"#define {key} {value}" for key, value in defines.items()]
+    lines += [
+        _c_array("P_START", "double", [repr(float(v.start)) for v in model.parameters]),
+        _c_array("U_START", "double", [repr(float(v.start)) for v in model.inputs]),
+        _c_array("X_START", "double", [repr(float(v.start)) for v in model.states]),
+        _c_array("M_START", "double", [repr(float(v)) for v in memory_start]),
+        _c_array("Y_INDEX", "int", [str(k) for k in layout.y_index]),
+        _c_array("D_KIND", "int", [str(_KINDS[d.kind][1]) for d in discretes]),
+        _c_array("MESSAGES", "char *const", [_c_string(m) for m in messages]),
+        "#endif", ""]
+    return "\n".join(lines)
+
+
+def _dependencies(f, layout):
+    """Per result row of ``f(x, u, ...)``: the value references of the states and inputs it depends on."""
+    rows = [[] for _ in range(f.size1_out(0))]
+    for i, first in ((0, layout.x), (1, layout.u)):
+        sparsity = f.jac_sparsity(0, i)
+        for row, col in zip(*sparsity.get_triplet()):
+            rows[row].append(first + col)
+    return [" ".join(str(vr) for vr in sorted(deps)) for deps in rows]
+
+
+def _float(parent, name, vr, variable=None, **attrs):
+    attrs = {"name": name, "valueReference": str(vr), **attrs}
+    if variable is not None:
+        if variable.unit:
+            attrs["unit"] = variable.unit
+        if variable.description:
+            attrs["description"] = variable.description
+    return ET.SubElement(parent, "Float64", attrs)
+
+
+def _variables(root, model, layout):
+    variables = ET.SubElement(root, "ModelVariables")
+    _float(variables, "time", 0, causality="independent", variability="continuous")
+    for k, p in enumerate(model.parameters):
+        _float(variables, p.name, layout.p + k, p, causality="parameter", variability="tunable", initial="exact",
+               start=repr(float(p.start)))
+    for k, u in enumerate(model.inputs):
+        _float(variables, u.name, layout.u + k, u, causality="input", start=repr(float(u.start)))
+    outputs = {y.name for y in model.outputs}
+    for k, x in enumerate(model.states):
+        causality = "output" if x.name in outputs else "local"
+        _float(variables, x.name, layout.x + k, x, causality=causality, initial="exact", start=repr(float(x.start)))
+    for k, x in enumerate(model.states):
+        _float(variables, f"der({x.name})", layout.dx + k, derivative=str(layout.x + k))
+    for k, j in enumerate(layout.y_index):
+        _float(variables, model.outputs[j].name, layout.y + k, model.outputs[j], causality="output",
+               initial="calculated")
+    events = model.events
+    for k, d in enumerate(events.discretes if events else ()):
+        attrs = {"name": d.name, "valueReference": str(layout.d + k), "causality": d.causality,
+                 "variability": "discrete", "initial": "calculated"}
+        if d.description:
+            attrs["description"] = d.description
+        if d.unit and d.kind == "real":
+            attrs["unit"] = d.unit
+        ET.SubElement(variables, _KINDS[d.kind][0], attrs)
+    for k in range(events.n_indicators if events else 0):
+        _float(variables, f"_eventIndicator{k + 1}", layout.z + k, causality="local", variability="continuous",
+               initial="calculated", description="event indicator (a sign change is a state event)")
+    return variables
+
+
+def _structure(root, model, layout, functions):
+    """ModelStructure: outputs, derivatives, initial unknowns and event indicators with their dependencies on
+    states and inputs (a discrete variable's are left implicit: it may depend on everything)."""
+    structure = ET.SubElement(root, "ModelStructure")
+    n = len(model.states)
+    out_deps, ode_deps = _dependencies(functions[1], layout), _dependencies(functions[0], layout)
+    z_deps = _dependencies(functions[3], layout)
+    outputs = [(layout.output_vr(model, y.name), out_deps[k]) for k, y in enumerate(model.outputs)]
+    events = model.events
+    discretes = [(layout.d + k, None) for k, d in enumerate(events.discretes if events else ())
+                 if d.causality == "output"]
+    derivatives = [(layout.dx + k, ode_deps[k]) for k in range(n)]
+    indicators = [(layout.z + k, z_deps[k]) for k in range(len(z_deps))]
+    for tag, entries in (("Output", outputs + discretes), ("ContinuousStateDerivative", derivatives),
+                         ("InitialUnknown", [o for o in outputs if o[0] >= layout.y] + discretes + derivatives),
+                         ("EventIndicator", indicators)):
+        for vr, deps in entries:
+            attrs = {"valueReference": str(vr)}
+            if deps is not None:
+                attrs["dependencies"] = deps
+            ET.SubElement(structure, tag, attrs)
+
+
+def _unit_definitions(root, variables):
+    """Define every unit used (FMI requires it), with its SI base-unit exponents where the unit is understood."""
+    units = sorted({v.get("unit") for v in variables if v.get("unit")})
+    if not units:
+        return
+    definitions = ET.Element("UnitDefinitions")
+    for unit in units:
+        element = ET.SubElement(definitions, "Unit", name=unit)
+        parsed = base_unit(unit)
+        if parsed:
+            factor, exponents = parsed
+            base = ET.SubElement(element, "BaseUnit", {k: str(v) for k, v in exponents.items()})
+            if factor != 1.0:
+                base.set("factor", repr(factor))
+    root.insert(list(root).index(variables), definitions)
+
+
+def _model_description(model, layout, functions, identifier, token, description):
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "3.0", "modelName": identifier, "instantiationToken": token,
+        "generationTool": f"cosim {__version__}",
+        "generationDateAndTime": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "variableNamingConvention": "structured"})
     if description:
         root.set("description", description)
-    variables = root.find("ModelVariables")
-    referenced = {vr for element in root.iter() for key in ("dependencies", "derivative")
-                  for vr in (element.get(key) or "").split()}
-    for var in list(variables):
-        if var.get("name", "").startswith("__") and var.get("valueReference") not in referenced:
-            variables.remove(var)
-    starts = {x.name: x.start for x in model.states}
-    state_refs = set()
-    for var in variables:
-        if var.get("name") in starts:
-            var.set("initial", "exact")
-            var.set("start", repr(float(starts[var.get("name")])))
-            state_refs.add(var.get("valueReference"))
-    structure = root.find("ModelStructure")
-    for unknown in list(structure.findall("InitialUnknown")):
-        if unknown.get("valueReference") in state_refs:
-            structure.remove(unknown)
-    units = sorted({v.get("unit") for v in variables if v.get("unit")})
-    if units:
-        definitions = ET.Element("UnitDefinitions")
-        for unit in units:
-            element = ET.SubElement(definitions, "Unit", name=unit)
-            parsed = base_unit(unit)
-            if parsed:
-                factor, exponents = parsed
-                base = ET.SubElement(element, "BaseUnit", {k: str(v) for k, v in exponents.items()})
-                if factor != 1.0:
-                    base.set("factor", repr(factor))
-        position = list(root).index(root.find("ModelVariables"))
-        root.insert(position, definitions)
+    ET.SubElement(root, "ModelExchange", modelIdentifier=identifier)
+    variables = _variables(root, model, layout)
+    _unit_definitions(root, variables)
+    _structure(root, model, layout, functions)
+    tree = ET.ElementTree(root)
     ET.indent(tree, space="    ")
-    tree.write(xml_path, encoding="UTF-8", xml_declaration=True)
+    return tree
+
+
+def _build_description(identifier):
+    root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
+    files = ET.SubElement(ET.SubElement(root, "BuildConfiguration", modelIdentifier=identifier), "SourceFileSet")
+    for name in ("model.c", "model_core.c", "fmi3_me.c"):
+        ET.SubElement(files, "SourceFile", name=name)
+    tree = ET.ElementTree(root)
+    ET.indent(tree, space="    ")
+    return tree
+
+
+def _compile(sources, binary, model_name):
+    """gcc -O2 into a shared library that exports only the fmi3 functions (the CasADi symbols are hidden, so
+    several FMUs load into one process)."""
+    include = os.path.join(os.path.dirname(fmpy.__file__), "c-code")
+    command = [os.environ.get("CC", "gcc"), "-shared", "-fPIC", "-O2", "-fvisibility=hidden",
+               "-DCASADI_SYMBOL_EXPORT=", f"-I{sources}", f"-I{include}",
+               *(str(sources / name) for name in ("model.c", "model_core.c", "fmi3_me.c")), "-o", str(binary), "-lm"]
+    try:
+        done = subprocess.run(command, capture_output=True, text=True)
+    except OSError as err:
+        raise BuildError(f"{model_name}: the C compiler {command[0]!r} could not run: {err}") from err
+    if done.returncode != 0:
+        raise BuildError(f"{model_name}: compiling the FMU failed:\n{done.stderr.strip()[-2000:]}")
 
 
 def export_fmu(model, fmu_path, description=""):
@@ -102,6 +291,7 @@ def export_fmu(model, fmu_path, description=""):
     Parameters
     ----------
     model : LoweredModel
+        Continuous (``events`` is None) or hybrid (an :class:`~cosim.compile.model.EventPart`).
     fmu_path : str or Path
         Target file; its stem is the FMU's model identifier.
     description : str, optional
@@ -112,28 +302,32 @@ def export_fmu(model, fmu_path, description=""):
     Path
     """
     fmu_path = Path(fmu_path).resolve()
-    fmu_name = fmu_path.stem
-    if not fmu_name.isidentifier():
-        raise BuildError(f"FMU name {fmu_name!r} is not a valid C identifier")
-    include = os.path.join(os.path.dirname(fmpy.__file__), "c-code")
-    with tempfile.TemporaryDirectory(prefix="cosim-build-") as work, _CWD_LOCK:
-        previous = os.getcwd()
-        os.chdir(work)
-        try:
-            builder = _builder(model, fmu_name)
-            files = builder.export_fmu({"no_warning": True, "with_serialization": False})
-            _complete_model_description(os.path.join(work, "modelDescription.xml"), model, description)
-            files = builder.compile_fmu(files, {
-                "include_dirs": [include],
-                "compiler_options": {"linker_flags": "-lm", "compiler_flags": "-O2"},
-            })
-            packed = builder.pack_fmu(files, {"path": os.path.join(work, f"{fmu_name}.fmu")})
-        except RuntimeError as err:
-            raise BuildError(f"{model.name}: FMU export failed: {str(err).strip().splitlines()[-1]}") from err
-        finally:
-            os.chdir(previous)
+    identifier = fmu_path.stem
+    if not identifier.isidentifier():
+        raise BuildError(f"FMU name {identifier!r} is not a valid C identifier")
+    layout = _Layout.of(model)
+    functions = _c_functions(model)
+    token = "{" + str(uuid.uuid4()) + "}"
+    with tempfile.TemporaryDirectory(prefix="cosim-build-") as work:
+        root = Path(work) / "fmu"
+        sources, binaries = root / "sources", root / "binaries" / fmpy.platform_tuple
+        sources.mkdir(parents=True)
+        binaries.mkdir(parents=True)
+        generator = ca.CodeGenerator("model.c", {"with_header": True})
+        for f in functions:
+            generator.add(f)
+        generator.generate(str(sources) + os.sep)
+        (sources / "model_data.h").write_text(_data_header(model, layout, functions, identifier, token))
+        for name in _TEMPLATES:
+            shutil.copyfile(C_TEMPLATE_DIR / name, sources / name)
+        _build_description(identifier).write(sources / "buildDescription.xml", encoding="UTF-8",
+                                             xml_declaration=True)
+        _model_description(model, layout, functions, identifier, token, description).write(
+            root / "modelDescription.xml", encoding="UTF-8", xml_declaration=True)
+        _compile(sources, binaries / f"{identifier}{fmpy.sharedLibraryExtension}", model.name)
+        archive = shutil.make_archive(str(Path(work) / identifier), "zip", root)
         fmu_path.parent.mkdir(parents=True, exist_ok=True)
-        staging = fmu_path.with_name(f".{fmu_name}.fmu.partial")
-        shutil.copyfile(packed, staging)
+        staging = fmu_path.with_name(f".{identifier}.fmu.partial")
+        shutil.copyfile(archive, staging)
         os.replace(staging, fmu_path)
     return fmu_path
