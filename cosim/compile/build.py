@@ -4,7 +4,6 @@ and compiler are unchanged."""
 import hashlib
 import json
 import tomllib
-import warnings
 from pathlib import Path
 
 from cosim import __version__
@@ -62,9 +61,6 @@ def build_fmu(path, model, out_dir="fmus", name=None, description=""):
     """
     lowered = lower(path, model)
     name = name or model.rsplit(".", 1)[-1]
-    for note in lowered.notes:
-        if "start of" in note:
-            warnings.warn(note, stacklevel=2)
     return export_fmu(lowered, Path(out_dir) / f"{name}.fmu", description=description)
 
 

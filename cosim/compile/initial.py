@@ -45,8 +45,8 @@ def _starts(active, params):
         start = params.substitute(s.start) if s.start is not None else ca.SX(0.0)
         starts.append(start)
         if _names(start) & free:
-            notes.append(f"{s.location}: start of {s.name} depends on parameters; the FMU uses its value at the "
-                         "default parameters (set the state to change it)")
+            notes.append(f"{s.location}: start of {s.name} depends on parameters; the FMU computes it from the "
+                         "parameters set before initialisation (the modelDescription's start is its default value)")
     return starts, notes
 
 
