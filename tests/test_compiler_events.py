@@ -363,3 +363,13 @@ def test_boolean_and_integer_inputs_keep_their_kind_and_a_when_fires_on_the_inpu
             m = np.array(ev.update([0.0], [b, 2.0], [], 0.0, m)[1]).ravel()
         counts.append(m[0])
     assert counts == [1.0, 1.0, 1.0, 2.0]
+
+
+def test_numeric_helpers_of_a_hybrid_model_hold_the_relation_at_its_initial_value():
+    """der(x) = -x above 0.5 and -0.5 x below: the numeric helpers evaluate the relation at the given state
+    (the memory at initialisation) unless a memory is passed; the linearisation holds it."""
+    model = lower(HYBRID, "Hybrid.StateIf")
+    assert_allclose(model.derivatives([1.0], []), [-1.0])
+    assert_allclose(model.derivatives([0.2], []), [-0.1])
+    above = model.events.initial([1.0], [], model.parameter_values, 0.0)
+    assert_allclose(model.derivatives([0.2], [], m=above), [-0.2])

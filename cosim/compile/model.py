@@ -152,15 +152,21 @@ class LoweredModel:
         p = self.parameter_values if p is None else np.asarray(p, dtype=float)
         return np.array(self.x0(p), dtype=float).ravel()
 
-    def derivatives(self, x, u, p=None, t=0.0):
-        """Evaluate ``der(x)`` numerically; arrays in, array out."""
+    def _arguments(self, x, u, p, t, m):
+        """(x, u, p, t[, m]) for the model's functions; a hybrid model's memory defaults to its initial one."""
         p = self.parameter_values if p is None else p
-        return np.array(self.ode(x, u, p, t), dtype=float).ravel()
+        if self.events is None:
+            return (x, u, p, t)
+        return (x, u, p, t, self.events.initial(x, u, p, t) if m is None else m)
 
-    def output_values(self, x, u, p=None, t=0.0):
-        """Evaluate the outputs numerically; arrays in, array out."""
-        p = self.parameter_values if p is None else p
-        return np.array(self.out(x, u, p, t), dtype=float).ravel()
+    def derivatives(self, x, u, p=None, t=0.0, m=None):
+        """Evaluate ``der(x)`` numerically; arrays in, array out. ``m``: a hybrid model's event memory
+        (default: its value at initialisation for these x, u, p, t)."""
+        return np.array(self.ode(*self._arguments(x, u, p, t, m)), dtype=float).ravel()
+
+    def output_values(self, x, u, p=None, t=0.0, m=None):
+        """Evaluate the outputs numerically; arrays in, array out (``m`` as in :meth:`derivatives`)."""
+        return np.array(self.out(*self._arguments(x, u, p, t, m)), dtype=float).ravel()
 
     def index(self, group, name):
         """Position of variable ``name`` in ``group`` ('states', 'inputs', 'outputs', 'parameters', 'observed')."""
@@ -174,14 +180,16 @@ class LoweredModel:
         """The SISO linearisation ``input`` -> ``output`` at the rest point (x0(p), u = 0), as a function of the
         tunable parameters: returns ``f(p) -> (A, B, C, D)`` (numpy, shapes (n, n), (n, 1), (1, n), (1, 1)).
 
-        The Jacobians are CasADi's exact derivatives of the lowered equations, built once."""
+        The Jacobians are CasADi's exact derivatives of the lowered equations, built once. A hybrid model is
+        linearised with its discrete state held at its value at initialisation."""
         import casadi as ca
 
         i, j = self.index("inputs", input), self.index("outputs", output)
         x = ca.SX.sym("x", len(self.states))
         u = ca.SX.sym("u", len(self.inputs))
         p = ca.SX.sym("p", len(self.parameters))
-        xdot, y = self.ode(x, u, p, 0.0), self.out(x, u, p, 0.0)
+        args = self._arguments(x, u, p, 0.0, None)
+        xdot, y = self.ode(*args), self.out(*args)
         jac = ca.Function("abcd", [x, u, p], [ca.jacobian(xdot, x), ca.jacobian(xdot, u)[:, i],
                                               ca.jacobian(y, x)[j, :], ca.jacobian(y, u)[j, i]])
         rest = np.zeros(len(self.inputs))
