@@ -107,3 +107,39 @@ def test_feedthrough_types(third_party_fmu, fmi_type):
     assert (last["y_f64"], last["y_f32"], last["y_i32"], last["y_i64"], last["y_b"]) == (
         -4.0, np.float32(2) * np.float32(0.1), -3, -15, False)
     np.testing.assert_allclose(r["x"], np.where(r["time"] <= 0.5, r["time"], 0.5 - 2 * (r["time"] - 0.5)), atol=1e-9)
+
+
+@pytest.mark.parametrize("fmi_type, solver", [("ModelExchange", "CVode"), ("ModelExchange", "Euler"),
+                                              ("CoSimulation", None)])
+def test_sawtooth_step_events(third_party_fmu, fmi_type, solver):
+    """x falls by 1 at the step event after it reaches 1: x + resets = time throughout, x never far above 1."""
+    kwargs = {"solver": solver} if solver else {}
+    r = fmpy.simulate_fmu(str(third_party_fmu("Sawtooth")), fmi_type=fmi_type, stop_time=3.5, output_interval=0.01,
+                          output=["x", "resets"], **kwargs)
+    np.testing.assert_allclose(r["x"] + r["resets"], r["time"], atol=1e-9)
+    assert r["resets"][-1] == 3 and r["x"].max() < 1 + 3.5 / 50   # fmpy's CVode steps at most (stop - start) / 50
+
+
+def test_chatter_never_settles(third_party_fmu):
+    """Model Exchange: at t_chatter every fmi3UpdateDiscreteStates asks for another pass (fmpy itself would
+    loop for ever, so the FMU is driven by hand); Co-Simulation: doStep fails."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi3 import FMU3Model
+
+    path = str(third_party_fmu("Chatter"))
+    md = read_model_description(path)
+    fmu = FMU3Model(guid=md.guid, unzipDirectory=extract(path), modelIdentifier="Chatter")
+    fmu.instantiate()
+    fmu.enterInitializationMode(startTime=0)
+    fmu.exitInitializationMode()
+    assert fmu.updateDiscreteStates() == (False, False, False, False, True, 0.5)
+    fmu.enterContinuousTimeMode()
+    fmu.setTime(0.5)
+    fmu.enterEventMode()
+    needs = [fmu.updateDiscreteStates()[0] for _ in range(1000)]
+    assert all(needs) and fmu.getBoolean([4]) == [False]   # an even number of flips
+    fmu.terminate()
+    fmu.freeInstance()
+    with pytest.raises(FMICallException):
+        fmpy.simulate_fmu(path, fmi_type="CoSimulation", stop_time=1, output_interval=0.01)
