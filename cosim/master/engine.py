@@ -21,11 +21,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cosim.errors import ConfigError, EngineFallbackWarning
+from cosim.errors import ConfigError, EngineFallbackWarning, SimulationTerminated
 from cosim.master.compiled import CompiledLoop, compiled_problem
 from cosim.master.layout import Layout
 from cosim.master.loop import PythonLoop
-from cosim.master.plant import PlantSystem
+from cosim.master.plant import PlantSystem, python_only_reason
 from cosim.master.recorder import Recorder
 from cosim.master.schedule import TimeBase
 
@@ -62,6 +62,9 @@ class RunResult:
         Why the Python engine ran when the config did not ask for it ('' otherwise).
     compile_s : float
         Compiled loop: time to compile the kernels or load them from numba's cache (s), not in ``wall_s``.
+    stopped : dict or None
+        When an FMU asked to terminate: ``{"by": instance, "time": t, "reason": message}`` (``data``
+        holds what was recorded until then); None otherwise.
     """
 
     data: np.ndarray
@@ -75,6 +78,7 @@ class RunResult:
     engine: str = "python"
     engine_note: str = ""
     compile_s: float = 0.0
+    stopped: dict = None
 
     def column(self, name):
         """The recorded column ``name`` as a float array."""
@@ -175,6 +179,7 @@ class Engine:
         plant = PlantSystem(cfg, self.layout, self.buf)
         bar = None
         interrupted = False
+        stopped = None
         wall = 0.0
         compile_s = self.compile_s
         try:
@@ -187,6 +192,9 @@ class Engine:
                         bar.update(self.tb.time(loop.tick) - cfg.run.start - bar.n)
             except KeyboardInterrupt:
                 interrupted = True
+            except SimulationTerminated as stop:
+                t = stop.time if stop.time == stop.time else self.tb.time(loop.tick)  # NaN: the loop's instant
+                stopped = {"by": stop.instance, "time": float(t), "reason": stop.reason}
             finally:
                 wall = _time.perf_counter() - wall0
         finally:
@@ -206,6 +214,7 @@ class Engine:
             engine=loop.name,
             engine_note=self.note,
             compile_s=compile_s,
+            stopped=stopped,
         )
 
 
@@ -223,6 +232,9 @@ def engine_for(config):
     """
     if config.run.engine == "python":
         return Engine(config)
+    plant_reason = python_only_reason(config)
+    if plant_reason is not None:
+        return Engine(config, note=f"Python engine: {plant_reason}")
     t0 = _time.perf_counter()
     reason, numba_failed = compiled_problem(config)  # compiles the controllers' cfuncs (or loads them)
     if reason is None:
