@@ -215,6 +215,7 @@ class FmuInstance:
             raise FmiCallError("load", "failed", f"{self.info.path}: {err}") from err
         f = self._fmu._functions
         p = "fmi3" if self.version == 3 else "fmi2"
+        update = "fmi3UpdateDiscreteStates" if self.version == 3 else "fmi2NewDiscreteStates"
         self._f_set_time = f.get(f"{p}SetTime")
         self._f_set_states = f.get(f"{p}SetContinuousStates")
         self._f_get_states = f.get(f"{p}GetContinuousStates")
@@ -360,11 +361,16 @@ class FmuInstance:
         dict of str to int
             ``component`` (the instance pointer) and, where the FMU exports them, ``SetTime``,
             ``SetContinuousStates``, ``GetContinuousStates``, ``GetDerivatives``, ``GetReal``,
-            ``SetReal``, ``DoStep``, ``CompletedIntegratorStep`` (FMI 2 or FMI 3 signatures per
-            ``self.version``); 0 when absent.
+            ``SetReal``, ``DoStep``, ``CompletedIntegratorStep``, and for events ``GetEventIndicators``,
+            ``EnterEventMode``, ``UpdateDiscreteStates`` (FMI 2: ``fmi2NewDiscreteStates``),
+            ``EnterContinuousTimeMode`` (FMI 2 or FMI 3 signatures per ``self.version``); 0 when absent.
         """
         def addr(f):
             return ctypes.cast(f, ctypes.c_void_p).value or 0 if f is not None else 0
+
+        f = self._fmu._functions
+        p = "fmi3" if self.version == 3 else "fmi2"
+        update = "fmi3UpdateDiscreteStates" if self.version == 3 else "fmi2NewDiscreteStates"
 
         return {
             "component": self.component or 0,
@@ -376,6 +382,10 @@ class FmuInstance:
             "SetReal": addr(self._f_set_real),
             "DoStep": addr(self._f_do_step),
             "CompletedIntegratorStep": addr(self._f_completed),
+            "GetEventIndicators": addr(self._f_indicators),
+            "EnterEventMode": addr(f.get(f"{p}EnterEventMode")),
+            "UpdateDiscreteStates": addr(f.get(update)),
+            "EnterContinuousTimeMode": addr(f.get(f"{p}EnterContinuousTimeMode")),
         }
 
     # -- values by name (not hot) ------------------------------------------------------------

@@ -38,7 +38,7 @@ CHATTER_WINDOW = 100 * EVENT_TOL  # s: events closer than this to the previous o
 
 
 def python_only_reason(config):
-    """Why the FMUs of ``config`` need the Python engine (events, non-Float64 ports), or None.
+    """Why the FMUs of ``config`` need the Python engine (non-Float64 ports), or None.
 
     Parameters
     ----------
@@ -47,9 +47,8 @@ def python_only_reason(config):
     Returns
     -------
     str or None
-        A one-line reason naming the FMU: an ME FMU that declares event indicators or discrete variables
-        (it may have state or time events, which the Python engine handles), or a routed or recorded
-        variable that is not a float64 real.
+        A one-line reason naming the variable: a routed or recorded variable that is not a float64 real
+        (both engines handle events; the compiled one routes float64 reals only).
     """
     used = {}
     for c in config.connections:
@@ -59,10 +58,6 @@ def python_only_reason(config):
         used.setdefault(inst, set()).add(var)
     for name, spec in config.fmus.items():
         info = spec.info
-        if spec.kind == "ME" and info.n_event_indicators:
-            return f"FMU {name!r} has {info.n_event_indicators} event indicators: events run in the Python engine"
-        if spec.kind == "ME" and any(v.variability == "discrete" for v in info.variables.values()):
-            return f"FMU {name!r} has discrete variables (it may have time events): events run in the Python engine"
         for var in sorted(used.get(name, ())):
             if info.variables[var].type not in ("Real", "Float64"):
                 return f"{name}.{var} is {info.variables[var].type}: the compiled engine routes float64 reals only"

@@ -176,7 +176,7 @@ fmi2Status fmi2EnterContinuousTimeMode(fmi2Component comp) { return fmi2OK; }
 fmi2Status fmi2CompletedIntegratorStep(fmi2Component comp, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
                                        fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation)
 {
-    *enterEventMode = fmi2False;
+    *enterEventMode = STEP_EVENT((Instance *)comp);
     *terminateSimulation = fmi2False;
     return fmi2OK;
 }

@@ -345,7 +345,7 @@ fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance) { return fmi3OK; }
 fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
                                        fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation)
 {
-    *enterEventMode = false;
+    *enterEventMode = STEP_EVENT((Instance *)instance);
     *terminateSimulation = false;
     return fmi3OK;
 }

@@ -3,6 +3,13 @@
 /* Event iterations at one instant after which the model is taken to chatter. */
 #define MAX_EVENT_ITERATIONS 100
 
+/* A model with step events defines HAS_STEP_EVENT and model_step_event (true: enter event mode now). */
+#ifdef HAS_STEP_EVENT
+#define STEP_EVENT(c) model_step_event(c)
+#else
+#define STEP_EVENT(c) false
+#endif
+
 static const VarInfo *find_var(unsigned int vr, VarType type)
 {
     for (size_t k = 0; k < N_VARS; k++) {
@@ -56,7 +63,7 @@ static bool settle_events(Instance *c)
 
 /* Advances a co-simulation instance to t_end with fixed RK4 steps of CS_STEP. A state event is located by
    bisection on the step length to EVENT_TOL (re-integrating from the step's start), a time event is taken
-   at its instant; both are handled by event iteration. Stops early when the model asks to terminate.
+   at its instant, a step event after the step that asks for it; all are handled by event iteration. Stops early when the model asks to terminate.
    Returns false when event iteration does not settle. */
 static bool cs_advance(Instance *c, double t_end)
 {
@@ -80,7 +87,7 @@ static bool cs_advance(Instance *c, double t_end)
             rk4(c, x0, t0, hi);
         } else if (time_event) {
             c->time = c->next_event;
-        } else {
+        } else if (!STEP_EVENT(c)) {
             continue;
         }
         if (!settle_events(c)) return false;
