@@ -132,6 +132,8 @@ class PlantSystem:
         self._z0 = [i.z.copy() for i in self.evented]  # their indicators at the last accepted point
         self._last_event = (math.nan, 0)  # (time, count) of the latest events, for the chattering guard
         self.event_log = []  # (time, instance, kind) of every event handled: kind "state", "time", "step", "input"
+        self._t_next = math.inf  # the earliest next event time of the ME FMUs (kept by _next_time_event)
+        self._next_time_event()
         # combined state vector
         n = sum(i.n_states for i in self.me)
         # RK4 work array: rows X, X0, dX, K1..K4 (one argument for the numba kernels)
@@ -249,19 +251,21 @@ class PlantSystem:
     def advance(self, ta, tb, h_max):
         """Advance every FMU from ta to tb (s); ME by the configured solver with steps of at most h_max."""
         if self.me:
-            if self.evented:
-                self._input_events(ta)
-            if not len(self.X) and (self.evented or self._next_time_event() <= tb):
-                self._rk4_events(ta, tb, 1)
-            elif len(self.X):
-                if self.solver.method != "rk4":
-                    self._implicit(ta, tb, h_max)
-                elif self.evented or self._next_time_event() <= tb:
-                    self._rk4_events(ta, tb, max(1, math.ceil((tb - ta) / h_max - 1e-9)))
-                else:
-                    self._rk4(ta, tb, h_max)
+            if not self.evented and self._t_next > tb and self.solver.method == "rk4":
+                if len(self.X):
+                    self._rk4(ta, tb, h_max)  # no event possible: the plain loop
+            else:
+                self._advance_events(ta, tb, h_max)
         for inst in self.cs:
             inst.do_step(ta, tb - ta)
+
+    def _advance_events(self, ta, tb, h_max):
+        if self.evented:
+            self._input_events(ta)
+        if self.solver.method != "rk4" and len(self.X):
+            self._implicit(ta, tb, h_max)
+        else:
+            self._rk4_events(ta, tb, max(1, math.ceil((tb - ta) / h_max - 1e-9)) if len(self.X) else 1)
 
     def _rk4(self, ta, tb, h_max):
         L = tb - ta
@@ -298,7 +302,8 @@ class PlantSystem:
 
     # -- events ------------------------------------------------------------------------------------
     def _next_time_event(self):
-        return min((inst.next_event_time for inst in self.me), default=math.inf)
+        self._t_next = min((inst.next_event_time for inst in self.me), default=math.inf)
+        return self._t_next
 
     def _crossed(self):
         """The evented FMUs whose indicators (just read into ``inst.z``) changed sign since ``_z0``."""
@@ -339,6 +344,7 @@ class PlantSystem:
         for inst in insts:
             inst.handle_event(t)
             self.event_log.append((t, inst.name, kind))
+        self._next_time_event()
         self._synced = None
         if self.evented:
             self._eval(t)
