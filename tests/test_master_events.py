@@ -222,3 +222,30 @@ signals = ["ball.h", "ft.x"]
     assert result.calls["replay"] == 30
     k = np.arange(31)
     np.testing.assert_allclose(result.data["x"], 0.1 * k * (k + 1) / 2, atol=1e-9)  # sum of u_j * 0.1, u_j = j + 1
+
+
+def test_event_outputs_routed_continuously_to_another_me_fmu(tmp_path, third_party_fmu):
+    # ball.h drives Feedthrough.u_f64 at every derivative evaluation (ME-to-ME): ft.x = integral of h, across
+    # the bounces; reference: the closed-form h integrated by the trapezoid rule on a 1 us grid
+    cfg = _config(tmp_path, f"""
+[run]
+stop = 3.0
+engine = "python"
+[fmus.ball]
+path = "{third_party_fmu("BouncingBall", 2)}"
+[fmus.ft]
+path = "{third_party_fmu("Feedthrough", 3)}"
+[[connections]]
+from = "ball.h"
+to = "ft.u_f64"
+[record]
+rate = 10
+signals = ["ft.x", "ft.y_f64"]
+""")
+    result = run(load_config(cfg))
+    np.testing.assert_allclose(_state_events(result), bounce_times(), atol=1e-6)
+    fine = np.linspace(0, 3, 3_000_001)
+    h = ball_state(fine)[0]
+    integral = np.concatenate([[0], np.cumsum((h[1:] + h[:-1]) / 2 * np.diff(fine))])
+    np.testing.assert_allclose(result.data["x"], integral[::100_000], atol=1e-7)
+    np.testing.assert_allclose(result.data["y_f64"], 2 * ball_state(result.data["time"])[0], atol=1e-9)
