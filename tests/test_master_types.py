@@ -152,3 +152,24 @@ rate = 10
         load_config(_write(tmp_path, base + 'signals = ["ball.h", "ball.time"]\n'))
     with pytest.raises(ConfigError, match=r"types.toml:9: record.signals: is empty"):
         load_config(_write(tmp_path, base + "signals = []\n"))
+
+
+def test_parameter_and_start_values_must_fit_their_type(tmp_path, third_party_fmu):
+    text = f"""[run]
+stop = 1.0
+
+[fmus.ft]
+path = "{third_party_fmu("Feedthrough", 3)}"
+start = {{ u_i32 = 1.5, u_b = 1, u_f32 = true }}
+
+[record]
+signals = ["ft.x"]
+"""
+    with pytest.raises(ConfigError) as err:
+        load_config(_write(tmp_path, text))
+    problems = "\n".join(err.value.problems)
+    assert "types.toml:6: fmus.ft.start.u_i32: 'u_i32' is Int32: the value must be an integer; got 1.5" in problems
+    assert "fmus.ft.start.u_b: 'u_b' is Boolean: the value must be true or false; got 1" in problems
+    assert "fmus.ft.start.u_f32: 'u_f32' is Float32: the value must be a number; got True" in problems
+    ok = text.replace("u_i32 = 1.5, u_b = 1, u_f32 = true", "u_i32 = 2, u_b = true, u_f32 = 0.5")
+    assert load_config(_write(tmp_path, ok)).fmus["ft"].start == {"u_i32": 2, "u_b": True, "u_f32": 0.5}
