@@ -444,31 +444,31 @@ class FmuInstance:
 
     def get(self, port):
         """Read the port's variables into ``port.values``."""
-        if port.raw is not None:
+        if port.raw is None:
             if port.n:
-                self._typed_call("Get", port)
-                port.to_values()
+                if self.version == 3:
+                    st = self._f_get_real(self.component, port._vr, port.n, port._ptr, port.n)
+                else:
+                    st = self._f_get_real(self.component, port._vr, port.n, port._ptr)
+                if st > 1:
+                    check("GetFloat64" if self.version == 3 else "fmi2GetReal", st, self._last_message())
         elif port.n:
-            if self.version == 3:
-                st = self._f_get_real(self.component, port._vr, port.n, port._ptr, port.n)
-            else:
-                st = self._f_get_real(self.component, port._vr, port.n, port._ptr)
-            if st > 1:
-                check("GetFloat64" if self.version == 3 else "fmi2GetReal", st, self._last_message())
+            self._typed_call("Get", port)
+            port.to_values()
 
     def set(self, port):
         """Write ``port.values`` to the port's variables."""
-        if port.raw is not None:
+        if port.raw is None:
             if port.n:
-                port.from_values()
-                self._typed_call("Set", port)
+                if self.version == 3:
+                    st = self._f_set_real(self.component, port._vr, port.n, port._ptr, port.n)
+                else:
+                    st = self._f_set_real(self.component, port._vr, port.n, port._ptr)
+                if st > 1:
+                    check("SetFloat64" if self.version == 3 else "fmi2SetReal", st, self._last_message())
         elif port.n:
-            if self.version == 3:
-                st = self._f_set_real(self.component, port._vr, port.n, port._ptr, port.n)
-            else:
-                st = self._f_set_real(self.component, port._vr, port.n, port._ptr)
-            if st > 1:
-                check("SetFloat64" if self.version == 3 else "fmi2SetReal", st, self._last_message())
+            port.from_values()
+            self._typed_call("Set", port)
 
     def set_time(self, t):
         """ME: set the independent variable."""

@@ -133,6 +133,7 @@ class PlantSystem:
         self._last_event = (math.nan, 0)  # (time, count) of the latest events, for the chattering guard
         self.event_log = []  # (time, instance, kind) of every event handled: kind "state", "time", "step", "input"
         self._t_next = math.inf  # the earliest next event time of the ME FMUs (kept by _next_time_event)
+        self._plain = not self.evented and self.solver.method == "rk4"  # the plain RK4 loop while no time event
         self._next_time_event()
         # combined state vector
         n = sum(i.n_states for i in self.me)
@@ -251,7 +252,7 @@ class PlantSystem:
     def advance(self, ta, tb, h_max):
         """Advance every FMU from ta to tb (s); ME by the configured solver with steps of at most h_max."""
         if self.me:
-            if not self.evented and self._t_next > tb and self.solver.method == "rk4":
+            if self._plain and self._t_next > tb:
                 if len(self.X):
                     self._rk4(ta, tb, h_max)  # no event possible: the plain loop
             else:
@@ -296,7 +297,10 @@ class PlantSystem:
     def _complete(self, t):
         """CompletedIntegratorStep at ``t`` for the FMUs that need it; step events for those that ask."""
         self._eval(t)
-        asked = [inst for inst in self.completed if inst.completed_integrator_step(t)]
+        asked = None
+        for inst in self.completed:
+            if inst.completed_integrator_step(t):
+                asked = (asked or []) + [inst]
         if asked:
             self._handle_events(t, asked, "step")
 
