@@ -398,6 +398,23 @@ def _parameters_file(table, base_dir, problems, path):
     return values
 
 
+def _value_type(info, var, value, problems, where):
+    """A parameter or start value must fit the variable's type: a number for a real, an integer (or an integral
+    float) for an Integer or enumeration, true/false for a Boolean."""
+    dtype = value_dtype(info.fmi_version, var.type)
+    kind = None if dtype is None else dtype.kind
+    if kind == "b":
+        ok = isinstance(value, bool)
+    elif kind in ("i", "u"):
+        ok = _is_num(value) and float(value).is_integer()
+    else:
+        ok = _is_num(value) and kind is not None
+    if not ok:
+        want = {"b": "true or false", "i": "an integer", "u": "an integer"}.get(kind, "a number")
+        problems.add(where, f"{var.name!r} is {var.type}: the value must be {want}; got {value!r}"
+                     if kind is not None else f"{var.name!r} is {var.type}: it cannot be set from a config")
+
+
 def _fmu_values(info, file, params, starts, problems, p):
     """Check parameter and start values against the model description ``info`` of ``file``."""
     for pn, pv in params.items():
@@ -407,16 +424,16 @@ def _fmu_values(info, file, params, starts, problems, p):
             problems.add(p + ("parameters", pn), f"{file.name} has no parameter {pn!r}{_close(pn, names)}")
         elif var.causality not in ("parameter",) or var.variability == "constant":
             problems.add(p + ("parameters", pn), f"{pn!r} is a {var.variability} {var.causality}, not a settable parameter")
-        elif not (_is_num(pv) or isinstance(pv, bool)):
-            problems.add(p + ("parameters", pn), f"must be a number or boolean; got {pv!r}")
+        else:
+            _value_type(info, var, pv, problems, p + ("parameters", pn))
     for sn, sv in starts.items():
         var = info.variables.get(sn)
         if var is None:
             problems.add(p + ("start", sn), f"{file.name} has no variable {sn!r}{_close(sn, info.variables)}")
         elif var.causality in ("output", "independent", "calculatedParameter") or var.variability == "constant":
             problems.add(p + ("start", sn), f"{sn!r} is a {var.causality}; its start value cannot be set")
-        elif not (_is_num(sv) or isinstance(sv, bool)):
-            problems.add(p + ("start", sn), f"must be a number or boolean; got {sv!r}")
+        else:
+            _value_type(info, var, sv, problems, p + ("start", sn))
 
 
 def _fmu(name, t, base_dir, problems):

@@ -526,4 +526,4 @@ class FmuInstance:
         """FMI 2 CS after a Discard from doStep: whether the FMU asks to terminate (fmi2Terminated status)."""
         f = self._fmu._functions.get("fmi2GetBooleanStatus")
         flag = ctypes.c_int(0)
-        return f is not None and f(self.component, 2, ctypes.byref(flag)) <= 1 and bool(flag.value)
+        return f is not None and f(self.component, 3, ctypes.byref(flag)) <= 1 and bool(flag.value)  # fmi2Terminated

@@ -62,6 +62,9 @@ class RunResult:
         Why the Python engine ran when the config did not ask for it ('' otherwise).
     compile_s : float
         Compiled loop: time to compile the kernels or load them from numba's cache (s), not in ``wall_s``.
+    events : list of tuple
+        ``(time, instance, kind)`` of every FMU event the Python engine handled (see
+        :class:`~cosim.master.plant.PlantSystem` ``event_log``).
     stopped : dict or None
         When an FMU asked to terminate: ``{"by": instance, "time": t, "reason": message}`` (``data``
         holds what was recorded until then); None otherwise.
@@ -78,6 +81,7 @@ class RunResult:
     engine: str = "python"
     engine_note: str = ""
     compile_s: float = 0.0
+    events: list = field(default_factory=list)
     stopped: dict = None
 
     def column(self, name):
@@ -214,6 +218,7 @@ class Engine:
             engine=loop.name,
             engine_note=self.note,
             compile_s=compile_s,
+            events=list(plant.event_log),
             stopped=stopped,
         )
 

@@ -18,7 +18,8 @@ Events of Model-Exchange FMUs (FMI 2.0 and 3.0) are handled at their own time, w
 * step events: ``CompletedIntegratorStep`` asking for event mode.
 
 An FMU without event indicators and without a next event time costs nothing extra: the plain RK4 loop
-runs. More than ``MAX_EVENTS_AT_ONE_TIME`` events within ``EVENT_TOL`` of each other raise EventError.
+runs. More than ``MAX_EVENTS_AT_ONE_TIME`` events in a row, each within ``CHATTER_WINDOW`` (1e-8 s) of the
+previous one, raise EventError (chattering, or a Zeno accumulation such as a ball that never comes to rest).
 """
 
 import math
@@ -29,10 +30,11 @@ from cosim.errors import ConfigError, CosimError, EventError
 from cosim.fmi import FmuInstance
 from cosim.master.kernels import rk4_begin, rk4_final, rk4_stage, route
 
-__all__ = ["PlantSystem", "python_only_reason", "EVENT_TOL", "MAX_EVENTS_AT_ONE_TIME"]
+__all__ = ["PlantSystem", "python_only_reason", "EVENT_TOL", "MAX_EVENTS_AT_ONE_TIME", "CHATTER_WINDOW"]
 
 EVENT_TOL = 1e-10  # s: width of the bracket a state event is located to
-MAX_EVENTS_AT_ONE_TIME = 100  # events within EVENT_TOL of each other before EventError (chattering)
+MAX_EVENTS_AT_ONE_TIME = 100  # events in a row, each within CHATTER_WINDOW of the last, before EventError
+CHATTER_WINDOW = 100 * EVENT_TOL  # s: events closer than this to the previous one count as one instant
 
 
 def python_only_reason(config):
@@ -105,6 +107,10 @@ class PlantSystem:
         ME-to-ME evaluation by dependency level: (get ports, route arrays, set ports) per level.
     W : numpy.ndarray
         The RK4 work array: rows X, X0, dX, K1..K4.
+    event_log : list of tuple
+        ``(time, instance, kind)`` of each event handled; kind is "state" (located indicator crossing),
+        "time" (nextEventTime), "step" (CompletedIntegratorStep) or "input" (an indicator changed sign when
+        the inputs changed at an instant).
     """
 
     def __init__(self, config, layout, buf):
@@ -125,6 +131,9 @@ class PlantSystem:
         self.evented = [i for i in self.me if i.n_indicators]  # FMUs whose indicators are read after each step
         self._z0 = [i.z.copy() for i in self.evented]  # their indicators at the last accepted point
         self._last_event = (math.nan, 0)  # (time, count) of the latest events, for the chattering guard
+        self.event_log = []  # (time, instance, kind) of every event handled: kind "state", "time", "step", "input"
+        self._t_next = math.inf  # the earliest next event time of the ME FMUs (kept by _next_time_event)
+        self._next_time_event()
         # combined state vector
         n = sum(i.n_states for i in self.me)
         # RK4 work array: rows X, X0, dX, K1..K4 (one argument for the numba kernels)
@@ -242,19 +251,21 @@ class PlantSystem:
     def advance(self, ta, tb, h_max):
         """Advance every FMU from ta to tb (s); ME by the configured solver with steps of at most h_max."""
         if self.me:
-            if self.evented:
-                self._input_events(ta)
-            if not len(self.X) and (self.evented or self._next_time_event() <= tb):
-                self._rk4_events(ta, tb, 1)
-            elif len(self.X):
-                if self.solver.method != "rk4":
-                    self._implicit(ta, tb, h_max)
-                elif self.evented or self._next_time_event() <= tb:
-                    self._rk4_events(ta, tb, max(1, math.ceil((tb - ta) / h_max - 1e-9)))
-                else:
-                    self._rk4(ta, tb, h_max)
+            if not self.evented and self._t_next > tb and self.solver.method == "rk4":
+                if len(self.X):
+                    self._rk4(ta, tb, h_max)  # no event possible: the plain loop
+            else:
+                self._advance_events(ta, tb, h_max)
         for inst in self.cs:
             inst.do_step(ta, tb - ta)
+
+    def _advance_events(self, ta, tb, h_max):
+        if self.evented:
+            self._input_events(ta)
+        if self.solver.method != "rk4" and len(self.X):
+            self._implicit(ta, tb, h_max)
+        else:
+            self._rk4_events(ta, tb, max(1, math.ceil((tb - ta) / h_max - 1e-9)) if len(self.X) else 1)
 
     def _rk4(self, ta, tb, h_max):
         L = tb - ta
@@ -287,11 +298,12 @@ class PlantSystem:
         self._eval(t)
         asked = [inst for inst in self.completed if inst.completed_integrator_step(t)]
         if asked:
-            self._handle_events(t, asked)
+            self._handle_events(t, asked, "step")
 
     # -- events ------------------------------------------------------------------------------------
     def _next_time_event(self):
-        return min((inst.next_event_time for inst in self.me), default=math.inf)
+        self._t_next = min((inst.next_event_time for inst in self.me), default=math.inf)
+        return self._t_next
 
     def _crossed(self):
         """The evented FMUs whose indicators (just read into ``inst.z``) changed sign since ``_z0``."""
@@ -317,20 +329,22 @@ class PlantSystem:
         self._read_indicators()
         crossed = self._crossed()
         if crossed:
-            self._handle_events(t, crossed)
+            self._handle_events(t, crossed, "input")
         else:
             self._accept_indicators()
 
-    def _handle_events(self, t, insts):
+    def _handle_events(self, t, insts, kind):
         """Event iteration of ``insts`` at ``t`` (the FMUs hold t and X); indicators re-read; chattering guard."""
         last_t, count = self._last_event
-        count = count + 1 if abs(t - last_t) <= EVENT_TOL else 1
+        count = count + 1 if abs(t - last_t) <= CHATTER_WINDOW else 1
         self._last_event = (t, count)
         if count > MAX_EVENTS_AT_ONE_TIME:
-            raise EventError(f"{insts[0].name}: more than {MAX_EVENTS_AT_ONE_TIME} events within {EVENT_TOL:g} s "
-                             f"of t={t:.12g} s (chattering)")
+            raise EventError(f"{insts[0].name}: more than {MAX_EVENTS_AT_ONE_TIME} events in a row less than "
+                             f"{CHATTER_WINDOW:g} s apart, at t={t:.12g} s (chattering or an accumulation of events)")
         for inst in insts:
             inst.handle_event(t)
+            self.event_log.append((t, inst.name, kind))
+        self._next_time_event()
         self._synced = None
         if self.evented:
             self._eval(t)
@@ -343,7 +357,7 @@ class PlantSystem:
         if due:
             if not synced:
                 self._eval(t)
-            self._handle_events(t, due)
+            self._handle_events(t, due, "time")
 
     def _rk4_step(self, t, h, x0, k1):
         """One RK4 step of length h from (t, x0) whose first-stage derivative is k1; X holds the result."""
@@ -397,7 +411,7 @@ class PlantSystem:
             crossed = self._trial(t, t1 - t, x0, k1) if self.evented else None
             if crossed:
                 t1, crossed = self._locate(t, t1 - t, x0, k1)
-                self._handle_events(t1, crossed)
+                self._handle_events(t1, crossed, "state")
             else:
                 if not self.evented:
                     self._rk4_step(t, t1 - t, x0, k1)
@@ -406,7 +420,7 @@ class PlantSystem:
                 if self.completed:
                     for_step = [inst for inst in self.completed if inst.completed_integrator_step(t1)]
                     if for_step:
-                        self._handle_events(t1, for_step)
+                        self._handle_events(t1, for_step, "step")
                 self._time_events(t1, synced=True)
             if t1 >= grid:
                 j += 1
@@ -422,7 +436,7 @@ class PlantSystem:
             self.derivatives(t)
             return self.dX.copy()
 
-        method = self.solver.method.upper() if self.solver.method != "lsoda" else "LSODA"
+        method = {"bdf": "BDF", "radau": "Radau", "lsoda": "LSODA"}[self.solver.method]
         self._synced = None
         t = ta
         while t < tb:
@@ -441,7 +455,7 @@ class PlantSystem:
                 self._read_indicators()
             crossed = self._crossed()
             if crossed:
-                self._handle_events(t1, crossed)
+                self._handle_events(t1, crossed, "state")
             else:
                 self._accept_indicators()
                 self._time_events(t1, synced=True)

@@ -41,6 +41,8 @@ def summarize(result, config):
     }
     if result.engine_note:
         out["engine_note"] = result.engine_note
+    if result.events:
+        out["events"] = len(result.events)
     if result.stopped is not None:
         out["stopped"] = dict(result.stopped)
     spec = config.summary
