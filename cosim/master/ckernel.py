@@ -43,16 +43,19 @@ Tables (all int64 unless said):
     the recorder's arrays (:class:`cosim.master.recorder.Recorder`): rows are written at ``rows[0]``.
 ``scr`` (n_fmu, 32) uint8, ``scr64`` the same memory as (n_fmu, 4) float64
     the scratch bytes whose addresses are in ``fmu`` (flags and next event time written by the FMUs).
-``ev`` (n_ev, 3)
-    the ME FMUs with event indicators: FMU index, offset of its indicators in ``Z``, their number.
-``Z`` (2, n_z) float64
-    indicators at the last accepted point, and just read.
-``E`` (2, n_x) float64
-    the state and first-stage derivative at the start of a step being cut at an event.
-``due`` (n_fmu,)
-    FMUs marked for event iteration.
-``tev`` (n_fmu,) float64
-    each FMU's next time event (inf: none).
+``evt``
+    None when no FMU can have events, else the tuple ``(ev, Z, E, due, tev, scr, scr64, ff)``:
+
+    ``ev`` (n_ev, 3)
+        the ME FMUs with event indicators: FMU index, offset of its indicators in ``Z``, their number.
+    ``Z`` (2, n_z) float64
+        indicators at the last accepted point, and just read.
+    ``E`` (2, n_x) float64
+        the state and first-stage derivative at the start of a step being cut at an event.
+    ``due`` (n_fmu,)
+        FMUs marked for event iteration.
+    ``tev`` (n_fmu,) float64
+        each FMU's next time event (inf: none).
 
 The kernel is compiled without numba's reference counting (``_nrt=False``: nothing is allocated in
 it; with reference counting the array arguments of the helpers cost two atomic operations per call
@@ -428,11 +431,10 @@ def _rk4_events(ta, tb, n, net, evt, cmp, W, addrs, st):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _rk4(t, t_next, k, h_max, net, evt, cmp, W, addrs, st):
-    """RK4 substeps of the ME FMUs' combined state from ``t`` to ``t_next`` (no state or time events);
-    step events after a substep when an FMU asks; True on an error."""
-    fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp = net
-    x_addr, dx_addr, buf_addr = addrs
+def _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr, buf_addr,
+         st):
+    """RK4 substeps of the ME FMUs' combined state from ``t`` to ``t_next`` when no FMU has events or asks for
+    CompletedIntegratorStep (the plain path, as fast as before events existed); True on an FMI error."""
     nX = W.shape[1]
     L = t_next - t
     n = max(1, math.ceil(L / h_max - 1e-9))
@@ -463,14 +465,6 @@ def _rk4(t, t_next, k, h_max, net, evt, cmp, W, addrs, st):
         for i in range(nX):
             W[0, i] = W[1, i] + h / 6.0 * (W[3, i] + 2.0 * W[4, i] + 2.0 * W[5, i] + W[2, i])
             W[1, i] = W[0, i]
-        if cmp.shape[0] > 0:
-            if _eval(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
-                return True
-            n_due = _completed(fmu, cmp, evt[5], evt[3], st)
-            if n_due < 0 or (n_due > 0 and _handle_events(t1, net, evt, addrs, st)):
-                return True
-            for i in range(nX):  # an event may have changed the states: the next substep starts from them
-                W[1, i] = W[0, i]
     return False
 
 
@@ -491,39 +485,37 @@ def _do_steps(t, t_next, fmu, cs, scr, st):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _advance(t, t_next, k, net, evt, cmp, W, addrs, st):
-    """Bring the ME FMUs from ``t`` to ``t_next``: the plain RK4 substeps, or, when an FMU has event indicators or
-    a time event falls before ``t_next``, the event-locating steps. True on an error."""
-    ff = evt[7]
-    h_max = ff[_HMAX]
+def _advance_events(t, t_next, k, net, evt, cmp, W, addrs, st):
+    """Bring the ME FMUs from ``t`` to ``t_next`` when one has event indicators or asks for
+    CompletedIntegratorStep, or a time event falls before ``t_next``: input events at ``t``, then the
+    event-locating steps. True on an error."""
     nX = W.shape[1]
-    if evt[0].shape[0] > 0 or ff[_TNEXT] <= t_next:
-        if evt[0].shape[0] > 0 and _input_events(t, k, net, evt, addrs, st):
-            return True
-        n = 1 if nX == 0 else max(1, math.ceil((t_next - t) / h_max - 1e-9))
-        return _rk4_events(t, t_next, n, net, evt, cmp, W, addrs, st)
-    if nX > 0:
-        return _rk4(t, t_next, k, h_max, net, evt, cmp, W, addrs, st)
-    return False
+    if evt[0].shape[0] > 0 and _input_events(t, k, net, evt, addrs, st):
+        return True
+    n = 1 if nX == 0 else max(1, math.ceil((t_next - t) / evt[7][_HMAX] - 1e-9))
+    return _rk4_events(t, t_next, n, net, evt, cmp, W, addrs, st)
 
 
 @numba.njit(cache=True, _nrt=False)
 def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec, times,
-              rows, rec_idx, calls, scr, st, ev, Z, E, due, tev, scr64, max_instants):
-    """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR."""
+              rows, rec_idx, calls, scr, st, evt, max_instants):
+    """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR.
+
+    ``evt`` is ``(ev, Z, E, due, tev, scr, scr64, ff)``, or None when no FMU can have events (no event
+    indicators, no CompletedIntegratorStep, no time event announced at initialisation): numba then compiles a
+    version without the event code (its branch is pruned), the loop as it was before events existed.
+    """
     k_stop = ii[0]
     rec_p = ii[1]
     num = ii[2]
     den = ii[3]
     n_per = ii[4]
     t0 = ff[_T0]
+    h_max = ff[_HMAX]
     buf_addr = buf.ctypes.data
     nX = W.shape[1]
     x_addr = W.ctypes.data
     dx_addr = x_addr + 8 * 2 * nX
-    net = (fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp)
-    evt = (ev, Z, E, due, tev, scr, scr64, ff)
-    addrs = (x_addr, dx_addr, buf_addr)
     n_me = me.shape[0]
     k = st[_K]
     row = rows[0]
@@ -576,10 +568,20 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
             if kn < k_next:
                 k_next = kn
         t_next = t0 + (k_next * den) / num
-        # 6. advance: RK4 over the ME FMUs (locating events), then doStep of the CS FMUs
-        if n_me > 0 and _advance(t, t_next, k, net, evt, cmp, W, addrs, st):
-            code = ERROR
-            break
+        # 6. advance: RK4 over the ME FMUs (locating events when they have some), then doStep of the CS FMUs
+        if n_me > 0:
+            plain = True
+            if evt is not None:
+                plain = not (evt[0].shape[0] > 0 or cmp.shape[0] > 0 or ff[_TNEXT] <= t_next)
+                if not plain and _advance_events(t, t_next, k, (fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain,
+                                                                 roff, rgrp), evt, cmp, W,
+                                                 (x_addr, dx_addr, buf_addr), st):
+                    code = ERROR
+                    break
+            if plain and nX > 0 and _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff,
+                                         rgrp, W, x_addr, dx_addr, buf_addr, st):
+                code = ERROR
+                break
         if _do_steps(t, t_next, fmu, cs, scr, st):
             ff[_EVT] = t_next
             code = ERROR

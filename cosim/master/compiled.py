@@ -2,7 +2,9 @@
 
 :class:`CompiledLoop` is the loop :class:`cosim.master.engine.Engine` swaps in for the Python one
 (:class:`cosim.master.loop.PythonLoop`) when :func:`compiled_problem` finds nothing against it
-(every controller's kernel compiles with numba, the solver is the fixed-step RK4, FMI 2.0 or 3.0).
+(every controller's kernel compiles with numba, the solver is the fixed-step RK4, FMI 2.0 or 3.0). Events of
+Model Exchange FMUs (state, time and step events, terminateSimulation) are handled inside the kernel with the
+Python engine's rules; a config whose FMUs cannot have events gets the kernel's version without event code.
 It turns the engine's :class:`~cosim.master.layout.Layout` and the run's
 :class:`~cosim.master.plant.PlantSystem` into the integer/float tables of :mod:`cosim.master.ckernel`,
 so both loops do the same operations at the same instants, and runs the kernel in chunks of
@@ -11,7 +13,6 @@ returns.
 """
 
 import time as _time
-import warnings
 
 import numpy as np
 
@@ -104,7 +105,7 @@ class CompiledLoop:
         self._args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["port"], tab["pgrp"], tab["rsrc"],
                       tab["rdst"], tab["rgain"], tab["roff"], tab["rgrp"], tab["lvl"], tab["ctl"], tab["ii"], tab["ff"],
                       eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st,
-                      tab["ev"], tab["Z"], tab["E"], tab["due"], tab["tev"], tab["scr"].view(np.float64))
+                      tab["evt"])
         t0 = _time.perf_counter()
         run_chunk(*self._args, 0)  # compile, or load from numba's cache
         return _time.perf_counter() - t0
@@ -165,9 +166,11 @@ class CompiledLoop:
             ev.append((fidx[inst.name], nz, inst.n_indicators))
             nz += inst.n_indicators
         tev = np.array([i.next_event_time if i.kind == "ME" else np.inf for i in plant.instances.values()])
-        ff = np.zeros(len(FF))
-        ff[[FF.index("t0"), FF.index("h_max"), FF.index("event_t"), FF.index("next_time_event")]] = (
-            eng.tb.start, eng.h_max, np.nan, min(tev, default=np.inf))
+        ff = np.array([eng.tb.start, eng.h_max, np.nan, min(tev, default=np.inf)])  # in the order of FF
+        evt = None  # no FMU can have events: the kernel's version without event code runs
+        if ev or plant.completed or np.isfinite(tev).any():
+            evt = (np.array(ev, dtype=np.int64).reshape(-1, 3), np.zeros((2, nz)), np.zeros((2, plant.W.shape[1])),
+                   np.zeros(len(names), dtype=np.int64), tev, scr, scr.view(np.float64), ff)
         cmp = np.array([fidx[i.name] for i in plant.completed], dtype=np.int64)
         cs = np.array([fidx[i.name] for i in plant.cs], dtype=np.int64)
 
@@ -217,8 +220,7 @@ class CompiledLoop:
             rgain=np.ascontiguousarray(r[:, 2]), roff=np.ascontiguousarray(r[:, 3]),
             rgrp=np.array(rgrp, dtype=np.int64).reshape(-1, 2), lvl=np.array(lvl, dtype=np.int64).reshape(-1, 3),
             ctl=np.array(ctl, dtype=np.int64).reshape(-1, len(CTL_COLS)), ii=ii,
-            ff=ff, scr=scr, port_items=items_, fmu_names=names, ev=np.array(ev, dtype=np.int64).reshape(-1, 3),
-            Z=np.zeros((2, nz)), E=np.zeros((2, plant.W.shape[1])), due=np.zeros(len(names), dtype=np.int64), tev=tev,
+            ff=ff, scr=scr, port_items=items_, fmu_names=names, evt=evt,
         )
 
     def _raise(self):

@@ -46,7 +46,8 @@ def build(name, out_dir, fmi_version=3):
         The FMU.
     """
     if platform.system() != "Linux" or platform.machine() != "x86_64":
-        raise RuntimeError(f"the test FMUs are built for x86_64 Linux only, not {platform.system()} {platform.machine()}")
+        raise RuntimeError(f"the test FMUs are built for x86_64 Linux only, not {platform.system()} "
+                           f"{platform.machine()}")
     xml = (HERE / name / f"fmi{fmi_version}.xml").read_text(encoding="utf-8")
     identifier = re.search(r'modelIdentifier="([^"]+)"', xml).group(1)
     out = Path(out_dir) / f"{name}_fmi{fmi_version}.fmu"
