@@ -94,6 +94,17 @@ def test_sawtooth_step_events(third_party_fmu, tmp_path):
     np.testing.assert_allclose(x[(t > 1.01) & (t < 1.99)], t[(t > 1.01) & (t < 1.99)] - 1, atol=1e-9)
 
 
+def test_sawtooth_step_events_between_instants(third_party_fmu, tmp_path):
+    """Instants at 7.5 Hz, 14 RK4 steps between two of them: each step event (x reaches 1 at t = 1, 2, 3 s,
+    mid-interval) happens once and the next step starts from the reset state."""
+    path = _config(tmp_path, third_party_fmu("Sawtooth"), ["x"], stop=3.5, rate=7.5)
+    r = _run(path, "compiled")
+    assert [kind for _, _, kind in r.events] == ["step"] * 3
+    np.testing.assert_allclose([t for t, _, _ in r.events], [1.0, 2.0, 3.0], atol=1e-12)
+    t = r.data["time"]
+    np.testing.assert_allclose(r.data["x"], t - np.floor(t + 1e-12), atol=1e-12)
+
+
 @pytest.mark.parametrize("version, kind", [(3, "ME"), (2, "ME"), (3, "CS")])
 def test_stopper_terminates_and_keeps_the_rows(third_party_fmu, tmp_path, version, kind):
     """terminateSimulation at 0.615 s: the rows up to the last instant before it are kept, and the result says
