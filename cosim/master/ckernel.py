@@ -34,7 +34,10 @@ Tables (all int64 unless said):
 ``ii``
     k_stop, record period, time-base numerator, denominator, number of periods, then the periods.
 ``ff`` (float64, FF)
-    start time, h_max, time of the latest event (or of the stop an FMU asked for), earliest next time event.
+    start time, h_max, time of the latest event (or of the stop an FMU asked for), earliest next time event,
+    then the event rules of the Python engine (run-time data, so that numba's cache of this file never
+    holds stale copies): ``EVENT_TOL``, ``CHATTER_WINDOW``, ``MAX_EVENTS_AT_ONE_TIME``
+    (:mod:`cosim.master.plant`), ``FmuInstance.MAX_EVENT_PASSES``.
 ``st`` (N_ST,)
     run state kept between chunks: k, synced tick, first-chunk flag, error FMU, error function (index
     in FUNCTIONS; ``terminate``, ``unsettled``, ``chatter`` are event outcomes), error status, number of
@@ -70,8 +73,7 @@ import math
 
 import numba
 
-from cosim.fmi import FmuInstance, native
-from cosim.master.plant import CHATTER_WINDOW, EVENT_TOL, MAX_EVENTS_AT_ONE_TIME
+from cosim.fmi import native
 
 __all__ = ["run_chunk", "FMU_COLS", "CTL_COLS", "ST", "FF", "FUNCTIONS", "KINDS", "DONE", "MORE", "ERROR"]
 
@@ -87,12 +89,11 @@ FUNCTIONS = ("SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "Set
              "UpdateDiscreteStates", "EnterContinuousTimeMode", "GetContinuousStates", "terminate", "unsettled",
              "chatter")
 (_FN_GZ, _FN_EEM, _FN_UDS, _FN_ECT, _FN_GX, _FN_TERM, _FN_UNSETTLED, _FN_CHATTER) = range(8, 16)
-FF = ("t0", "h_max", "event_t", "next_time_event")
-(_T0, _HMAX, _EVT, _TNEXT) = range(len(FF))
+FF = ("t0", "h_max", "event_t", "next_time_event", "event_tol", "chatter_window", "max_events", "max_passes")
+(_T0, _HMAX, _EVT, _TNEXT, _TOL, _WINDOW, _MAXEV, _MAXPASS) = range(len(FF))
 DONE, MORE, ERROR = 0, 1, 2
 KINDS = ("state", "time", "step", "input")  # event kinds of the event log, as the Python engine's
 (_STATE, _TIME, _STEP, _INPUT) = range(len(KINDS))
-MAX_EVENT_PASSES = FmuInstance.MAX_EVENT_PASSES  # event-iteration passes of one FMU at one instant
 
 
 @numba.njit(cache=True, _nrt=False)
@@ -218,7 +219,7 @@ def _net_deriv(t, net, addrs, st):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _iterate(f, fmu, scr, scr64, tev, x_addr, st):
+def _iterate(f, fmu, scr, scr64, tev, max_passes, x_addr, st):
     """Event mode of ME FMU ``f`` (it holds the event's time and states): update its discrete states until they
     settle, note its next time event, back to continuous-time mode, re-read its states when they changed.
     True on an FMI error, a request to terminate or an iteration that does not settle."""
@@ -228,7 +229,7 @@ def _iterate(f, fmu, scr, scr64, tev, x_addr, st):
         return _fail(st, f, _FN_EEM, s)
     changed = False
     settled = False
-    for _ in range(MAX_EVENT_PASSES):
+    for _ in range(max_passes):
         if fmu[f, _V] == 3:
             s = native.update3(fmu[f, _UDS], c, fmu[f, _SC])
         else:
@@ -294,16 +295,16 @@ def _handle_events(t, kind, net, evt, addrs, st):
     for i in range(me.shape[0]):
         if due[me[i]] != 0 and first < 0:
             first = me[i]
-    st[_EVN] = st[_EVN] + 1 if abs(t - ff[_EVT]) <= CHATTER_WINDOW else 1
+    st[_EVN] = st[_EVN] + 1 if abs(t - ff[_EVT]) <= ff[_WINDOW] else 1
     ff[_EVT] = t
-    if st[_EVN] > MAX_EVENTS_AT_ONE_TIME:
+    if st[_EVN] > ff[_MAXEV]:
         return _fail(st, max(first, 0), _FN_CHATTER, 0)
     t_next = math.inf
     for i in range(me.shape[0]):
         f = me[i]
         if due[f] != 0:
             due[f] = 0
-            if _iterate(f, fmu, scr, scr64, tev, addrs[0], st):
+            if _iterate(f, fmu, scr, scr64, tev, int(ff[_MAXPASS]), addrs[0], st):
                 return True
             n = st[_NLOG]
             if n < log.shape[0]:
@@ -419,7 +420,7 @@ def _rk4_events(ta, tb, n, net, evt, cmp, W, addrs, st):
             return True
         if hits > 0:
             lo, hi = 0.0, t1 - t
-            while hi - lo > EVENT_TOL:
+            while hi - lo > ff[_TOL]:
                 mid = 0.5 * (lo + hi)
                 hits = _trial(t, mid, net, evt, W, addrs, st)
                 if hits < 0:

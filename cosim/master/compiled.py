@@ -19,11 +19,10 @@ import numpy as np
 
 from controllers.base import Controller
 from cosim.errors import EventError, FmiCallError, SimulationTerminated
-from cosim.fmi import check
+from cosim.fmi import FmuInstance, check
 from cosim.jit import compile_kernel, kernel_problem, native_kernel
-from cosim.master.ckernel import (CTL_COLS, DONE, ERROR, FF, FMU_COLS, FUNCTIONS, KINDS, MAX_EVENT_PASSES, ST,
-                                  run_chunk)
-from cosim.master.plant import CHATTER_WINDOW, MAX_EVENTS_AT_ONE_TIME
+from cosim.master.ckernel import CTL_COLS, DONE, ERROR, FF, FMU_COLS, FUNCTIONS, KINDS, ST, run_chunk
+from cosim.master.plant import CHATTER_WINDOW, EVENT_TOL, MAX_EVENTS_AT_ONE_TIME
 
 __all__ = ["CompiledLoop", "compiled_problem"]
 
@@ -184,7 +183,8 @@ class CompiledLoop:
             ev.append((fidx[inst.name], nz, inst.n_indicators))
             nz += inst.n_indicators
         tev = np.array([i.next_event_time if i.kind == "ME" else np.inf for i in plant.instances.values()])
-        ff = np.array([eng.tb.start, eng.h_max, np.nan, min(tev, default=np.inf)])  # in the order of FF
+        ff = np.array([eng.tb.start, eng.h_max, np.nan, min(tev, default=np.inf), EVENT_TOL, CHATTER_WINDOW,
+                       MAX_EVENTS_AT_ONE_TIME, FmuInstance.MAX_EVENT_PASSES])  # in the order of FF
         evt = None  # no FMU can have events: the kernel's version without event code runs
         if ev or plant.completed or np.isfinite(tev).any():
             evt = (np.array(ev, dtype=np.int64).reshape(-1, 3), np.zeros((2, nz)), np.zeros((2, plant.W.shape[1])),
@@ -253,7 +253,7 @@ class CompiledLoop:
             raise SimulationTerminated(inst.name, t_event, reason)
         if fn == "unsettled":
             raise EventError(f"{inst.name}: the event iteration at t={t_event:.12g} s did not settle in "
-                             f"{MAX_EVENT_PASSES} passes (discrete states keep changing)")
+                             f"{FmuInstance.MAX_EVENT_PASSES} passes (discrete states keep changing)")
         if fn == "chatter":
             raise EventError(f"{inst.name}: more than {MAX_EVENTS_AT_ONE_TIME} events in a row less than "
                              f"{CHATTER_WINDOW:g} s apart, at t={t_event:.12g} s (chattering or an accumulation of "
