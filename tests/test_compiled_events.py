@@ -11,7 +11,7 @@ import pytest
 from cosim.config import load_config
 from cosim.errors import EventError
 from cosim.master import run
-from fmus.reference import ball_state, ticker_state
+from fmus.reference import ball_state, bounce_times, ticker_state
 
 
 def _config(tmp_path, fmu, signals, stop, kind="ME", parameters="", max_step=0.01, rate=100):
@@ -49,6 +49,7 @@ def _both(path):
     for name in comp.data.dtype.names:
         np.testing.assert_array_equal(comp.data[name], py.data[name], err_msg=name)
     assert comp.stopped == py.stopped
+    assert comp.events == py.events  # (time, instance, kind) of every event, times to the bit
     return comp
 
 
@@ -60,6 +61,8 @@ def test_bouncing_ball_follows_the_closed_form(third_party_fmu, tmp_path, versio
     r = _both(path)
     h, v, _, _ = ball_state(r.data["time"])
     assert len(r.data) == 301
+    assert [kind for _, _, kind in r.events] == ["state"] * 11
+    np.testing.assert_allclose([t for t, _, _ in r.events], bounce_times(), atol=1e-9)
     np.testing.assert_allclose(r.data["h"], h, atol=1e-8)
     np.testing.assert_allclose(r.data["v"], v, atol=1e-7)
 
@@ -91,6 +94,17 @@ def test_sawtooth_step_events(third_party_fmu, tmp_path):
     np.testing.assert_allclose(x[(t > 1.01) & (t < 1.99)], t[(t > 1.01) & (t < 1.99)] - 1, atol=1e-9)
 
 
+def test_sawtooth_step_events_between_instants(third_party_fmu, tmp_path):
+    """Instants at 7.5 Hz, 14 RK4 steps between two of them: each step event (x reaches 1 at t = 1, 2, 3 s,
+    mid-interval) happens once and the next step starts from the reset state."""
+    path = _config(tmp_path, third_party_fmu("Sawtooth"), ["x"], stop=3.5, rate=7.5)
+    r = _run(path, "compiled")
+    assert [kind for _, _, kind in r.events] == ["step"] * 3
+    np.testing.assert_allclose([t for t, _, _ in r.events], [1.0, 2.0, 3.0], atol=1e-12)
+    t = r.data["time"]
+    np.testing.assert_allclose(r.data["x"], t - np.floor(t + 1e-12), atol=1e-12)
+
+
 @pytest.mark.parametrize("version, kind", [(3, "ME"), (2, "ME"), (3, "CS")])
 def test_stopper_terminates_and_keeps_the_rows(third_party_fmu, tmp_path, version, kind):
     """terminateSimulation at 0.615 s: the rows up to the last instant before it are kept, and the result says
@@ -109,3 +123,15 @@ def test_event_iteration_that_does_not_settle_is_an_event_error(third_party_fmu,
     for engine in ("compiled", "python"):
         with pytest.raises(EventError, match=r"m: the event iteration at t=0\.5 s did not settle"):
             run(load_config(path, [f"run.engine={engine}"]), progress=False)
+
+
+def test_zeno_ball_is_an_event_error(third_party_fmu, tmp_path):
+    """With v_min = 0 the ball never rests: its impacts accumulate at a finite time, more than
+    MAX_EVENTS_AT_ONE_TIME in a row closer than CHATTER_WINDOW; both engines stop with the same message."""
+    path = _config(tmp_path, third_party_fmu("BouncingBall"), ["h"], stop=3.0, parameters="v_min = 0.0")
+    messages = []
+    for engine in ("compiled", "python"):
+        with pytest.raises(EventError, match=r"m: more than 100 events in a row less than 1e-08 s apart") as err:
+            run(load_config(path, [f"run.engine={engine}"]), progress=False)
+        messages.append(str(err.value))
+    assert messages[0] == messages[1]

@@ -34,17 +34,20 @@ Tables (all int64 unless said):
 ``ii``
     k_stop, record period, time-base numerator, denominator, number of periods, then the periods.
 ``ff`` (float64, FF)
-    start time, h_max, time of the latest event (or of the stop an FMU asked for), earliest next time event.
+    start time, h_max, time of the latest event (or of the stop an FMU asked for), earliest next time event,
+    then the event rules of the Python engine (run-time data, so that numba's cache of this file never
+    holds stale copies): ``EVENT_TOL``, ``CHATTER_WINDOW``, ``MAX_EVENTS_AT_ONE_TIME``
+    (:mod:`cosim.master.plant`), ``FmuInstance.MAX_EVENT_PASSES``.
 ``st`` (N_ST,)
     run state kept between chunks: k, synced tick, first-chunk flag, error FMU, error function (index
     in FUNCTIONS; ``terminate``, ``unsettled``, ``chatter`` are event outcomes), error status, number of
-    events within EVENT_TOL of the latest.
+    events in a row within CHATTER_WINDOW of each other, number of events in the log.
 ``rec`` (n_rows, n_col) float64, ``times`` (n_rows,) float64, ``rows`` (1,)
     the recorder's arrays (:class:`cosim.master.recorder.Recorder`): rows are written at ``rows[0]``.
 ``scr`` (n_fmu, 32) uint8, ``scr64`` the same memory as (n_fmu, 4) float64
     the scratch bytes whose addresses are in ``fmu`` (flags and next event time written by the FMUs).
 ``evt``
-    None when no FMU can have events, else the tuple ``(ev, Z, E, due, tev, scr, scr64, ff)``:
+    None when no FMU can have events, else the tuple ``(ev, Z, E, due, tev, scr, scr64, ff, log)``:
 
     ``ev`` (n_ev, 3)
         the ME FMUs with event indicators: FMU index, offset of its indicators in ``Z``, their number.
@@ -56,6 +59,9 @@ Tables (all int64 unless said):
         FMUs marked for event iteration.
     ``tev`` (n_fmu,) float64
         each FMU's next time event (inf: none).
+    ``log`` (n_log, 3) float64
+        the events handled since Python last read the log (``st`` n_log of them): time, FMU index,
+        kind (index in KINDS). A chunk stops early when it is half full.
 
 The kernel is compiled without numba's reference counting (``_nrt=False``: nothing is allocated in
 it; with reference counting the array arguments of the helpers cost two atomic operations per call
@@ -67,27 +73,27 @@ import math
 
 import numba
 
-from cosim.fmi import FmuInstance, native
-from cosim.master.plant import EVENT_TOL, MAX_EVENTS_AT_ONE_TIME
+from cosim.fmi import native
 
-__all__ = ["run_chunk", "FMU_COLS", "CTL_COLS", "ST", "FF", "FUNCTIONS", "DONE", "MORE", "ERROR"]
+__all__ = ["run_chunk", "FMU_COLS", "CTL_COLS", "ST", "FF", "FUNCTIONS", "KINDS", "DONE", "MORE", "ERROR"]
 
 FMU_COLS = ("component", "SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "SetReal", "DoStep",
             "CompletedIntegratorStep", "version", "x_off", "n_states", "scratch", "GetEventIndicators",
             "EnterEventMode", "UpdateDiscreteStates", "EnterContinuousTimeMode", "GetContinuousStates")
 (_C, _ST, _SX, _GD, _GR, _SR, _DS, _CI, _V, _XO, _NX, _SC, _GZ, _EEM, _UDS, _ECT, _GX) = range(len(FMU_COLS))
 CTL_COLS = ("fn", "period", "route", "u", "nu", "y", "ny", "x", "nx", "p", "np")
-ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "ev_count")
-(_K, _SYNC, _FIRST, _EF, _EFN, _ES, _EVN) = range(len(ST))
+ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "ev_count", "n_log")
+(_K, _SYNC, _FIRST, _EF, _EFN, _ES, _EVN, _NLOG) = range(len(ST))
 FUNCTIONS = ("SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "SetReal", "DoStep",
              "CompletedIntegratorStep", "DoStep:terminate", "GetEventIndicators", "EnterEventMode",
              "UpdateDiscreteStates", "EnterContinuousTimeMode", "GetContinuousStates", "terminate", "unsettled",
              "chatter")
 (_FN_GZ, _FN_EEM, _FN_UDS, _FN_ECT, _FN_GX, _FN_TERM, _FN_UNSETTLED, _FN_CHATTER) = range(8, 16)
-FF = ("t0", "h_max", "event_t", "next_time_event")
-(_T0, _HMAX, _EVT, _TNEXT) = range(len(FF))
+FF = ("t0", "h_max", "event_t", "next_time_event", "event_tol", "chatter_window", "max_events", "max_passes")
+(_T0, _HMAX, _EVT, _TNEXT, _TOL, _WINDOW, _MAXEV, _MAXPASS) = range(len(FF))
 DONE, MORE, ERROR = 0, 1, 2
-MAX_EVENT_PASSES = FmuInstance.MAX_EVENT_PASSES  # event-iteration passes of one FMU at one instant
+KINDS = ("state", "time", "step", "input")  # event kinds of the event log, as the Python engine's
+(_STATE, _TIME, _STEP, _INPUT) = range(len(KINDS))
 
 
 @numba.njit(cache=True, _nrt=False)
@@ -213,7 +219,7 @@ def _net_deriv(t, net, addrs, st):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _iterate(f, fmu, scr, scr64, tev, x_addr, st):
+def _iterate(f, fmu, scr, scr64, tev, max_passes, x_addr, st):
     """Event mode of ME FMU ``f`` (it holds the event's time and states): update its discrete states until they
     settle, note its next time event, back to continuous-time mode, re-read its states when they changed.
     True on an FMI error, a request to terminate or an iteration that does not settle."""
@@ -223,7 +229,7 @@ def _iterate(f, fmu, scr, scr64, tev, x_addr, st):
         return _fail(st, f, _FN_EEM, s)
     changed = False
     settled = False
-    for _ in range(MAX_EVENT_PASSES):
+    for _ in range(max_passes):
         if fmu[f, _V] == 3:
             s = native.update3(fmu[f, _UDS], c, fmu[f, _SC])
         else:
@@ -279,26 +285,33 @@ def _crossed(ev, Z, due):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _handle_events(t, net, evt, addrs, st):
-    """Event iteration at ``t`` of the FMUs marked in ``due`` (they hold t and X), then every indicator re-read
-    and accepted; the chattering guard counts events within EVENT_TOL of each other. True on an error."""
+def _handle_events(t, kind, net, evt, addrs, st):
+    """Event iteration at ``t`` of the FMUs marked in ``due`` (they hold t and X), each logged with ``kind``,
+    then every indicator re-read and accepted; the chattering guard counts events in a row each within
+    CHATTER_WINDOW of the previous one. True on an error."""
     fmu, me = net[0], net[1]
-    ev, Z, due, tev, scr, scr64, ff = evt[0], evt[1], evt[3], evt[4], evt[5], evt[6], evt[7]
+    ev, Z, due, tev, scr, scr64, ff, log = evt[0], evt[1], evt[3], evt[4], evt[5], evt[6], evt[7], evt[8]
     first = -1
     for i in range(me.shape[0]):
         if due[me[i]] != 0 and first < 0:
             first = me[i]
-    st[_EVN] = st[_EVN] + 1 if abs(t - ff[_EVT]) <= EVENT_TOL else 1
+    st[_EVN] = st[_EVN] + 1 if abs(t - ff[_EVT]) <= ff[_WINDOW] else 1
     ff[_EVT] = t
-    if st[_EVN] > MAX_EVENTS_AT_ONE_TIME:
+    if st[_EVN] > ff[_MAXEV]:
         return _fail(st, max(first, 0), _FN_CHATTER, 0)
     t_next = math.inf
     for i in range(me.shape[0]):
         f = me[i]
         if due[f] != 0:
             due[f] = 0
-            if _iterate(f, fmu, scr, scr64, tev, addrs[0], st):
+            if _iterate(f, fmu, scr, scr64, tev, int(ff[_MAXPASS]), addrs[0], st):
                 return True
+            n = st[_NLOG]
+            if n < log.shape[0]:
+                log[n, 0] = t
+                log[n, 1] = f
+                log[n, 2] = kind
+            st[_NLOG] = n + 1
         t_next = min(t_next, tev[f])
     ff[_TNEXT] = t_next
     st[_SYNC] = -1
@@ -320,7 +333,7 @@ def _time_events(t, synced, net, evt, addrs, st):
         due[me[i]] = 1 if tev[me[i]] <= t else 0
     if not synced and _net_eval(t, net, addrs, st):
         return True
-    return _handle_events(t, net, evt, addrs, st)
+    return _handle_events(t, _TIME, net, evt, addrs, st)
 
 
 @numba.njit(cache=True, _nrt=False)
@@ -364,7 +377,7 @@ def _input_events(t, k, net, evt, addrs, st):
     if _indicators(net[0], evt[0], evt[1], st):
         return True
     if _crossed(evt[0], evt[1], evt[3]) > 0:
-        return _handle_events(t, net, evt, addrs, st)
+        return _handle_events(t, _INPUT, net, evt, addrs, st)
     _copy_row(evt[1], 0, evt[1], 1)
     return False
 
@@ -375,7 +388,7 @@ def _after_step(t1, net, evt, cmp, addrs, st):
     _copy_row(evt[1], 0, evt[1], 1)
     if cmp.shape[0] > 0:
         n = _completed(net[0], cmp, evt[5], evt[3], st)
-        if n < 0 or (n > 0 and _handle_events(t1, net, evt, addrs, st)):
+        if n < 0 or (n > 0 and _handle_events(t1, _STEP, net, evt, addrs, st)):
             return True
     return _time_events(t1, True, net, evt, addrs, st)
 
@@ -407,7 +420,7 @@ def _rk4_events(ta, tb, n, net, evt, cmp, W, addrs, st):
             return True
         if hits > 0:
             lo, hi = 0.0, t1 - t
-            while hi - lo > EVENT_TOL:
+            while hi - lo > ff[_TOL]:
                 mid = 0.5 * (lo + hi)
                 hits = _trial(t, mid, net, evt, W, addrs, st)
                 if hits < 0:
@@ -417,7 +430,7 @@ def _rk4_events(ta, tb, n, net, evt, cmp, W, addrs, st):
                 else:
                     lo = mid
             t1 = t + hi
-            if _trial(t, hi, net, evt, W, addrs, st) < 0 or _handle_events(t1, net, evt, addrs, st):
+            if _trial(t, hi, net, evt, W, addrs, st) < 0 or _handle_events(t1, _STATE, net, evt, addrs, st):
                 return True
         else:
             if n_ev == 0 and (_step_from(t, t1 - t, net, W, E, addrs, st) or _net_eval(t1, net, addrs, st)):
@@ -501,7 +514,7 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
               rows, rec_idx, calls, scr, st, evt, max_instants):
     """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR.
 
-    ``evt`` is ``(ev, Z, E, due, tev, scr, scr64, ff)``, or None when no FMU can have events (no event
+    ``evt`` is ``(ev, Z, E, due, tev, scr, scr64, ff, log)``, or None when no FMU can have events (no event
     indicators, no CompletedIntegratorStep, no time event announced at initialisation): numba then compiles a
     version without the event code (its branch is pruned), the loop as it was before events existed.
     """
@@ -527,6 +540,8 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
             return ERROR
     code = MORE
     for _ in range(max_instants):
+        if evt is not None and 2 * st[_NLOG] > evt[8].shape[0]:
+            break  # the event log is half full: Python reads it before the next chunk
         t = t0 + (k * den) / num
         # 1. sample
         if n_me > 0:

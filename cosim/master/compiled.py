@@ -13,19 +13,21 @@ returns.
 """
 
 import time as _time
+import warnings
 
 import numpy as np
 
 from controllers.base import Controller
 from cosim.errors import EventError, FmiCallError, SimulationTerminated
-from cosim.fmi import check
+from cosim.fmi import FmuInstance, check
 from cosim.jit import compile_kernel, kernel_problem, native_kernel
-from cosim.master.ckernel import CTL_COLS, DONE, ERROR, FF, FMU_COLS, FUNCTIONS, MAX_EVENT_PASSES, ST, run_chunk
-from cosim.master.plant import EVENT_TOL, MAX_EVENTS_AT_ONE_TIME
+from cosim.master.ckernel import CTL_COLS, DONE, ERROR, FF, FMU_COLS, FUNCTIONS, KINDS, ST, run_chunk
+from cosim.master.plant import CHATTER_WINDOW, EVENT_TOL, MAX_EVENTS_AT_ONE_TIME
 
 __all__ = ["CompiledLoop", "compiled_problem"]
 
-_K, _EF, _EFN, _ES = (ST.index(n) for n in ("k", "err_fmu", "err_fn", "err_status"))
+_K, _EF, _EFN, _ES, _NLOG = (ST.index(n) for n in ("k", "err_fmu", "err_fn", "err_status", "n_log"))
+_LOG_ROWS = 1 << 14  # events the kernel logs before Python reads them (a chunk stops when half are used)
 _EVENT_FUNCTIONS = ("GetEventIndicators", "EnterEventMode", "UpdateDiscreteStates", "EnterContinuousTimeMode",
                     "GetContinuousStates")
 
@@ -102,6 +104,7 @@ class CompiledLoop:
         rec = eng.recorder
         tab = self._tables(plant)
         self._ff = tab["ff"]
+        self._log = tab["evt"][8] if tab["evt"] is not None else None
         self._args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["port"], tab["pgrp"], tab["rsrc"],
                       tab["rdst"], tab["rgain"], tab["roff"], tab["rgrp"], tab["lvl"], tab["ctl"], tab["ii"], tab["ff"],
                       eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st,
@@ -127,9 +130,23 @@ class CompiledLoop:
             An FMU's event iteration did not settle, or events chatter at one instant.
         """
         code = run_chunk(*self._args, n)
+        self._read_log()
         if code == ERROR:
             self._raise()
         return code == DONE
+
+    def _read_log(self):
+        """Move the events the kernel logged into the plant's ``event_log``, as the Python engine keeps it."""
+        n = int(self.st[_NLOG])
+        if not n:
+            return
+        names = list(self.plant.instances)
+        for t, f, kind in self._log[:min(n, len(self._log))]:
+            self.plant.event_log.append((float(t), names[int(f)], KINDS[int(kind)]))
+        if n > len(self._log):
+            warnings.warn(f"{n - len(self._log)} events in one interval between instants were handled but not "
+                          f"logged (the compiled engine logs {len(self._log)} per interval)", stacklevel=3)
+        self.st[_NLOG] = 0
 
     def _tables(self, plant):
         eng = self.engine
@@ -166,11 +183,12 @@ class CompiledLoop:
             ev.append((fidx[inst.name], nz, inst.n_indicators))
             nz += inst.n_indicators
         tev = np.array([i.next_event_time if i.kind == "ME" else np.inf for i in plant.instances.values()])
-        ff = np.array([eng.tb.start, eng.h_max, np.nan, min(tev, default=np.inf)])  # in the order of FF
+        ff = np.array([eng.tb.start, eng.h_max, np.nan, min(tev, default=np.inf), EVENT_TOL, CHATTER_WINDOW,
+                       MAX_EVENTS_AT_ONE_TIME, FmuInstance.MAX_EVENT_PASSES])  # in the order of FF
         evt = None  # no FMU can have events: the kernel's version without event code runs
         if ev or plant.completed or np.isfinite(tev).any():
             evt = (np.array(ev, dtype=np.int64).reshape(-1, 3), np.zeros((2, nz)), np.zeros((2, plant.W.shape[1])),
-                   np.zeros(len(names), dtype=np.int64), tev, scr, scr.view(np.float64), ff)
+                   np.zeros(len(names), dtype=np.int64), tev, scr, scr.view(np.float64), ff, np.zeros((_LOG_ROWS, 3)))
         cmp = np.array([fidx[i.name] for i in plant.completed], dtype=np.int64)
         cs = np.array([fidx[i.name] for i in plant.cs], dtype=np.int64)
 
@@ -235,10 +253,11 @@ class CompiledLoop:
             raise SimulationTerminated(inst.name, t_event, reason)
         if fn == "unsettled":
             raise EventError(f"{inst.name}: the event iteration at t={t_event:.12g} s did not settle in "
-                             f"{MAX_EVENT_PASSES} passes (discrete states keep changing)")
+                             f"{FmuInstance.MAX_EVENT_PASSES} passes (discrete states keep changing)")
         if fn == "chatter":
-            raise EventError(f"{inst.name}: more than {MAX_EVENTS_AT_ONE_TIME} events within {EVENT_TOL:g} s "
-                             f"of t={t_event:.12g} s (chattering)")
+            raise EventError(f"{inst.name}: more than {MAX_EVENTS_AT_ONE_TIME} events in a row less than "
+                             f"{CHATTER_WINDOW:g} s apart, at t={t_event:.12g} s (chattering or an accumulation of "
+                             "events)")
         t = self.engine.tb.time(int(st[_K]))
         check(fn, status, f"{inst._last_message()} (in the instant after t={t})")
         raise FmiCallError(fn, f"status {status}", inst.name)  # pragma: no cover - check raised
