@@ -249,3 +249,25 @@ signals = ["ft.x", "ft.y_f64"]
     integral = np.concatenate([[0], np.cumsum((h[1:] + h[:-1]) / 2 * np.diff(fine))])
     np.testing.assert_allclose(result.data["x"], integral[::100_000], atol=1e-7)
     np.testing.assert_allclose(result.data["y_f64"], 2 * ball_state(result.data["time"])[0], atol=1e-9)
+
+
+def test_stop_during_initialisation_writes_an_empty_result(tmp_path, third_party_fmu, capsys):
+    # t_stop = 0: the Stopper asks to terminate in the event iteration that ends its initialisation
+    from cosim.cli import main
+
+    cfg = _config(tmp_path, f"""
+[run]
+stop = 1.0
+engine = "python"
+[fmus.stop]
+path = "{third_party_fmu("Stopper", 3)}"
+parameters = {{ t_stop = 0.0 }}
+[record]
+rate = 10
+signals = ["stop.x"]
+""")
+    out = tmp_path / "out"
+    assert main(["run", str(cfg), "--out", str(out), "--no-progress"]) == 0
+    assert "stopped at t=0 s: stop asked to terminate" in capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["stopped"]["time"] == 0.0 and summary["rows"] == 0

@@ -180,7 +180,10 @@ class Engine:
         """
         cfg, loop = self.config, self.loop
         progress = self._start(progress)
-        plant = PlantSystem(cfg, self.layout, self.buf)
+        try:
+            plant = PlantSystem(cfg, self.layout, self.buf)
+        except SimulationTerminated as stop:  # an FMU asked to stop during its initialisation: nothing recorded
+            return self._result(_stopped(stop, cfg.run.start))
         bar = None
         interrupted = False
         stopped = None
@@ -197,30 +200,39 @@ class Engine:
             except KeyboardInterrupt:
                 interrupted = True
             except SimulationTerminated as stop:
-                t = stop.time if stop.time == stop.time else self.tb.time(loop.tick)  # NaN: the loop's instant
-                stopped = {"by": stop.instance, "time": float(t), "reason": stop.reason}
+                stopped = _stopped(stop, self.tb.time(loop.tick))
             finally:
                 wall = _time.perf_counter() - wall0
         finally:
             if bar is not None:
                 bar.close()
             plant.close()
+        return self._result(stopped, interrupted, wall, compile_s, plant.event_log)
+
+    def _result(self, stopped, interrupted=False, wall=0.0, compile_s=None, events=()):
+        """The RunResult of what the recorder holds."""
         data = self.recorder.data()
         return RunResult(
             data=data,
             units=dict(self.recorder.units),
-            calls=loop.call_counts(),
+            calls=self.loop.call_counts(),
             interrupted=interrupted,
             wall_s=wall,
-            sim_s=float(data["time"][-1] - cfg.run.start) if len(data) else 0.0,
+            sim_s=float(data["time"][-1] - self.config.run.start) if len(data) else 0.0,
             signals=dict(self.recorder.signals),
             controller_values={n: dict(c.values) for n, c in self.controllers.items()},
-            engine=loop.name,
+            engine=self.loop.name,
             engine_note=self.note,
-            compile_s=compile_s,
-            events=list(plant.event_log),
+            compile_s=self.compile_s if compile_s is None else compile_s,
+            events=list(events),
             stopped=stopped,
         )
+
+
+def _stopped(stop, t_default):
+    """``RunResult.stopped`` of a SimulationTerminated (its time NaN: ``t_default``, the loop's instant)."""
+    t = stop.time if stop.time == stop.time else t_default
+    return {"by": stop.instance, "time": float(t), "reason": stop.reason}
 
 
 def engine_for(config):
