@@ -271,3 +271,24 @@ signals = ["stop.x"]
     assert "stopped at t=0 s: stop asked to terminate" in capsys.readouterr().out
     summary = json.loads((out / "summary.json").read_text())
     assert summary["stopped"]["time"] == 0.0 and summary["rows"] == 0
+
+
+def test_step_events_between_instants_restart_from_the_new_states(tmp_path, third_party_fmu):
+    # 7.5 Hz instants, 0.01 s RK4 steps: a reset inside an interval; the next steps start from the reset state
+    body = f"""
+[run]
+stop = 3.5
+engine = "python"
+[fmus.saw]
+path = "{third_party_fmu("Sawtooth", 3)}"
+[solver]
+max_step = 0.01
+[record]
+rate = 7.5
+signals = ["saw.x", "saw.resets"]
+"""
+    result = run(load_config(_config(tmp_path, body)))
+    assert [k for _, _, k in result.events] == ["step"] * 3
+    np.testing.assert_allclose([t for t, _, _ in result.events], [1, 2, 3], atol=0.01 + 1e-9)
+    d = result.data
+    np.testing.assert_allclose(d["x"] + d["resets"], d["time"], atol=1e-9)

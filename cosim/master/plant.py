@@ -291,11 +291,11 @@ class PlantSystem:
             stage(W, 2, h)
             deriv(t1)
             final(W, h)
-            if self.completed:
-                self._complete(t1)
+            if self.completed and self._complete(t1):
+                rk4_begin(W)  # the event may have changed the states: the next step starts from them
 
     def _complete(self, t):
-        """CompletedIntegratorStep at ``t`` for the FMUs that need it; step events for those that ask."""
+        """CompletedIntegratorStep at ``t`` for the FMUs that need it; step events for those that ask (then True)."""
         self._eval(t)
         asked = None
         for inst in self.completed:
@@ -303,6 +303,7 @@ class PlantSystem:
                 asked = (asked or []) + [inst]
         if asked:
             self._handle_events(t, asked, "step")
+        return asked is not None
 
     # -- events ------------------------------------------------------------------------------------
     def _next_time_event(self):
