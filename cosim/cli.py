@@ -62,6 +62,10 @@ def _cmd_run(args):
     if result.interrupted:
         print("cosim run: interrupted; kept what was recorded", file=sys.stderr)
         return 130
+    if result.stopped is not None:
+        s = result.stopped
+        print(f"cosim run: stopped at t={s['time']:.9g} s: {s['by']} asked to terminate"
+              f"{': ' + s['reason'] if s['reason'] else ''}; kept what was recorded")
     return 0
 
 

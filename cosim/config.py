@@ -25,6 +25,7 @@ import tomllib
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
+from cosim.fmi.instance import value_dtype
 from cosim.tomldoc import parse_overrides, read_toml
 
 __all__ = [
@@ -158,12 +159,16 @@ class Connection:
         ``(instance, variable)`` pairs.
     gain, offset : float
         The affine map applied on the way.
+    round : bool
+        Allow a real to drive an Integer, enumeration or Boolean input: the value is rounded to the nearest
+        integer (a Boolean is true when that is not 0). Without it such a connection is a config error.
     """
 
     src: tuple
     dst: tuple
     gain: float = 1.0
     offset: float = 0.0
+    round: bool = False
 
 
 @dataclass(frozen=True)
@@ -267,7 +272,8 @@ class Config:
 _TOP = ("run", "solver", "fmus", "controllers", "connections", "record", "plot", "summary")
 _FMU = ("path", "kind", "parameters_file", "parameters", "start")
 _CTRL = ("class", "rate", "jit", "parameters")
-_CONN = ("from", "to", "gain", "offset")
+_CONN = ("from", "to", "gain", "offset", "round")
+_RESERVED_COLUMNS = ("time",)
 _SUMMARY = ("kind", "controller")  # and the signals of the chosen summary
 _ENGINES = ("compiled", "python")
 _METHODS = ("rk4", "bdf", "radau", "lsoda")
@@ -392,6 +398,23 @@ def _parameters_file(table, base_dir, problems, path):
     return values
 
 
+def _value_type(info, var, value, problems, where):
+    """A parameter or start value must fit the variable's type: a number for a real, an integer (or an integral
+    float) for an Integer or enumeration, true/false for a Boolean."""
+    dtype = value_dtype(info.fmi_version, var.type)
+    kind = None if dtype is None else dtype.kind
+    if kind == "b":
+        ok = isinstance(value, bool)
+    elif kind in ("i", "u"):
+        ok = _is_num(value) and float(value).is_integer()
+    else:
+        ok = _is_num(value) and kind is not None
+    if not ok:
+        want = {"b": "true or false", "i": "an integer", "u": "an integer"}.get(kind, "a number")
+        problems.add(where, f"{var.name!r} is {var.type}: the value must be {want}; got {value!r}"
+                     if kind is not None else f"{var.name!r} is {var.type}: it cannot be set from a config")
+
+
 def _fmu_values(info, file, params, starts, problems, p):
     """Check parameter and start values against the model description ``info`` of ``file``."""
     for pn, pv in params.items():
@@ -401,16 +424,16 @@ def _fmu_values(info, file, params, starts, problems, p):
             problems.add(p + ("parameters", pn), f"{file.name} has no parameter {pn!r}{_close(pn, names)}")
         elif var.causality not in ("parameter",) or var.variability == "constant":
             problems.add(p + ("parameters", pn), f"{pn!r} is a {var.variability} {var.causality}, not a settable parameter")
-        elif not (_is_num(pv) or isinstance(pv, bool)):
-            problems.add(p + ("parameters", pn), f"must be a number or boolean; got {pv!r}")
+        else:
+            _value_type(info, var, pv, problems, p + ("parameters", pn))
     for sn, sv in starts.items():
         var = info.variables.get(sn)
         if var is None:
             problems.add(p + ("start", sn), f"{file.name} has no variable {sn!r}{_close(sn, info.variables)}")
         elif var.causality in ("output", "independent", "calculatedParameter") or var.variability == "constant":
             problems.add(p + ("start", sn), f"{sn!r} is a {var.causality}; its start value cannot be set")
-        elif not _is_num(sv):
-            problems.add(p + ("start", sn), f"must be a number; got {sv!r}")
+        else:
+            _value_type(info, var, sv, problems, p + ("start", sn))
 
 
 def _fmu(name, t, base_dir, problems):
@@ -507,15 +530,33 @@ class _Instances:
         self.fmus, self.ctrls, self.declared = fmus, ctrls, declared
         self.known = set(fmus) | set(ctrls)
 
+    def _routable(self, inst, causality):
+        info = self.fmus[inst].info
+        return [v.name for v in info.variables.values()
+                if v.causality == causality and value_dtype(info.fmi_version, v.type) is not None]
+
     def outputs(self, inst):
         if inst in self.fmus:
-            return [v.name for v in self.fmus[inst].info.variables.values() if v.causality == "output" and v.is_real]
+            return self._routable(inst, "output")
         return list(self.ctrls[inst].cls.outputs)
 
     def inputs(self, inst):
         if inst in self.fmus:
-            return [v.name for v in self.fmus[inst].info.variables.values() if v.causality == "input" and v.is_real]
+            return self._routable(inst, "input")
         return list(self.ctrls[inst].cls.inputs)
+
+    def kind(self, sig):
+        """'f' (real), 'i' (integer or enumeration) or 'b' (Boolean): how a signal's values convert."""
+        inst, var = sig
+        if inst not in self.fmus:
+            return "f"
+        info = self.fmus[inst].info
+        k = value_dtype(info.fmi_version, info.variables[var].type).kind
+        return "i" if k == "u" else k
+
+    def type_name(self, sig):
+        inst, var = sig
+        return self.fmus[inst].info.variables[var].type if inst in self.fmus else "Float64 (a controller signal)"
 
     def end(self, text, cpath, direction, problems):
         """The (instance, variable) of a connection's ``direction`` ("from"/"to") end, or None after a problem."""
@@ -550,10 +591,14 @@ class _Instances:
             return None
         inst, var = sig
         if inst in self.fmus:
-            v = self.fmus[inst].info.variables.get(var)
-            if v is None or not v.is_real:
-                problems.add(sp, f"{self.fmus[inst].path.name} has no real variable {var!r}"
-                                 f"{_close(var, self.fmus[inst].info.variables)}")
+            info = self.fmus[inst].info
+            v = info.variables.get(var)
+            if v is None:
+                problems.add(sp, f"{self.fmus[inst].path.name} has no variable {var!r}{_close(var, info.variables)}")
+                return None
+            if value_dtype(info.fmi_version, v.type) is None:
+                problems.add(sp, f"{text} is a {v.type} variable; Real/Float, Integer, enumeration and Boolean "
+                                 "variables can be recorded")
                 return None
         elif inst in self.ctrls:
             names = list(self.ctrls[inst].cls.inputs) + list(self.ctrls[inst].cls.outputs)
@@ -590,11 +635,38 @@ def _connections(data, instances, problems):
             if dst in seen_dst:
                 problems.add(p + ("to",), f"{c['to']} is already driven by connections[{seen_dst[dst]}]")
             seen_dst[dst] = i
+        rounding = c.get("round", False)
+        if not isinstance(rounding, bool):
+            problems.add(p + ("round",), f"must be true or false; got {rounding!r}")
+            rounding = False
         if src is not None and dst is not None:
             if src[0] == dst[0]:
                 problems.add(p, f"connects {src[0]} to itself")
-            conns.append(Connection(src, dst, float(gain), float(offset)))
+            _conversion(instances, src, dst, gain, offset, rounding, problems, p)
+            conns.append(Connection(src, dst, float(gain), float(offset), rounding))
     return tuple(conns)
+
+
+def _conversion(instances, src, dst, gain, offset, rounding, problems, p):
+    """The type rules of a connection (docs/master.md "Variable types"): any value drives a real input
+    (Boolean as 0/1); an Integer input takes Integer or Boolean values with an integer gain and offset; a
+    Boolean input takes a Boolean with gain 1 and offset 0; anything else needs ``round = true``."""
+    sk, dk = instances.kind(src), instances.kind(dst)
+    if dk == "f" or rounding:
+        return
+    where = f"{'.'.join(src)} ({instances.type_name(src)}) -> {'.'.join(dst)} ({instances.type_name(dst)})"
+    if dk == "i" and sk in "ib":
+        if _is_num(gain) and _is_num(offset) and (gain != int(gain) or offset != int(offset)):
+            problems.add(p, f"{where}: an Integer input needs an integer gain and offset; got gain={gain}, "
+                            f"offset={offset} (or set round = true)")
+    elif dk == "b" and sk == "b":
+        if (gain, offset) != (1, 0):
+            problems.add(p, f"{where}: a Boolean drives a Boolean input with gain 1 and offset 0 only; "
+                            f"got gain={gain}, offset={offset}")
+    else:
+        problems.add(p + ("to",), f"{where}: a real value does not drive an Integer or Boolean input without "
+                                  "round = true (nearest integer; a Boolean is true when it is not 0)"
+                     if sk == "f" else f"{where}: an Integer does not drive a Boolean input without round = true")
 
 
 def _record(data, instances, problems):
@@ -604,10 +676,15 @@ def _record(data, instances, problems):
     if not isinstance(sigs, list):
         problems.add(("record", "signals"), "must be a list of 'instance.variable' strings")
         sigs = []
+    if not sigs and "signals" in s.table:
+        problems.add(("record", "signals"), "is empty: list at least one 'instance.variable' to record")
     good = []
     for i, text in enumerate(sigs):
         sig = instances.recorded(text, ("record", "signals", i), problems)
-        if sig is not None and sig not in good:
+        if sig is not None and sig[0] in instances.fmus and sig[1] in _RESERVED_COLUMNS:
+            problems.add(("record", "signals", i), f"{text}: the column {sig[1]!r} is reserved (the results' "
+                                                   "time column); this variable cannot be recorded under its name")
+        elif sig is not None and sig not in good:
             good.append(sig)
     return RecordSpec(float(rate), tuple(good))
 

@@ -33,3 +33,20 @@ def gripper_fmus(tmp_path_factory):
     from test_gripper_support import build_gripper_fmus
 
     return build_gripper_fmus(tmp_path_factory.mktemp("gripper_fmus"))
+
+
+@pytest.fixture(scope="session")
+def third_party_fmu(tmp_path_factory):
+    """The C test FMUs of tests/fmus (written like a third party's), built once per session: a function
+    (name, fmi_version=3) -> FMU path, e.g. ``third_party_fmu("BouncingBall", 2)``."""
+    from fmus.build import build
+
+    out = tmp_path_factory.mktemp("third_party_fmus")
+    built = {}
+
+    def get(name, fmi_version=3):
+        if (name, fmi_version) not in built:
+            built[name, fmi_version] = build(name, out, fmi_version)
+        return built[name, fmi_version]
+
+    return get

@@ -7,18 +7,49 @@ with argument arrays built once, over numpy buffers the caller fills in place.
 """
 
 import ctypes
+import math
 import shutil
 import tempfile
 
 import numpy as np
 
-from cosim.errors import FmiCallError
+from cosim.errors import EventError, FmiCallError, SimulationTerminated
 from cosim.fmi.extract import safe_extract
 from cosim.fmi.model import read_model_info
 
-__all__ = ["FmuInstance", "Port", "check", "STATUS_LABELS"]
+__all__ = ["FmuInstance", "Port", "check", "value_dtype", "STATUS_LABELS"]
 
 STATUS_LABELS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
+
+# variable type -> (suffix of the Get/Set functions, C array dtype, dtype of a recorded column), per FMI version
+_TYPES = {
+    2: {"Real": ("Real", np.float64, np.float64), "Integer": ("Integer", np.int32, np.int32),
+        "Enumeration": ("Integer", np.int32, np.int32), "Boolean": ("Boolean", np.int32, np.bool_)},
+    3: {"Float64": ("Float64", np.float64, np.float64), "Float32": ("Float32", np.float32, np.float32),
+        "Boolean": ("Boolean", np.bool_, np.bool_), "Enumeration": ("Int64", np.int64, np.int64),
+        **{t: (t, np.dtype(t.lower()).type, np.dtype(t.lower()).type)
+           for t in ("Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")}},
+}
+
+
+def value_dtype(version, vtype):
+    """The numpy dtype a variable of FMI type ``vtype`` is recorded with, or None when it cannot be routed.
+
+    Parameters
+    ----------
+    version : int
+        2 or 3.
+    vtype : str
+        The variable's type as the model description names it ('Real', 'Integer', 'Float32', 'Boolean', ...).
+
+    Returns
+    -------
+    numpy.dtype or None
+        float64/float32 for reals, an integer dtype for integers and enumerations, bool for Booleans;
+        None for String, Binary and Clock variables.
+    """
+    entry = _TYPES[version].get(vtype)
+    return None if entry is None else np.dtype(entry[2])
 
 
 def check(function, status, detail=""):
@@ -39,7 +70,11 @@ def check(function, status, detail=""):
 
 
 class Port:
-    """A fixed list of real variables of one instance, with a numpy buffer of their values.
+    """A fixed list of variables of one type of one instance, with a float64 numpy buffer of their values.
+
+    Reals are read and written in place; other types go through a typed array: Integer and Boolean values
+    read into the buffer are exact (Boolean as 0/1), values written are rounded to the nearest integer
+    (Boolean: true when that is not 0), Float32 rounded to the nearest float32.
 
     Parameters
     ----------
@@ -47,6 +82,8 @@ class Port:
         The variables, in buffer order.
     vrs : sequence of int
         Their value references.
+    ctype : numpy dtype, optional
+        The C array type of the FMU's Get/Set function for these variables (default float64).
 
     Attributes
     ----------
@@ -55,12 +92,17 @@ class Port:
         Filled by :meth:`FmuInstance.get`, read by :meth:`FmuInstance.set`.
     """
 
-    def __init__(self, names, vrs):
+    def __init__(self, names, vrs, ctype=np.float64):
         self.names = tuple(names)
         self.n = len(self.names)
         self.values = np.zeros(self.n)
         self._vr = (ctypes.c_uint * self.n)(*vrs)
-        self._ptr = self.values.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        self.raw = None if np.dtype(ctype) == np.float64 else np.zeros(self.n, dtype=ctype)
+        self._ptr = self._pointer()
+
+    def _pointer(self):
+        arr = self.values if self.raw is None else self.raw
+        return arr.ctypes.data_as(ctypes.POINTER(np.ctypeslib.as_ctypes_type(arr.dtype)))
 
     @property
     def vr_address(self):
@@ -72,7 +114,21 @@ class Port:
         if buffer.shape != (self.n,) or buffer.dtype != np.float64 or not buffer.flags.c_contiguous:
             raise ValueError(f"Port.bind: need a contiguous float64 array of shape ({self.n},)")
         self.values = buffer
-        self._ptr = buffer.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        self._ptr = self._pointer()
+
+    def to_values(self):
+        """Typed port: copy what the FMU returned (``raw``) into ``values``."""
+        self.values[:] = self.raw
+
+    def from_values(self):
+        """Typed port: convert ``values`` into ``raw`` for the FMU (see the class docstring)."""
+        kind = self.raw.dtype.kind
+        if kind == "f":
+            self.raw[:] = self.values
+        elif kind == "b":
+            self.raw[:] = np.rint(self.values) != 0
+        else:
+            self.raw[:] = np.rint(self.values)
 
 
 class FmuInstance:
@@ -122,6 +178,10 @@ class FmuInstance:
         self.dx = np.zeros(self.n_states)
         self._xp = self.x.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
         self._dxp = self.dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        self.n_indicators = self.info.n_event_indicators if kind == "ME" else 0
+        self.z = np.zeros(self.n_indicators)
+        self._zp = self.z.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        self.next_event_time = math.inf
 
     def bind_state_buffers(self, x, dx):
         """Use ``x`` and ``dx`` (contiguous float64 arrays of length n_states, e.g. slices of the
@@ -155,6 +215,7 @@ class FmuInstance:
             raise FmiCallError("load", "failed", f"{self.info.path}: {err}") from err
         f = self._fmu._functions
         p = "fmi3" if self.version == 3 else "fmi2"
+        update = "fmi3UpdateDiscreteStates" if self.version == 3 else "fmi2NewDiscreteStates"
         self._f_set_time = f.get(f"{p}SetTime")
         self._f_set_states = f.get(f"{p}SetContinuousStates")
         self._f_get_states = f.get(f"{p}GetContinuousStates")
@@ -163,6 +224,7 @@ class FmuInstance:
         self._f_set_real = f[f"{p}SetFloat64" if self.version == 3 else "fmi2SetReal"]
         self._f_do_step = f.get(f"{p}DoStep")
         self._f_completed = f.get(f"{p}CompletedIntegratorStep")
+        self._f_indicators = f.get(f"{p}GetEventIndicators")
         self._b1 = ctypes.c_bool() if self.version == 3 else ctypes.c_int()
         self._b2 = ctypes.c_bool() if self.version == 3 else ctypes.c_int()
         self._b3 = ctypes.c_bool()
@@ -218,25 +280,52 @@ class FmuInstance:
         self._fmpy_call("ExitInitializationMode", fmu.exitInitializationMode)
         self._initialised = True
         if self.kind == "ME":
-            self._event_iteration()
+            self._event_iteration(start_time)
             self._fmpy_call("EnterContinuousTimeMode", fmu.enterContinuousTimeMode)
             if self.n_states:
                 self.pull_states()
         elif self.version == 3:
             pass  # FMI 3 CS without event mode is in step mode after exitInitializationMode
 
-    def _event_iteration(self):
+    MAX_EVENT_PASSES = 100  # event-iteration passes at one instant before EventError
+
+    def _event_iteration(self, t):
+        """Update discrete states until they settle (FMI event iteration) at time ``t``.
+
+        Sets ``next_event_time`` (inf when the FMU defines none); returns whether the continuous
+        states' values changed. Raises SimulationTerminated when the FMU asks to stop, EventError
+        when it does not settle within ``MAX_EVENT_PASSES`` passes.
+        """
         fmu = self._fmu
-        for _ in range(1000):
-            if self.version == 3:
-                r = self._fmpy_call("fmi3UpdateDiscreteStates", fmu.updateDiscreteStates)
-                if not r[0]:
-                    return
-            else:
-                r = self._fmpy_call("fmi2NewDiscreteStates", fmu.newDiscreteStates)
-                if not r[0]:
-                    return
-        raise FmiCallError("UpdateDiscreteStates", "no convergence", f"{self.name}: event iteration did not end")
+        changed = False
+        update = fmu.updateDiscreteStates if self.version == 3 else fmu.newDiscreteStates
+        for _ in range(self.MAX_EVENT_PASSES):
+            again, terminate, _, values_changed, time_defined, next_time = self._fmpy_call("UpdateDiscreteStates", update)
+            changed = changed or bool(values_changed)
+            if terminate:
+                raise SimulationTerminated(self.name, t, self.messages[-1] if self.messages else "")
+            if not again:
+                self.next_event_time = float(next_time) if time_defined else math.inf
+                return changed
+        raise EventError(f"{self.name}: the event iteration at t={t:.12g} s did not settle in "
+                         f"{self.MAX_EVENT_PASSES} passes (discrete states keep changing)")
+
+    def handle_event(self, t):
+        """ME, in continuous-time mode at ``t`` (time and states set): enter event mode, iterate, return to
+        continuous-time mode and re-read the states when the FMU changed them; returns whether it did."""
+        fmu = self._fmu
+        self._fmpy_call("EnterEventMode", fmu.enterEventMode)
+        changed = self._event_iteration(t)
+        self._fmpy_call("EnterContinuousTimeMode", fmu.enterContinuousTimeMode)
+        if changed and self.n_states:
+            self.pull_states()
+        return changed
+
+    def pull_indicators(self):
+        """ME: evaluate the event indicators into ``self.z``."""
+        st = self._f_indicators(self.component, self._zp, self.n_indicators)
+        if st > 1:
+            check("GetEventIndicators", st, self._last_message())
 
     def close(self):
         """Terminate and free the instance, unload the library and delete the unpacked files."""
@@ -272,11 +361,16 @@ class FmuInstance:
         dict of str to int
             ``component`` (the instance pointer) and, where the FMU exports them, ``SetTime``,
             ``SetContinuousStates``, ``GetContinuousStates``, ``GetDerivatives``, ``GetReal``,
-            ``SetReal``, ``DoStep``, ``CompletedIntegratorStep`` (FMI 2 or FMI 3 signatures per
-            ``self.version``); 0 when absent.
+            ``SetReal``, ``DoStep``, ``CompletedIntegratorStep``, and for events ``GetEventIndicators``,
+            ``EnterEventMode``, ``UpdateDiscreteStates`` (FMI 2: ``fmi2NewDiscreteStates``),
+            ``EnterContinuousTimeMode`` (FMI 2 or FMI 3 signatures per ``self.version``); 0 when absent.
         """
         def addr(f):
             return ctypes.cast(f, ctypes.c_void_p).value or 0 if f is not None else 0
+
+        f = self._fmu._functions
+        p = "fmi3" if self.version == 3 else "fmi2"
+        update = "fmi3UpdateDiscreteStates" if self.version == 3 else "fmi2NewDiscreteStates"
 
         return {
             "component": self.component or 0,
@@ -288,6 +382,10 @@ class FmuInstance:
             "SetReal": addr(self._f_set_real),
             "DoStep": addr(self._f_do_step),
             "CompletedIntegratorStep": addr(self._f_completed),
+            "GetEventIndicators": addr(self._f_indicators),
+            "EnterEventMode": addr(f.get(f"{p}EnterEventMode")),
+            "UpdateDiscreteStates": addr(f.get(update)),
+            "EnterContinuousTimeMode": addr(f.get(f"{p}EnterContinuousTimeMode")),
         }
 
     # -- values by name (not hot) ------------------------------------------------------------
@@ -311,41 +409,66 @@ class FmuInstance:
                 raise FmiCallError("set", "unsupported", f"{self.name}.{name}: type {t} cannot be set")
 
     def get_values(self, names):
-        """Return a dict of the current real values of ``names``."""
-        port = self.port(names)
-        self.get(port)
-        return dict(zip(names, port.values.tolist()))
+        """Return a dict of the current values of ``names`` (as floats; Booleans 0/1)."""
+        out = {}
+        for n in names:
+            port = self.port([n])
+            self.get(port)
+            out[n] = float(port.values[0])
+        return out
 
     # -- hot path ----------------------------------------------------------------------------
     def port(self, names):
-        """Make a :class:`Port` over the real variables ``names``."""
-        vrs = []
+        """Make a :class:`Port` over the variables ``names`` (all of one FMI type; see :func:`value_dtype`)."""
+        vrs, types = [], set()
         for n in names:
             v = self.info.variables[n]
-            if not v.is_real:
-                raise FmiCallError("port", "unsupported", f"{self.name}.{n} is {v.type}, only reals are routed")
+            if _TYPES[self.version].get(v.type) is None:
+                raise FmiCallError("port", "unsupported", f"{self.name}.{n} is {v.type}; it cannot be routed")
             vrs.append(v.vr)
-        return Port(names, vrs)
+            types.add(v.type)
+        if len(types) > 1:
+            raise ValueError(f"{self.name}: a port holds one type; got {sorted(types)}")
+        suffix, ctype, _ = _TYPES[self.version][types.pop() if types else ("Real", "Float64")[self.version - 2]]
+        port = Port(names, vrs, ctype)
+        port.suffix = suffix
+        return port
+
+    def _typed_call(self, what, port):
+        p = "fmi3" if self.version == 3 else "fmi2"
+        fname = f"{p}{what}{port.suffix}"
+        args = (self.component, port._vr, port.n, port._ptr) + ((port.n,) if self.version == 3 else ())
+        st = self._fmu._functions[fname](*args)
+        if st > 1:
+            check(fname, st, self._last_message())
 
     def get(self, port):
         """Read the port's variables into ``port.values``."""
-        if port.n:
-            if self.version == 3:
-                st = self._f_get_real(self.component, port._vr, port.n, port._ptr, port.n)
-            else:
-                st = self._f_get_real(self.component, port._vr, port.n, port._ptr)
-            if st > 1:
-                check("GetFloat64" if self.version == 3 else "fmi2GetReal", st, self._last_message())
+        if port.raw is None:
+            if port.n:
+                if self.version == 3:
+                    st = self._f_get_real(self.component, port._vr, port.n, port._ptr, port.n)
+                else:
+                    st = self._f_get_real(self.component, port._vr, port.n, port._ptr)
+                if st > 1:
+                    check("GetFloat64" if self.version == 3 else "fmi2GetReal", st, self._last_message())
+        elif port.n:
+            self._typed_call("Get", port)
+            port.to_values()
 
     def set(self, port):
         """Write ``port.values`` to the port's variables."""
-        if port.n:
-            if self.version == 3:
-                st = self._f_set_real(self.component, port._vr, port.n, port._ptr, port.n)
-            else:
-                st = self._f_set_real(self.component, port._vr, port.n, port._ptr)
-            if st > 1:
-                check("SetFloat64" if self.version == 3 else "fmi2SetReal", st, self._last_message())
+        if port.raw is None:
+            if port.n:
+                if self.version == 3:
+                    st = self._f_set_real(self.component, port._vr, port.n, port._ptr, port.n)
+                else:
+                    st = self._f_set_real(self.component, port._vr, port.n, port._ptr)
+                if st > 1:
+                    check("SetFloat64" if self.version == 3 else "fmi2SetReal", st, self._last_message())
+        elif port.n:
+            port.from_values()
+            self._typed_call("Set", port)
 
     def set_time(self, t):
         """ME: set the independent variable."""
@@ -371,24 +494,36 @@ class FmuInstance:
         if st > 1:
             check("GetContinuousStateDerivatives", st, self._last_message())
 
-    def completed_integrator_step(self):
-        """ME: tell the FMU an integrator step is complete; returns True when it asks for an event."""
+    def completed_integrator_step(self, t=math.nan):
+        """ME: tell the FMU the integrator step ending at ``t`` is complete; returns True when it asks for event
+        mode; raises SimulationTerminated when it asks to stop."""
         if self.version == 3:
             st = self._f_completed(self.component, True, ctypes.byref(self._b1), ctypes.byref(self._b2))
         else:
             st = self._f_completed(self.component, 1, ctypes.byref(self._b1), ctypes.byref(self._b2))
         if st > 1:
             check("CompletedIntegratorStep", st, self._last_message())
+        if self._b2.value:
+            raise SimulationTerminated(self.name, t, self.messages[-1] if self.messages else "")
         return bool(self._b1.value)
 
     def do_step(self, t, h):
-        """CS: advance from ``t`` by ``h``."""
+        """CS: advance from ``t`` by ``h``; raises SimulationTerminated when the FMU asks to stop."""
         if self.version == 3:
+            self._b2.value = False
             st = self._f_do_step(self.component, t, h, True, ctypes.byref(self._b1), ctypes.byref(self._b2),
                                  ctypes.byref(self._b3), ctypes.byref(self._d1))
+            terminate = st <= 2 and self._b2.value
         else:
             st = self._f_do_step(self.component, t, h, 1)
+            terminate = st == 2 and self._fmi2_terminated()
+        if terminate:
+            raise SimulationTerminated(self.name, t + h, self.messages[-1] if self.messages else "")
         if st > 1:
             check("DoStep", st, self._last_message())
-        if self._b2.value:
-            raise FmiCallError("DoStep", "terminateSimulation", f"{self.name} asked to stop at t={t + h}")
+
+    def _fmi2_terminated(self):
+        """FMI 2 CS after a Discard from doStep: whether the FMU asks to terminate (fmi2Terminated status)."""
+        f = self._fmu._functions.get("fmi2GetBooleanStatus")
+        flag = ctypes.c_int(0)
+        return f is not None and f(self.component, 3, ctypes.byref(flag)) <= 1 and bool(flag.value)  # fmi2Terminated

@@ -19,6 +19,11 @@ Signatures (FMI 2.0 and 3.0 share the first two; statuses are returned as int32)
 * :func:`do_step3` ``fmi3DoStep(c, t, h, true, bool*, bool* terminate, bool*, double*)``: the three
   flags at ``scratch`` bytes 0..2 (terminate at byte 1), the last successful time at ``scratch + 8``
 * :func:`do_step2` ``fmi2DoStep(c, t, h, 1)``
+* :func:`call0` ``fmiXEnterEventMode / EnterContinuousTimeMode(c)``
+* :func:`update3` ``fmi3UpdateDiscreteStates(c, bool*, bool*, bool*, bool*, bool*, double*)``: the five flags
+  at ``scratch`` bytes 0..4, the next event time at ``scratch + 8``
+* :func:`update2` ``fmi2NewDiscreteStates(c, fmi2EventInfo*)``: the struct (five int32, the next event
+  time at byte 24) at ``scratch``
 * :func:`call_kernel` ``void kernel(double t, double* u, int64 nu, double* y, int64 ny, double* x,
   int64 nx, double* p, int64 np)``: a controller kernel compiled as a numba ``cfunc``
 """
@@ -27,8 +32,8 @@ from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["set_time", "vec", "real3", "real2", "completed3", "completed2", "do_step3", "do_step2",
-           "call_kernel", "KERNEL_SIGNATURE"]
+__all__ = ["set_time", "vec", "real3", "real2", "completed3", "completed2", "do_step3", "do_step2", "call0",
+           "update3", "update2", "call_kernel", "KERNEL_SIGNATURE"]
 
 _I8P = ir.IntType(8).as_pointer()
 _I32 = ir.IntType(32)
@@ -106,6 +111,10 @@ completed3 = _make(_spec("P", "1", "P", "+1"), "i32", "fmi3CompletedIntegratorSt
 completed2 = _make(_spec("P", "1", "P", "+4"), "i32", "fmi2CompletedIntegratorStep(fn, c, flags) -> status")
 do_step3 = _make(_spec("P", "D", "D", "1", "P", "+1", "+2", "+8"), "i32", "fmi3DoStep(fn, c, t, h, scratch) -> status")
 do_step2 = _make(_spec("P", "D", "D", "1"), "i32", "fmi2DoStep(fn, c, t, h) -> status")
+call0 = _make(_spec("P"), "i32", "fmiXEnterEventMode / EnterContinuousTimeMode(fn, c) -> status")
+update3 = _make(_spec("P", "P", "+1", "+2", "+3", "+4", "+8"), "i32",
+                "fmi3UpdateDiscreteStates(fn, c, scratch) -> status")
+update2 = _make(_spec("P", "P"), "i32", "fmi2NewDiscreteStates(fn, c, scratch) -> status")
 call_kernel = _make(_spec("D", "P", "Z", "P", "Z", "P", "Z", "P", "Z"), "void",
                     "kernel(fn, t, u, nu, y, ny, x, nx, p, np): a controller kernel compiled as a cfunc")
 

@@ -4,7 +4,9 @@ It does exactly what :class:`cosim.master.loop.PythonLoop` and :class:`cosim.mas
 do at each instant, in the same order and with the same floating-point operations (so both engines
 give the same numbers): sample the plant, route, step the due controllers (numba ``cfunc`` kernels
 called by address), hold their outputs, record, and advance the plant (RK4 substeps over the ME
-FMUs' combined state, ``doStep`` of CS FMUs). FMU functions are called by address through
+FMUs' combined state, ``doStep`` of CS FMUs), handling the events of ME FMUs with the Python engine's rules
+(state events located by bisection on the RK4 step to ``EVENT_TOL``, time events, step events, event
+iteration with the chattering guard; :mod:`cosim.master.plant`). FMU functions are called by address through
 :mod:`cosim.fmi.native`. Everything a run needs is in integer/float tables built by
 ``cosim.master.compiled.CompiledLoop``; the kernel itself is compiled once and cached on disk.
 
@@ -13,7 +15,9 @@ Tables (all int64 unless said):
 ``fmu`` (n_fmu, N_FMU_COLS)
     per FMU: component, SetTime, SetContinuousStates, GetDerivatives, GetReal, SetReal, DoStep,
     CompletedIntegratorStep addresses, FMI version, state offset in X, number of states, scratch
-    address (16 bytes for the flags of CompletedIntegratorStep / DoStep).
+    address (32 bytes for the flags of CompletedIntegratorStep / DoStep / UpdateDiscreteStates), then
+    GetEventIndicators, EnterEventMode, UpdateDiscreteStates (FMI 2: NewDiscreteStates),
+    EnterContinuousTimeMode, GetContinuousStates addresses.
 ``me``, ``cmp``, ``cs`` (n,)
     FMU indices of the ME FMUs (in order), of those needing CompletedIntegratorStep, of the CS FMUs.
 ``port`` (n_port, 4)
@@ -29,15 +33,35 @@ Tables (all int64 unless said):
     cfunc address, period (ticks), route group, then address and length of u, y, x, p.
 ``ii``
     k_stop, record period, time-base numerator, denominator, number of periods, then the periods.
-``ff`` (float64)
-    start time, h_max.
+``ff`` (float64, FF)
+    start time, h_max, time of the latest event (or of the stop an FMU asked for), earliest next time event,
+    then the event rules of the Python engine (run-time data, so that numba's cache of this file never
+    holds stale copies): ``EVENT_TOL``, ``CHATTER_WINDOW``, ``MAX_EVENTS_AT_ONE_TIME``
+    (:mod:`cosim.master.plant`), ``FmuInstance.MAX_EVENT_PASSES``.
 ``st`` (N_ST,)
-    run state kept between chunks: k, synced tick, first-chunk flag, error FMU, error function,
-    error status, event FMU + 1, event tick.
+    run state kept between chunks: k, synced tick, first-chunk flag, error FMU, error function (index
+    in FUNCTIONS; ``terminate``, ``unsettled``, ``chatter`` are event outcomes), error status, number of
+    events in a row within CHATTER_WINDOW of each other, number of events in the log.
 ``rec`` (n_rows, n_col) float64, ``times`` (n_rows,) float64, ``rows`` (1,)
     the recorder's arrays (:class:`cosim.master.recorder.Recorder`): rows are written at ``rows[0]``.
-``scr`` (n_fmu, 16) uint8
-    the scratch bytes whose addresses are in ``fmu`` (flags written by the FMUs).
+``scr`` (n_fmu, 32) uint8, ``scr64`` the same memory as (n_fmu, 4) float64
+    the scratch bytes whose addresses are in ``fmu`` (flags and next event time written by the FMUs).
+``evt``
+    None when no FMU can have events, else the tuple ``(ev, Z, E, due, tev, scr, scr64, ff, log)``:
+
+    ``ev`` (n_ev, 3)
+        the ME FMUs with event indicators: FMU index, offset of its indicators in ``Z``, their number.
+    ``Z`` (2, n_z) float64
+        indicators at the last accepted point, and just read.
+    ``E`` (2, n_x) float64
+        the state and first-stage derivative at the start of a step being cut at an event.
+    ``due`` (n_fmu,)
+        FMUs marked for event iteration.
+    ``tev`` (n_fmu,) float64
+        each FMU's next time event (inf: none).
+    ``log`` (n_log, 3) float64
+        the events handled since Python last read the log (``st`` n_log of them): time, FMU index,
+        kind (index in KINDS). A chunk stops early when it is half full.
 
 The kernel is compiled without numba's reference counting (``_nrt=False``: nothing is allocated in
 it; with reference counting the array arguments of the helpers cost two atomic operations per call
@@ -51,17 +75,25 @@ import numba
 
 from cosim.fmi import native
 
-__all__ = ["run_chunk", "FMU_COLS", "CTL_COLS", "ST", "FUNCTIONS", "DONE", "MORE", "ERROR"]
+__all__ = ["run_chunk", "FMU_COLS", "CTL_COLS", "ST", "FF", "FUNCTIONS", "KINDS", "DONE", "MORE", "ERROR"]
 
 FMU_COLS = ("component", "SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "SetReal", "DoStep",
-            "CompletedIntegratorStep", "version", "x_off", "n_states", "scratch")
-(_C, _ST, _SX, _GD, _GR, _SR, _DS, _CI, _V, _XO, _NX, _SC) = range(len(FMU_COLS))
+            "CompletedIntegratorStep", "version", "x_off", "n_states", "scratch", "GetEventIndicators",
+            "EnterEventMode", "UpdateDiscreteStates", "EnterContinuousTimeMode", "GetContinuousStates")
+(_C, _ST, _SX, _GD, _GR, _SR, _DS, _CI, _V, _XO, _NX, _SC, _GZ, _EEM, _UDS, _ECT, _GX) = range(len(FMU_COLS))
 CTL_COLS = ("fn", "period", "route", "u", "nu", "y", "ny", "x", "nx", "p", "np")
-ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "event_fmu", "event_k")
-(_K, _SYNC, _FIRST, _EF, _EFN, _ES, _EVF, _EVK) = range(len(ST))
+ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "ev_count", "n_log")
+(_K, _SYNC, _FIRST, _EF, _EFN, _ES, _EVN, _NLOG) = range(len(ST))
 FUNCTIONS = ("SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "SetReal", "DoStep",
-             "CompletedIntegratorStep", "DoStep:terminate")
+             "CompletedIntegratorStep", "DoStep:terminate", "GetEventIndicators", "EnterEventMode",
+             "UpdateDiscreteStates", "EnterContinuousTimeMode", "GetContinuousStates", "terminate", "unsettled",
+             "chatter")
+(_FN_GZ, _FN_EEM, _FN_UDS, _FN_ECT, _FN_GX, _FN_TERM, _FN_UNSETTLED, _FN_CHATTER) = range(8, 16)
+FF = ("t0", "h_max", "event_t", "next_time_event", "event_tol", "chatter_window", "max_events", "max_passes")
+(_T0, _HMAX, _EVT, _TNEXT, _TOL, _WINDOW, _MAXEV, _MAXPASS) = range(len(FF))
 DONE, MORE, ERROR = 0, 1, 2
+KINDS = ("state", "time", "step", "input")  # event kinds of the event log, as the Python engine's
+(_STATE, _TIME, _STEP, _INPUT) = range(len(KINDS))
 
 
 @numba.njit(cache=True, _nrt=False)
@@ -136,8 +168,18 @@ def _stage(W, s, c):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _completed(k, fmu, cmp, scr, st):
-    """CompletedIntegratorStep of the ME FMUs that need it; notes the first event request; True on an FMI error."""
+def _flag(fmu, scr, f, i):
+    """Flag ``i`` an FMU wrote to its scratch: FMI 3 a C bool at byte i, FMI 2 an int32 at byte 4 i."""
+    if fmu[f, _V] == 3:
+        return scr[f, i] != 0
+    return (scr[f, 4 * i] | scr[f, 4 * i + 1] | scr[f, 4 * i + 2] | scr[f, 4 * i + 3]) != 0
+
+
+@numba.njit(cache=True, _nrt=False)
+def _completed(fmu, cmp, scr, due, st):
+    """CompletedIntegratorStep of the ME FMUs that need it; marks in ``due`` those asking for event mode and
+    returns how many; -1 on an FMI error or a request to terminate."""
+    n = 0
     for i in range(cmp.shape[0]):
         f = cmp[i]
         sc = fmu[f, _SC]
@@ -146,17 +188,266 @@ def _completed(k, fmu, cmp, scr, st):
         else:
             s = native.completed2(fmu[f, _CI], fmu[f, _C], sc)
         if s > 1:
-            return _fail(st, f, 6, s)
-        if st[_EVF] == 0 and (scr[f, 0] != 0 or (fmu[f, _V] == 2 and (scr[f, 1] | scr[f, 2] | scr[f, 3]) != 0)):
-            st[_EVF] = f + 1
-            st[_EVK] = k
+            _fail(st, f, 6, s)
+            return -1
+        if _flag(fmu, scr, f, 1):
+            _fail(st, f, _FN_TERM, 0)
+            return -1
+        due[f] = 1 if _flag(fmu, scr, f, 0) else 0
+        n += due[f]
+    return n
+
+
+@numba.njit(cache=True, _nrt=False)
+def _copy_row(A, a, B, b):
+    """``A[a] = B[b]`` (a loop: no array temporaries in the kernel)."""
+    for i in range(A.shape[1]):
+        A[a, i] = B[b, i]
+
+
+@numba.njit(cache=True, _nrt=False)
+def _net_eval(t, net, addrs, st):
+    """``_eval`` (push) with the plant's arrays bundled: ``net`` as in run_chunk, ``addrs`` (x, dx, buf)."""
+    return _eval(t, True, net[0], net[1], net[2], net[3], net[4], net[5], net[6], net[7], net[8], net[9], net[10],
+                 addrs[0], addrs[2], st)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _net_deriv(t, net, addrs, st):
+    return _deriv(t, True, net[0], net[1], net[2], net[3], net[4], net[5], net[6], net[7], net[8], net[9], net[10],
+                  addrs[0], addrs[1], addrs[2], st)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _iterate(f, fmu, scr, scr64, tev, max_passes, x_addr, st):
+    """Event mode of ME FMU ``f`` (it holds the event's time and states): update its discrete states until they
+    settle, note its next time event, back to continuous-time mode, re-read its states when they changed.
+    True on an FMI error, a request to terminate or an iteration that does not settle."""
+    c = fmu[f, _C]
+    s = native.call0(fmu[f, _EEM], c)
+    if s > 1:
+        return _fail(st, f, _FN_EEM, s)
+    changed = False
+    settled = False
+    for _ in range(max_passes):
+        if fmu[f, _V] == 3:
+            s = native.update3(fmu[f, _UDS], c, fmu[f, _SC])
+        else:
+            s = native.update2(fmu[f, _UDS], c, fmu[f, _SC])
+        if s > 1:
+            return _fail(st, f, _FN_UDS, s)
+        changed = changed or _flag(fmu, scr, f, 3)
+        if _flag(fmu, scr, f, 1):
+            return _fail(st, f, _FN_TERM, 0)
+        if not _flag(fmu, scr, f, 0):
+            settled = True
+            break
+    if not settled:
+        return _fail(st, f, _FN_UNSETTLED, 0)
+    tev[f] = (scr64[f, 1] if fmu[f, _V] == 3 else scr64[f, 3]) if _flag(fmu, scr, f, 4) else math.inf
+    s = native.call0(fmu[f, _ECT], c)
+    if s > 1:
+        return _fail(st, f, _FN_ECT, s)
+    if changed and fmu[f, _NX] > 0:
+        s = native.vec(fmu[f, _GX], c, x_addr + 8 * fmu[f, _XO], fmu[f, _NX])
+        if s > 1:
+            return _fail(st, f, _FN_GX, s)
     return False
 
 
 @numba.njit(cache=True, _nrt=False)
-def _rk4(t, t_next, k, h_max, fmu, me, cmp, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr,
-         buf_addr, scr, st):
-    """RK4 substeps of the ME FMUs' combined state from ``t`` to ``t_next``; True on an FMI error."""
+def _indicators(fmu, ev, Z, st):
+    """Read the event indicators of the FMUs that have some into ``Z[1]``; True on an FMI error."""
+    z_addr = Z.ctypes.data + 8 * Z.shape[1]
+    for e in range(ev.shape[0]):
+        f = ev[e, 0]
+        s = native.vec(fmu[f, _GZ], fmu[f, _C], z_addr + 8 * ev[e, 1], ev[e, 2])
+        if s > 1:
+            return _fail(st, f, _FN_GZ, s)
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
+def _crossed(ev, Z, due):
+    """Mark in ``due`` the FMUs whose indicators changed sign from ``Z[0]`` (accepted) to ``Z[1]`` (just read):
+    from > 0 to <= 0 or from < 0 to >= 0, as the Python engine; returns how many."""
+    n = 0
+    for e in range(ev.shape[0]):
+        hit = 0
+        for i in range(ev[e, 1], ev[e, 1] + ev[e, 2]):
+            z0 = Z[0, i]
+            z1 = Z[1, i]
+            if (z0 > 0 and z1 <= 0) or (z0 < 0 and z1 >= 0):
+                hit = 1
+        due[ev[e, 0]] = hit
+        n += hit
+    return n
+
+
+@numba.njit(cache=True, _nrt=False)
+def _handle_events(t, kind, net, evt, addrs, st):
+    """Event iteration at ``t`` of the FMUs marked in ``due`` (they hold t and X), each logged with ``kind``,
+    then every indicator re-read and accepted; the chattering guard counts events in a row each within
+    CHATTER_WINDOW of the previous one. True on an error."""
+    fmu, me = net[0], net[1]
+    ev, Z, due, tev, scr, scr64, ff, log = evt[0], evt[1], evt[3], evt[4], evt[5], evt[6], evt[7], evt[8]
+    first = -1
+    for i in range(me.shape[0]):
+        if due[me[i]] != 0 and first < 0:
+            first = me[i]
+    st[_EVN] = st[_EVN] + 1 if abs(t - ff[_EVT]) <= ff[_WINDOW] else 1
+    ff[_EVT] = t
+    if st[_EVN] > ff[_MAXEV]:
+        return _fail(st, max(first, 0), _FN_CHATTER, 0)
+    t_next = math.inf
+    for i in range(me.shape[0]):
+        f = me[i]
+        if due[f] != 0:
+            due[f] = 0
+            if _iterate(f, fmu, scr, scr64, tev, int(ff[_MAXPASS]), addrs[0], st):
+                return True
+            n = st[_NLOG]
+            if n < log.shape[0]:
+                log[n, 0] = t
+                log[n, 1] = f
+                log[n, 2] = kind
+            st[_NLOG] = n + 1
+        t_next = min(t_next, tev[f])
+    ff[_TNEXT] = t_next
+    st[_SYNC] = -1
+    if ev.shape[0] > 0:
+        if _net_eval(t, net, addrs, st) or _indicators(fmu, ev, Z, st):
+            return True
+        _copy_row(Z, 0, Z, 1)
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
+def _time_events(t, synced, net, evt, addrs, st):
+    """Event iteration at ``t`` of the FMUs whose next time event has come (``synced``: they hold t and X)."""
+    ff = evt[7]
+    if ff[_TNEXT] > t:
+        return False
+    me, due, tev = net[1], evt[3], evt[4]
+    for i in range(me.shape[0]):
+        due[me[i]] = 1 if tev[me[i]] <= t else 0
+    if not synced and _net_eval(t, net, addrs, st):
+        return True
+    return _handle_events(t, _TIME, net, evt, addrs, st)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _step_from(t, h, net, W, E, addrs, st):
+    """One RK4 step of length h from (t, E[0]) whose first-stage derivative is E[1]; W[0] holds the result."""
+    for i in range(W.shape[1]):
+        W[0, i] = E[0, i]
+        W[1, i] = E[0, i]
+        W[2, i] = E[1, i]
+    th = t + 0.5 * h
+    _stage(W, 0, 0.5 * h)
+    if _net_deriv(th, net, addrs, st):
+        return True
+    _stage(W, 1, 0.5 * h)
+    if _net_deriv(th, net, addrs, st):
+        return True
+    _stage(W, 2, h)
+    if _net_deriv(t + h, net, addrs, st):
+        return True
+    for i in range(W.shape[1]):
+        W[0, i] = W[1, i] + h / 6.0 * (W[3, i] + 2.0 * W[4, i] + 2.0 * W[5, i] + W[2, i])
+        W[1, i] = W[0, i]
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
+def _trial(t, h, net, evt, W, addrs, st):
+    """Integrate to t + h and mark the FMUs whose indicators changed sign; their number, -1 on an error."""
+    if _step_from(t, h, net, W, evt[2], addrs, st) or _net_eval(t + h, net, addrs, st):
+        return -1
+    if _indicators(net[0], evt[0], evt[1], st):
+        return -1
+    return _crossed(evt[0], evt[1], evt[3])
+
+
+@numba.njit(cache=True, _nrt=False)
+def _input_events(t, k, net, evt, addrs, st):
+    """At an instant, after the new inputs are set: an indicator that changed sign is an event at ``t``."""
+    if st[_SYNC] != k and _net_eval(t, net, addrs, st):
+        return True
+    if _indicators(net[0], evt[0], evt[1], st):
+        return True
+    if _crossed(evt[0], evt[1], evt[3]) > 0:
+        return _handle_events(t, _INPUT, net, evt, addrs, st)
+    _copy_row(evt[1], 0, evt[1], 1)
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
+def _after_step(t1, net, evt, cmp, addrs, st):
+    """A step ended at ``t1`` without a state event: accept the indicators, step events, time events due."""
+    _copy_row(evt[1], 0, evt[1], 1)
+    if cmp.shape[0] > 0:
+        n = _completed(net[0], cmp, evt[5], evt[3], st)
+        if n < 0 or (n > 0 and _handle_events(t1, _STEP, net, evt, addrs, st)):
+            return True
+    return _time_events(t1, True, net, evt, addrs, st)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _rk4_events(ta, tb, n, net, evt, cmp, W, addrs, st):
+    """RK4 from ta to tb on n equal steps, each cut at time events and at located state events (bisection on
+    the step length to EVENT_TOL, each trial re-integrating from the step's start): the rules of the Python
+    engine (``PlantSystem._rk4_events``). True on an error."""
+    E = evt[2]
+    ff = evt[7]
+    n_ev = evt[0].shape[0]
+    L = tb - ta
+    st[_SYNC] = -1
+    j = 1
+    t = ta
+    while t < tb:
+        grid = tb if j == n else ta + L * j / n
+        if _time_events(t, False, net, evt, addrs, st):
+            return True
+        te = ff[_TNEXT]
+        t1 = te if t < te < grid else grid
+        _copy_row(E, 0, W, 0)
+        if _net_deriv(t, net, addrs, st):
+            return True
+        _copy_row(E, 1, W, 2)
+        hits = _trial(t, t1 - t, net, evt, W, addrs, st) if n_ev > 0 else 0
+        if hits < 0:
+            return True
+        if hits > 0:
+            lo, hi = 0.0, t1 - t
+            while hi - lo > ff[_TOL]:
+                mid = 0.5 * (lo + hi)
+                hits = _trial(t, mid, net, evt, W, addrs, st)
+                if hits < 0:
+                    return True
+                if hits > 0:
+                    hi = mid
+                else:
+                    lo = mid
+            t1 = t + hi
+            if _trial(t, hi, net, evt, W, addrs, st) < 0 or _handle_events(t1, _STATE, net, evt, addrs, st):
+                return True
+        else:
+            if n_ev == 0 and (_step_from(t, t1 - t, net, W, E, addrs, st) or _net_eval(t1, net, addrs, st)):
+                return True
+            if _after_step(t1, net, evt, cmp, addrs, st):
+                return True
+        if t1 >= grid:
+            j += 1
+        t = t1
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
+def _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr, buf_addr,
+         st):
+    """RK4 substeps of the ME FMUs' combined state from ``t`` to ``t_next`` when no FMU has events or asks for
+    CompletedIntegratorStep (the plain path, as fast as before events existed); True on an FMI error."""
     nX = W.shape[1]
     L = t_next - t
     n = max(1, math.ceil(L / h_max - 1e-9))
@@ -187,11 +478,6 @@ def _rk4(t, t_next, k, h_max, fmu, me, cmp, port, pgrp, lvl, buf, rsrc, rdst, rg
         for i in range(nX):
             W[0, i] = W[1, i] + h / 6.0 * (W[3, i] + 2.0 * W[4, i] + 2.0 * W[5, i] + W[2, i])
             W[1, i] = W[0, i]
-        if cmp.shape[0] > 0:
-            if _eval(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
-                return True
-            if _completed(k, fmu, cmp, scr, st):
-                return True
     return False
 
 
@@ -212,16 +498,33 @@ def _do_steps(t, t_next, fmu, cs, scr, st):
 
 
 @numba.njit(cache=True, _nrt=False)
+def _advance_events(t, t_next, k, net, evt, cmp, W, addrs, st):
+    """Bring the ME FMUs from ``t`` to ``t_next`` when one has event indicators or asks for
+    CompletedIntegratorStep, or a time event falls before ``t_next``: input events at ``t``, then the
+    event-locating steps. True on an error."""
+    nX = W.shape[1]
+    if evt[0].shape[0] > 0 and _input_events(t, k, net, evt, addrs, st):
+        return True
+    n = 1 if nX == 0 else max(1, math.ceil((t_next - t) / evt[7][_HMAX] - 1e-9))
+    return _rk4_events(t, t_next, n, net, evt, cmp, W, addrs, st)
+
+
+@numba.njit(cache=True, _nrt=False)
 def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec, times,
-              rows, rec_idx, calls, scr, st, max_instants):
-    """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR."""
+              rows, rec_idx, calls, scr, st, evt, max_instants):
+    """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR.
+
+    ``evt`` is ``(ev, Z, E, due, tev, scr, scr64, ff, log)``, or None when no FMU can have events (no event
+    indicators, no CompletedIntegratorStep, no time event announced at initialisation): numba then compiles a
+    version without the event code (its branch is pruned), the loop as it was before events existed.
+    """
     k_stop = ii[0]
     rec_p = ii[1]
     num = ii[2]
     den = ii[3]
     n_per = ii[4]
-    t0 = ff[0]
-    h_max = ff[1]
+    t0 = ff[_T0]
+    h_max = ff[_HMAX]
     buf_addr = buf.ctypes.data
     nX = W.shape[1]
     x_addr = W.ctypes.data
@@ -237,6 +540,8 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
             return ERROR
     code = MORE
     for _ in range(max_instants):
+        if evt is not None and 2 * st[_NLOG] > evt[8].shape[0]:
+            break  # the event log is half full: Python reads it before the next chunk
         t = t0 + (k * den) / num
         # 1. sample
         if n_me > 0:
@@ -278,13 +583,22 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
             if kn < k_next:
                 k_next = kn
         t_next = t0 + (k_next * den) / num
-        # 6. advance: RK4 over the ME FMUs, then doStep of the CS FMUs
-        if n_me > 0 and nX > 0:
-            if _rk4(t, t_next, k, h_max, fmu, me, cmp, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr,
-                    dx_addr, buf_addr, scr, st):
+        # 6. advance: RK4 over the ME FMUs (locating events when they have some), then doStep of the CS FMUs
+        if n_me > 0:
+            plain = True
+            if evt is not None:
+                plain = not (evt[0].shape[0] > 0 or cmp.shape[0] > 0 or ff[_TNEXT] <= t_next)
+                if not plain and _advance_events(t, t_next, k, (fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain,
+                                                                 roff, rgrp), evt, cmp, W,
+                                                 (x_addr, dx_addr, buf_addr), st):
+                    code = ERROR
+                    break
+            if plain and nX > 0 and _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff,
+                                         rgrp, W, x_addr, dx_addr, buf_addr, st):
                 code = ERROR
                 break
         if _do_steps(t, t_next, fmu, cs, scr, st):
+            ff[_EVT] = t_next
             code = ERROR
             break
         k = k_next

@@ -2,7 +2,9 @@
 
 :class:`CompiledLoop` is the loop :class:`cosim.master.engine.Engine` swaps in for the Python one
 (:class:`cosim.master.loop.PythonLoop`) when :func:`compiled_problem` finds nothing against it
-(every controller's kernel compiles with numba, the solver is the fixed-step RK4, FMI 2.0 or 3.0).
+(every controller's kernel compiles with numba, the solver is the fixed-step RK4, FMI 2.0 or 3.0). Events of
+Model Exchange FMUs (state, time and step events, terminateSimulation) are handled inside the kernel with the
+Python engine's rules; a config whose FMUs cannot have events gets the kernel's version without event code.
 It turns the engine's :class:`~cosim.master.layout.Layout` and the run's
 :class:`~cosim.master.plant.PlantSystem` into the integer/float tables of :mod:`cosim.master.ckernel`,
 so both loops do the same operations at the same instants, and runs the kernel in chunks of
@@ -16,14 +18,18 @@ import warnings
 import numpy as np
 
 from controllers.base import Controller
-from cosim.errors import FmiCallError
-from cosim.fmi import check
+from cosim.errors import EventError, FmiCallError, SimulationTerminated
+from cosim.fmi import FmuInstance, check
 from cosim.jit import compile_kernel, kernel_problem, native_kernel
-from cosim.master.ckernel import CTL_COLS, DONE, ERROR, FMU_COLS, FUNCTIONS, ST, run_chunk
+from cosim.master.ckernel import CTL_COLS, DONE, ERROR, FF, FMU_COLS, FUNCTIONS, KINDS, ST, run_chunk
+from cosim.master.plant import CHATTER_WINDOW, EVENT_TOL, MAX_EVENTS_AT_ONE_TIME
 
 __all__ = ["CompiledLoop", "compiled_problem"]
 
-_K, _EF, _EFN, _ES, _EVF, _EVK = (ST.index(n) for n in ("k", "err_fmu", "err_fn", "err_status", "event_fmu", "event_k"))
+_K, _EF, _EFN, _ES, _NLOG = (ST.index(n) for n in ("k", "err_fmu", "err_fn", "err_status", "n_log"))
+_LOG_ROWS = 1 << 14  # events the kernel logs before Python reads them (a chunk stops when half are used)
+_EVENT_FUNCTIONS = ("GetEventIndicators", "EnterEventMode", "UpdateDiscreteStates", "EnterContinuousTimeMode",
+                    "GetContinuousStates")
 
 
 def compiled_problem(config):
@@ -74,7 +80,7 @@ class CompiledLoop:
         self.st = np.zeros(len(ST), dtype=np.int64)
         self.plant = None
         self._args = None
-        self._event_warned = False
+        self._ff = None
 
     @property
     def tick(self):
@@ -95,12 +101,14 @@ class CompiledLoop:
         self.st[:] = 0
         self.st[ST.index("synced")] = -1
         self.st[ST.index("first")] = 1  # first chunk: send the initial FMU inputs
-        self._event_warned = False
         rec = eng.recorder
         tab = self._tables(plant)
+        self._ff = tab["ff"]
+        self._log = tab["evt"][8] if tab["evt"] is not None else None
         self._args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["port"], tab["pgrp"], tab["rsrc"],
                       tab["rdst"], tab["rgain"], tab["roff"], tab["rgrp"], tab["lvl"], tab["ctl"], tab["ii"], tab["ff"],
-                      eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st)
+                      eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st,
+                      tab["evt"])
         t0 = _time.perf_counter()
         run_chunk(*self._args, 0)  # compile, or load from numba's cache
         return _time.perf_counter() - t0
@@ -115,14 +123,30 @@ class CompiledLoop:
         Raises
         ------
         cosim.errors.FmiCallError
-            An FMI call returned an error, or a Co-Simulation FMU asked to terminate.
+            An FMI call returned an error.
+        cosim.errors.SimulationTerminated
+            An FMU asked to terminate.
+        cosim.errors.EventError
+            An FMU's event iteration did not settle, or events chatter at one instant.
         """
         code = run_chunk(*self._args, n)
+        self._read_log()
         if code == ERROR:
             self._raise()
-        if self.st[_EVF]:
-            self._warn_event()
         return code == DONE
+
+    def _read_log(self):
+        """Move the events the kernel logged into the plant's ``event_log``, as the Python engine keeps it."""
+        n = int(self.st[_NLOG])
+        if not n:
+            return
+        names = list(self.plant.instances)
+        for t, f, kind in self._log[:min(n, len(self._log))]:
+            self.plant.event_log.append((float(t), names[int(f)], KINDS[int(kind)]))
+        if n > len(self._log):
+            warnings.warn(f"{n - len(self._log)} events in one interval between instants were handled but not "
+                          f"logged (the compiled engine logs {len(self._log)} per interval)", stacklevel=3)
+        self.st[_NLOG] = 0
 
     def _tables(self, plant):
         eng = self.engine
@@ -130,7 +154,7 @@ class CompiledLoop:
         names = list(plant.instances)
         fidx = {n: i for i, n in enumerate(names)}
         buf_addr = buf.ctypes.data
-        scr = np.zeros((len(names), 16), dtype=np.uint8)
+        scr = np.zeros((len(names), 32), dtype=np.uint8)
         fmu = np.zeros((len(names), len(FMU_COLS)), dtype=np.int64)
         x_off = {}
         off = 0
@@ -144,14 +168,27 @@ class CompiledLoop:
                                              else ["DoStep"])
             if inst in plant.completed:
                 need.append("CompletedIntegratorStep")
+            if inst.kind == "ME" and (inst.n_indicators or inst in plant.completed or inst.next_event_time < np.inf):
+                need.extend(_EVENT_FUNCTIONS if inst.n_states else _EVENT_FUNCTIONS[:-1])
             missing = [f for f in need if not ep[f]]
             if missing:  # a call through address 0 would crash the process: refuse here
                 raise FmiCallError("load", "missing entry points", f"{n}: {', '.join(missing)} not exported")
             row = [ep["component"], ep["SetTime"], ep["SetContinuousStates"], ep["GetDerivatives"], ep["GetReal"],
                    ep["SetReal"], ep["DoStep"], ep["CompletedIntegratorStep"], inst.version, x_off.get(n, 0),
-                   inst.n_states, scr[i].ctypes.data]
+                   inst.n_states, scr[i].ctypes.data] + [ep[f] for f in _EVENT_FUNCTIONS]
             fmu[i] = row
         me = np.array([fidx[i.name] for i in plant.me], dtype=np.int64)
+        ev, nz = [], 0
+        for inst in plant.evented:
+            ev.append((fidx[inst.name], nz, inst.n_indicators))
+            nz += inst.n_indicators
+        tev = np.array([i.next_event_time if i.kind == "ME" else np.inf for i in plant.instances.values()])
+        ff = np.array([eng.tb.start, eng.h_max, np.nan, min(tev, default=np.inf), EVENT_TOL, CHATTER_WINDOW,
+                       MAX_EVENTS_AT_ONE_TIME, FmuInstance.MAX_EVENT_PASSES])  # in the order of FF
+        evt = None  # no FMU can have events: the kernel's version without event code runs
+        if ev or plant.completed or np.isfinite(tev).any():
+            evt = (np.array(ev, dtype=np.int64).reshape(-1, 3), np.zeros((2, nz)), np.zeros((2, plant.W.shape[1])),
+                   np.zeros(len(names), dtype=np.int64), tev, scr, scr.view(np.float64), ff, np.zeros((_LOG_ROWS, 3)))
         cmp = np.array([fidx[i.name] for i in plant.completed], dtype=np.int64)
         cs = np.array([fidx[i.name] for i in plant.cs], dtype=np.int64)
 
@@ -201,23 +238,26 @@ class CompiledLoop:
             rgain=np.ascontiguousarray(r[:, 2]), roff=np.ascontiguousarray(r[:, 3]),
             rgrp=np.array(rgrp, dtype=np.int64).reshape(-1, 2), lvl=np.array(lvl, dtype=np.int64).reshape(-1, 3),
             ctl=np.array(ctl, dtype=np.int64).reshape(-1, len(CTL_COLS)), ii=ii,
-            ff=np.array([eng.tb.start, eng.h_max]), scr=scr, port_items=items_, fmu_names=names,
+            ff=ff, scr=scr, port_items=items_, fmu_names=names, evt=evt,
         )
 
     def _raise(self):
         st = self.st
         inst = list(self.plant.instances.values())[int(st[_EF])]
         fn = FUNCTIONS[int(st[_EFN])]
+        status = int(st[_ES])
+        t_event = float(self._ff[FF.index("event_t")])
+        reason = inst.messages[-1] if inst.messages else ""
+        if fn in ("terminate", "DoStep:terminate") or (fn == "DoStep" and status == 2 and inst.version == 2
+                                                      and inst._fmi2_terminated()):
+            raise SimulationTerminated(inst.name, t_event, reason)
+        if fn == "unsettled":
+            raise EventError(f"{inst.name}: the event iteration at t={t_event:.12g} s did not settle in "
+                             f"{FmuInstance.MAX_EVENT_PASSES} passes (discrete states keep changing)")
+        if fn == "chatter":
+            raise EventError(f"{inst.name}: more than {MAX_EVENTS_AT_ONE_TIME} events in a row less than "
+                             f"{CHATTER_WINDOW:g} s apart, at t={t_event:.12g} s (chattering or an accumulation of "
+                             "events)")
         t = self.engine.tb.time(int(st[_K]))
-        if fn == "DoStep:terminate":
-            raise FmiCallError("DoStep", "terminateSimulation", f"{inst.name} asked to stop after t={t}")
-        check(fn, int(st[_ES]), f"{inst._last_message()} (in the instant after t={t})")
-        raise FmiCallError(fn, f"status {int(st[_ES])}", inst.name)  # pragma: no cover - check raised
-
-    def _warn_event(self):
-        if self._event_warned:
-            return
-        self._event_warned = True
-        inst = list(self.plant.instances.values())[int(self.st[_EVF]) - 1]
-        t = self.engine.tb.time(int(self.st[_EVK]))
-        warnings.warn(f"{inst.name}: the FMU asked for event mode after t={t}; events are not handled", stacklevel=4)
+        check(fn, status, f"{inst._last_message()} (in the instant after t={t})")
+        raise FmiCallError(fn, f"status {status}", inst.name)  # pragma: no cover - check raised

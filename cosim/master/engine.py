@@ -21,11 +21,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cosim.errors import ConfigError, EngineFallbackWarning
+from cosim.errors import ConfigError, EngineFallbackWarning, SimulationTerminated
 from cosim.master.compiled import CompiledLoop, compiled_problem
 from cosim.master.layout import Layout
 from cosim.master.loop import PythonLoop
-from cosim.master.plant import PlantSystem
+from cosim.master.plant import PlantSystem, python_only_reason
 from cosim.master.recorder import Recorder
 from cosim.master.schedule import TimeBase
 
@@ -62,6 +62,12 @@ class RunResult:
         Why the Python engine ran when the config did not ask for it ('' otherwise).
     compile_s : float
         Compiled loop: time to compile the kernels or load them from numba's cache (s), not in ``wall_s``.
+    events : list of tuple
+        ``(time, instance, kind)`` of every FMU event the Python engine handled (see
+        :class:`~cosim.master.plant.PlantSystem` ``event_log``).
+    stopped : dict or None
+        When an FMU asked to terminate: ``{"by": instance, "time": t, "reason": message}`` (``data``
+        holds what was recorded until then); None otherwise.
     """
 
     data: np.ndarray
@@ -75,6 +81,8 @@ class RunResult:
     engine: str = "python"
     engine_note: str = ""
     compile_s: float = 0.0
+    events: list = field(default_factory=list)
+    stopped: dict = None
 
     def column(self, name):
         """The recorded column ``name`` as a float array."""
@@ -172,9 +180,13 @@ class Engine:
         """
         cfg, loop = self.config, self.loop
         progress = self._start(progress)
-        plant = PlantSystem(cfg, self.layout, self.buf)
+        try:
+            plant = PlantSystem(cfg, self.layout, self.buf)
+        except SimulationTerminated as stop:  # an FMU asked to stop during its initialisation: nothing recorded
+            return self._result(_stopped(stop, cfg.run.start))
         bar = None
         interrupted = False
+        stopped = None
         wall = 0.0
         compile_s = self.compile_s
         try:
@@ -187,26 +199,40 @@ class Engine:
                         bar.update(self.tb.time(loop.tick) - cfg.run.start - bar.n)
             except KeyboardInterrupt:
                 interrupted = True
+            except SimulationTerminated as stop:
+                stopped = _stopped(stop, self.tb.time(loop.tick))
             finally:
                 wall = _time.perf_counter() - wall0
         finally:
             if bar is not None:
                 bar.close()
             plant.close()
+        return self._result(stopped, interrupted, wall, compile_s, plant.event_log)
+
+    def _result(self, stopped, interrupted=False, wall=0.0, compile_s=None, events=()):
+        """The RunResult of what the recorder holds."""
         data = self.recorder.data()
         return RunResult(
             data=data,
             units=dict(self.recorder.units),
-            calls=loop.call_counts(),
+            calls=self.loop.call_counts(),
             interrupted=interrupted,
             wall_s=wall,
-            sim_s=float(data["time"][-1] - cfg.run.start) if len(data) else 0.0,
+            sim_s=float(data["time"][-1] - self.config.run.start) if len(data) else 0.0,
             signals=dict(self.recorder.signals),
             controller_values={n: dict(c.values) for n, c in self.controllers.items()},
-            engine=loop.name,
+            engine=self.loop.name,
             engine_note=self.note,
-            compile_s=compile_s,
+            compile_s=self.compile_s if compile_s is None else compile_s,
+            events=list(events),
+            stopped=stopped,
         )
+
+
+def _stopped(stop, t_default):
+    """``RunResult.stopped`` of a SimulationTerminated (its time NaN: ``t_default``, the loop's instant)."""
+    t = stop.time if stop.time == stop.time else t_default
+    return {"by": stop.instance, "time": float(t), "reason": stop.reason}
 
 
 def engine_for(config):
@@ -223,6 +249,9 @@ def engine_for(config):
     """
     if config.run.engine == "python":
         return Engine(config)
+    plant_reason = python_only_reason(config)
+    if plant_reason is not None:
+        return Engine(config, note=f"Python engine: {plant_reason}")
     t0 = _time.perf_counter()
     reason, numba_failed = compiled_problem(config)  # compiles the controllers' cfuncs (or loads them)
     if reason is None:

@@ -33,7 +33,8 @@ def write_results(result, config, out_dir, csv=False, summary=None):
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     names = result.data.dtype.names
-    fields = [pa.field(n, pa.float64(), metadata={"unit": result.units.get(n, "")}) for n in names]
+    types = {n: pa.from_numpy_dtype(result.data.dtype[n]) for n in names}
+    fields = [pa.field(n, types[n], metadata={"unit": result.units.get(n, "")}) for n in names]
     meta = {
         "cosim.units": json.dumps({n: result.units.get(n, "") for n in names}),
         "cosim.config": json.dumps(config.raw, default=str),
@@ -41,14 +42,13 @@ def write_results(result, config, out_dir, csv=False, summary=None):
         "cosim.overrides": json.dumps(list(config.overrides)),
         "cosim.signals": json.dumps({k: list(v) for k, v in result.signals.items()}),
         "cosim.interrupted": json.dumps(result.interrupted),
+        "cosim.stopped": json.dumps(result.stopped),
     }
     from cosim import __version__
 
     meta["cosim.version"] = __version__
     schema = pa.schema(fields, metadata=meta)
-    # the columns wrap the numpy buffers (pa.array would import pandas, a second of start-up, to check their type)
-    columns = [pa.Array.from_buffers(pa.float64(), len(result.data), [None, pa.py_buffer(np.ascontiguousarray(
-        result.data[n]))]) for n in names]
+    columns = [_arrow_column(pa, types[n], result.data[n]) for n in names]
     table = pa.Table.from_arrays(columns, schema=schema)
     files = []
     p = out / "results.parquet"
@@ -57,8 +57,10 @@ def write_results(result, config, out_dir, csv=False, summary=None):
     if csv:
         p = out / "results.csv"
         header = ",".join(f"{n} [{result.units.get(n, '')}]" if result.units.get(n) else n for n in names)
-        arr = np.column_stack([result.data[n] for n in names]) if len(result.data) else np.zeros((0, len(names)))
-        np.savetxt(p, arr, delimiter=",", header=header, comments="", fmt="%.10g")
+        arr = (np.column_stack([result.data[n].astype(np.float64) for n in names]) if len(result.data)
+               else np.zeros((0, len(names))))
+        fmt = ["%.10g" if result.data.dtype[n].kind == "f" else "%d" for n in names]
+        np.savetxt(p, arr, delimiter=",", header=header, comments="", fmt=fmt)
         files.append(p)
     if summary is not None:
         p = out / "summary.json"
@@ -67,6 +69,14 @@ def write_results(result, config, out_dir, csv=False, summary=None):
     if len(result.data) > 1:
         files.append(plot_results(result, out / config.plot.file, panels=config.plot.panels, title=config.name))
     return files
+
+
+def _arrow_column(pa, atype, column):
+    """An Arrow array over a numpy column (pa.array would import pandas, a second of start-up, to check its type):
+    fixed-width columns wrap the numpy buffer, Booleans are packed into Arrow's bitmap."""
+    column = np.ascontiguousarray(column)
+    data = np.packbits(column, bitorder="little") if column.dtype == np.bool_ else column
+    return pa.Array.from_buffers(atype, len(column), [None, pa.py_buffer(data)])
 
 
 def read_results(path):
@@ -80,7 +90,7 @@ def read_results(path):
     Returns
     -------
     data : numpy.ndarray
-        Structured array, ``time`` first, one float64 field per recorded column.
+        Structured array, ``time`` first, one field per recorded column in its recorded dtype.
     units : dict
         Column name -> unit string.
     meta : dict
@@ -92,7 +102,7 @@ def read_results(path):
     meta = {k.decode(): v.decode() for k, v in (table.schema.metadata or {}).items()}
     units = json.loads(meta.get("cosim.units", "{}"))
     names = table.column_names
-    data = np.zeros(table.num_rows, dtype=[(n, "f8") for n in names])
+    data = np.zeros(table.num_rows, dtype=[(n, table.schema.field(n).type.to_pandas_dtype()) for n in names])
     for n in names:
         data[n] = table.column(n).to_numpy()
     return data, units, meta

@@ -6,27 +6,73 @@ FMU-to-FMU connection between two ME FMUs is evaluated at every derivative evalu
 given by the FMUs' declared output dependencies (an output with no declared dependencies is assumed
 to depend on every input). Co-Simulation FMUs advance with ``doStep`` over each interval, their
 inputs held from the interval's start.
+
+Events of Model-Exchange FMUs (FMI 2.0 and 3.0) are handled at their own time, with the inputs held:
+
+* state events: after each step the event indicators of the FMUs that declare some are read; a sign
+  change (from > 0 to <= 0 or from < 0 to >= 0) is located by bisection on the step length, each trial
+  re-integrating one RK4 step from the step's start (``EVENT_TOL`` = 1e-10 s); the implicit solvers
+  locate it with ``solve_ivp(events=...)``. The step ends at the located time (on the far side of the
+  crossing), the FMUs whose indicators changed sign run their event iteration, and the step goes on;
+* time events: steps end at the earliest ``nextEventTime`` an FMU announced;
+* step events: ``CompletedIntegratorStep`` asking for event mode.
+
+An FMU without event indicators and without a next event time costs nothing extra: the plain RK4 loop
+runs. More than ``MAX_EVENTS_AT_ONE_TIME`` events in a row, each within ``CHATTER_WINDOW`` (1e-8 s) of the
+previous one, raise EventError (chattering, or a Zeno accumulation such as a ball that never comes to rest).
 """
 
 import math
-import warnings
 
 import numpy as np
 
-from cosim.errors import ConfigError
+from cosim.errors import ConfigError, CosimError, EventError
 from cosim.fmi import FmuInstance
 from cosim.master.kernels import rk4_begin, rk4_final, rk4_stage, route
 
-__all__ = ["PlantSystem"]
+__all__ = ["PlantSystem", "python_only_reason", "EVENT_TOL", "MAX_EVENTS_AT_ONE_TIME", "CHATTER_WINDOW"]
+
+EVENT_TOL = 1e-10  # s: width of the bracket a state event is located to
+MAX_EVENTS_AT_ONE_TIME = 100  # events in a row, each within CHATTER_WINDOW of the last, before EventError
+CHATTER_WINDOW = 100 * EVENT_TOL  # s: events closer than this to the previous one count as one instant
+
+
+def python_only_reason(config):
+    """Why the FMUs of ``config`` need the Python engine (non-Float64 ports), or None.
+
+    Parameters
+    ----------
+    config : cosim.config.Config
+
+    Returns
+    -------
+    str or None
+        A one-line reason naming the variable: a routed or recorded variable that is not a float64 real
+        (both engines handle events; the compiled one routes float64 reals only).
+    """
+    used = {}
+    for c in config.connections:
+        for inst, var in (c.src, c.dst):
+            used.setdefault(inst, set()).add(var)
+    for inst, var in config.record.signals:
+        used.setdefault(inst, set()).add(var)
+    for name, spec in config.fmus.items():
+        info = spec.info
+        for var in sorted(used.get(name, ())):
+            if info.variables[var].type not in ("Real", "Float64"):
+                return f"{name}.{var} is {info.variables[var].type}: the compiled engine routes float64 reals only"
+    return None
+
 
 
 def _ports(inst, names, layout, buf):
-    """Ports over ``names`` of ``inst``, one per run of consecutive slots in the signal buffer."""
+    """Ports over ``names`` of ``inst``, one per run of consecutive slots of one FMI type in the signal buffer."""
     items = sorted((layout.index[(inst.name, n)], n) for n in dict.fromkeys(names))
+    vtype = {n: inst.info.variables[n].type for _, n in items}
     ports = []
     run = []
     for idx, n in items:
-        if run and idx != run[-1][0] + 1:
+        if run and (idx != run[-1][0] + 1 or vtype[n] != vtype[run[-1][1]]):
             ports.append(run)
             run = []
         run.append((idx, n))
@@ -61,6 +107,10 @@ class PlantSystem:
         ME-to-ME evaluation by dependency level: (get ports, route arrays, set ports) per level.
     W : numpy.ndarray
         The RK4 work array: rows X, X0, dX, K1..K4.
+    event_log : list of tuple
+        ``(time, instance, kind)`` of each event handled; kind is "state" (located indicator crossing),
+        "time" (nextEventTime), "step" (CompletedIntegratorStep) or "input" (an indicator changed sign when
+        the inputs changed at an instant).
     """
 
     def __init__(self, config, layout, buf):
@@ -77,15 +127,14 @@ class PlantSystem:
             raise
         self.me = [i for i in self.instances.values() if i.kind == "ME"]
         self.cs = [i for i in self.instances.values() if i.kind == "CS"]
-        for inst in self.me:
-            if inst.info.n_event_indicators:
-                warnings.warn(
-                    f"{inst.name}: the FMU has {inst.info.n_event_indicators} event indicators; state events are "
-                    "not located, discontinuities are stepped over by the fixed step",
-                    stacklevel=3,
-                )
         self.completed = [i for i in self.me if i.info.needs_completed_step]
-        self._event_warned = False
+        self.evented = [i for i in self.me if i.n_indicators]  # FMUs whose indicators are read after each step
+        self._z0 = [i.z.copy() for i in self.evented]  # their indicators at the last accepted point
+        self._last_event = (math.nan, 0)  # (time, count) of the latest events, for the chattering guard
+        self.event_log = []  # (time, instance, kind) of every event handled: kind "state", "time", "step", "input"
+        self._t_next = math.inf  # the earliest next event time of the ME FMUs (kept by _next_time_event)
+        self._plain = not self.evented and self.solver.method == "rk4"  # the plain RK4 loop while no time event
+        self._next_time_event()
         # combined state vector
         n = sum(i.n_states for i in self.me)
         # RK4 work array: rows X, X0, dX, K1..K4 (one argument for the numba kernels)
@@ -202,13 +251,22 @@ class PlantSystem:
     # -- integration -----------------------------------------------------------------------------
     def advance(self, ta, tb, h_max):
         """Advance every FMU from ta to tb (s); ME by the configured solver with steps of at most h_max."""
-        if self.me and len(self.X):
-            if self.solver.method == "rk4":
-                self._rk4(ta, tb, h_max)
+        if self.me:
+            if self._plain and self._t_next > tb:
+                if len(self.X):
+                    self._rk4(ta, tb, h_max)  # no event possible: the plain loop
             else:
-                self._implicit(ta, tb, h_max)
+                self._advance_events(ta, tb, h_max)
         for inst in self.cs:
             inst.do_step(ta, tb - ta)
+
+    def _advance_events(self, ta, tb, h_max):
+        if self.evented:
+            self._input_events(ta)
+        if self.solver.method != "rk4" and len(self.X):
+            self._implicit(ta, tb, h_max)
+        else:
+            self._rk4_events(ta, tb, max(1, math.ceil((tb - ta) / h_max - 1e-9)) if len(self.X) else 1)
 
     def _rk4(self, ta, tb, h_max):
         L = tb - ta
@@ -233,18 +291,149 @@ class PlantSystem:
             stage(W, 2, h)
             deriv(t1)
             final(W, h)
-            if self.completed:
-                self._complete(t1)
+            if self.completed and self._complete(t1):
+                rk4_begin(W)  # the event may have changed the states: the next step starts from them
 
     def _complete(self, t):
+        """CompletedIntegratorStep at ``t`` for the FMUs that need it; step events for those that ask (then True)."""
         self._eval(t)
+        asked = None
         for inst in self.completed:
-            if inst.completed_integrator_step() and not self._event_warned:
-                self._event_warned = True
-                warnings.warn(f"{inst.name}: the FMU asked for event mode at t={t}; events are not handled",
-                              stacklevel=4)
+            if inst.completed_integrator_step(t):
+                asked = (asked or []) + [inst]
+        if asked:
+            self._handle_events(t, asked, "step")
+        return asked is not None
+
+    # -- events ------------------------------------------------------------------------------------
+    def _next_time_event(self):
+        self._t_next = min((inst.next_event_time for inst in self.me), default=math.inf)
+        return self._t_next
+
+    def _crossed(self):
+        """The evented FMUs whose indicators (just read into ``inst.z``) changed sign since ``_z0``."""
+        out = []
+        for inst, z0 in zip(self.evented, self._z0):
+            z1 = inst.z
+            if np.any(((z0 > 0) & (z1 <= 0)) | ((z0 < 0) & (z1 >= 0))):
+                out.append(inst)
+        return out
+
+    def _read_indicators(self):
+        for inst in self.evented:
+            inst.pull_indicators()
+
+    def _accept_indicators(self):
+        for inst, z0 in zip(self.evented, self._z0):
+            z0[:] = inst.z
+
+    def _input_events(self, t):
+        """At an instant, after the new inputs are set: an indicator that changed sign is an event at ``t``."""
+        if self._synced != t:
+            self._eval(t)
+        self._read_indicators()
+        crossed = self._crossed()
+        if crossed:
+            self._handle_events(t, crossed, "input")
+        else:
+            self._accept_indicators()
+
+    def _handle_events(self, t, insts, kind):
+        """Event iteration of ``insts`` at ``t`` (the FMUs hold t and X); indicators re-read; chattering guard."""
+        last_t, count = self._last_event
+        count = count + 1 if abs(t - last_t) <= CHATTER_WINDOW else 1
+        self._last_event = (t, count)
+        if count > MAX_EVENTS_AT_ONE_TIME:
+            raise EventError(f"{insts[0].name}: more than {MAX_EVENTS_AT_ONE_TIME} events in a row less than "
+                             f"{CHATTER_WINDOW:g} s apart, at t={t:.12g} s (chattering or an accumulation of events)")
+        for inst in insts:
+            inst.handle_event(t)
+            self.event_log.append((t, inst.name, kind))
+        self._next_time_event()
+        self._synced = None
+        if self.evented:
+            self._eval(t)
+            self._read_indicators()
+            self._accept_indicators()
+
+    def _time_events(self, t, synced=False):
+        """Event iteration at ``t`` of the FMUs whose next event time has come (``synced``: they hold t, X)."""
+        due = [inst for inst in self.me if inst.next_event_time <= t]
+        if due:
+            if not synced:
+                self._eval(t)
+            self._handle_events(t, due, "time")
+
+    def _rk4_step(self, t, h, x0, k1):
+        """One RK4 step of length h from (t, x0) whose first-stage derivative is k1; X holds the result."""
+        W = self.W
+        W[0] = x0
+        W[1] = x0
+        W[2] = k1
+        th = t + 0.5 * h
+        rk4_stage(W, 0, 0.5 * h)
+        self.derivatives(th)
+        rk4_stage(W, 1, 0.5 * h)
+        self.derivatives(th)
+        rk4_stage(W, 2, h)
+        self.derivatives(t + h)
+        rk4_final(W, h)
+
+    def _trial(self, t, h, x0, k1):
+        """Integrate to t + h and return the FMUs whose indicators changed sign (the FMUs hold t + h, X)."""
+        self._rk4_step(t, h, x0, k1)
+        self._eval(t + h)
+        self._read_indicators()
+        return self._crossed()
+
+    def _locate(self, t, h, x0, k1):
+        """Bisection on the step length: the shortest step (to EVENT_TOL) whose end is past a crossing.
+
+        Returns the event time and the FMUs that cross there; X and the FMUs hold the state at that time.
+        """
+        lo, hi = 0.0, h
+        while hi - lo > EVENT_TOL:
+            mid = 0.5 * (lo + hi)
+            if self._trial(t, mid, x0, k1):
+                hi = mid
+            else:
+                lo = mid
+        return t + hi, self._trial(t, hi, x0, k1)
+
+    def _rk4_events(self, ta, tb, n):
+        """RK4 from ta to tb on n equal steps, each cut at time events and located state events."""
+        L = tb - ta
+        self._synced = None
+        j, t = 1, ta
+        while t < tb:
+            grid = tb if j == n else ta + L * j / n
+            self._time_events(t)
+            te = self._next_time_event()
+            t1 = te if t < te < grid else grid
+            x0 = self.X.copy()
+            self.derivatives(t)
+            k1 = self.dX.copy()
+            crossed = self._trial(t, t1 - t, x0, k1) if self.evented else None
+            if crossed:
+                t1, crossed = self._locate(t, t1 - t, x0, k1)
+                self._handle_events(t1, crossed, "state")
+            else:
+                if not self.evented:
+                    self._rk4_step(t, t1 - t, x0, k1)
+                    self._eval(t1)
+                self._accept_indicators()
+                if self.completed:
+                    for_step = [inst for inst in self.completed if inst.completed_integrator_step(t1)]
+                    if for_step:
+                        self._handle_events(t1, for_step, "step")
+                self._time_events(t1, synced=True)
+            if t1 >= grid:
+                j += 1
+            t = t1
 
     def _implicit(self, ta, tb, h_max):
+        """scipy's solve_ivp from ta to tb, restarted at time events and at state events (located by its
+        ``events=``, then moved past the crossing by at most a few EVENT_TOL on its dense output)."""
         from scipy.integrate import solve_ivp
 
         def f(t, x):
@@ -252,16 +441,60 @@ class PlantSystem:
             self.derivatives(t)
             return self.dX.copy()
 
+        method = {"bdf": "BDF", "radau": "Radau", "lsoda": "LSODA"}[self.solver.method]
         self._synced = None
-        sol = solve_ivp(f, (ta, tb), self.X.copy(), method=self.solver.method.upper() if self.solver.method != "lsoda"
-                        else "LSODA", rtol=self.solver.rtol, atol=self.solver.atol, max_step=h_max)
-        if not sol.success:
-            from cosim.errors import CosimError
-
-            raise CosimError(f"solver {self.solver.method} failed between t={ta} and t={tb}: {sol.message}")
-        self.X[:] = sol.y[:, -1]
+        t = ta
+        while t < tb:
+            self._time_events(t)
+            te = self._next_time_event()
+            t1 = te if t < te < tb else tb
+            sol = solve_ivp(f, (t, t1), self.X.copy(), method=method, rtol=self.solver.rtol, atol=self.solver.atol,
+                            max_step=h_max, events=self._ivp_events(), dense_output=bool(self.evented))
+            if not sol.success:
+                raise CosimError(f"solver {self.solver.method} failed between t={t} and t={t1}: {sol.message}")
+            if sol.status == 1:
+                t1 = self._past_crossing(sol.t[-1], sol.sol)
+            else:
+                self.X[:] = sol.y[:, -1]
+                self._eval(t1)
+                self._read_indicators()
+            crossed = self._crossed()
+            if crossed:
+                self._handle_events(t1, crossed, "state")
+            else:
+                self._accept_indicators()
+                self._time_events(t1, synced=True)
+            t = t1
         if self.completed:
             self._complete(tb)
+
+    def _ivp_events(self):
+        """One terminal event function per event indicator, for solve_ivp."""
+        funcs = []
+        for inst in self.evented:
+            for i in range(inst.n_indicators):
+                def g(t, x, inst=inst, i=i):
+                    self.X[:] = x
+                    self._eval(t)
+                    inst.pull_indicators()
+                    return inst.z[i]
+
+                g.terminal = True
+                funcs.append(g)
+        return funcs or None
+
+    def _past_crossing(self, te, dense):
+        """The first of te, te + EVENT_TOL, te + 2 EVENT_TOL, ... (dense output) where an indicator has crossed;
+        X and the FMUs hold that state."""
+        for k in range(64):
+            t = te + EVENT_TOL * k
+            self.X[:] = dense(t)
+            self._eval(t)
+            self._read_indicators()
+            if self._crossed():
+                return t
+        raise EventError(f"{self.evented[0].name}: a state event near t={te:.12g} s: no indicator changed sign "
+                         f"within {64 * EVENT_TOL:g} s of the solver's root")
 
     def close(self):
         """Free every instance."""

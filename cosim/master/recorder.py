@@ -7,6 +7,8 @@ place. After the run :meth:`Recorder.data` is what was recorded, also when the r
 
 import numpy as np
 
+from cosim.fmi import value_dtype
+
 __all__ = ["Recorder"]
 
 
@@ -30,6 +32,9 @@ class Recorder:
         Column name -> (instance, variable).
     units : dict of str to str
         Unit of each column, ``time`` first.
+    dtypes : dict of str to numpy.dtype
+        The dtype of each column: the FMU variable's own (``cosim.fmi.value_dtype``: Integer columns
+        integer, Boolean bool, Float32 float32), float64 for controller signals.
     index : numpy.ndarray of int64
         The buffer slot of each column.
     times, values, rows : numpy.ndarray
@@ -43,15 +48,20 @@ class Recorder:
                 counts[var] = counts.get(var, 0) + 1
         self.signals = {}
         self.units = {"time": "s"}
+        self.dtypes = {"time": np.dtype(np.float64)}
         for inst, var in config.record.signals:
             if inst in config.fmus:
                 name = var if counts[var] == 1 else f"{inst}.{var}"
-                unit = config.fmus[inst].info.variables[var].unit
+                info = config.fmus[inst].info
+                unit = info.variables[var].unit
+                dtype = value_dtype(info.fmi_version, info.variables[var].type)
             else:
                 name = f"{inst}.{var}"
                 unit = config.controllers[inst].cls.units.get(var, "")
+                dtype = np.dtype(np.float64)
             self.signals[name] = (inst, var)
             self.units[name] = unit
+            self.dtypes[name] = dtype
         self.index = np.array([layout.index[s] for s in self.signals.values()], dtype=np.int64)
         self.buf = buf
         self.times = self.values = self.rows = None
@@ -70,10 +80,12 @@ class Recorder:
         self.rows[0] = row + 1
 
     def data(self):
-        """What was recorded: a structured array, field ``time`` first, then one float64 field per column."""
+        """What was recorded: a structured array, field ``time`` first, then one field per column in its dtype
+        (the buffer holds Integer and Boolean values exactly as floats; Booleans as 0/1)."""
         row = int(self.rows[0])
-        data = np.zeros(row, dtype=[("time", "f8")] + [(name, "f8") for name in self.signals])
+        data = np.zeros(row, dtype=[(name, self.dtypes[name]) for name in ("time", *self.signals)])
         data["time"] = self.times[:row]
         for j, name in enumerate(self.signals):
-            data[name] = self.values[:row, j]
+            column = self.values[:row, j]
+            data[name] = column != 0 if self.dtypes[name] == np.bool_ else column
         return data

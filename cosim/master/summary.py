@@ -20,7 +20,8 @@ def summarize(result, config):
     Returns
     -------
     dict
-        Run facts (config, overrides, times, rows, controller calls, solver, engine), then the keys the
+        Run facts (config, overrides, times, rows, controller calls, solver, engine; ``stopped`` with
+        the instance, time and reason when an FMU asked to terminate), then the keys the
         summary plugin returns; non-finite floats become None.
     """
     out = {
@@ -40,6 +41,10 @@ def summarize(result, config):
     }
     if result.engine_note:
         out["engine_note"] = result.engine_note
+    if result.events:
+        out["events"] = len(result.events)
+    if result.stopped is not None:
+        out["stopped"] = dict(result.stopped)
     spec = config.summary
     if spec.plugin is None:
         return out

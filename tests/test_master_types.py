@@ -1,0 +1,175 @@
+"""Integer, Boolean, Float32 and Int64 variables in the master: routed between FMUs and from controllers by the
+type rules of docs/master.md, recorded in their own dtype (results.parquet and read_results keep it), and the
+config errors (a real driving an Integer input, reserved column names, empty signal lists) found at load."""
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from cosim.config import load_config
+from cosim.errors import ConfigError
+from cosim.master import read_results, run, run_config
+
+F32 = np.float32
+
+
+def _write(tmp_path, text, name="types.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def _two_feedthroughs(fmu, connections, extra=""):
+    return f"""
+[run]
+stop = 0.5
+engine = "python"
+
+[fmus.a]
+path = "{fmu}"
+start = {{ u_f64 = 1.25, u_f32 = 0.1, u_i32 = 41, u_i64 = 7, u_b = false }}
+
+[fmus.b]
+path = "{fmu}"
+{extra}
+{connections}
+[record]
+rate = 10
+signals = ["a.y_f32", "a.y_i32", "a.y_i64", "a.y_b", "b.y_f64", "b.y_f32", "b.y_i32", "b.y_i64", "b.y_b", "b.x"]
+"""
+
+
+GOOD = """
+[[connections]]
+from = "a.y_i32"
+to = "b.u_i32"
+[[connections]]
+from = "a.y_b"
+to = "b.u_b"
+[[connections]]
+from = "a.y_b"
+to = "b.u_f64"
+[[connections]]
+from = "a.y_f32"
+to = "b.u_f32"
+[[connections]]
+from = "a.y_i64"
+to = "b.u_i64"
+gain = 2
+"""
+
+
+def test_typed_variables_route_and_keep_their_dtype(tmp_path, third_party_fmu):
+    cfg = _write(tmp_path, _two_feedthroughs(third_party_fmu("Feedthrough", 3), GOOD))
+    result, _, _ = run_config(cfg, out=tmp_path / "out", csv=True, progress=False)
+    d = result.data
+    # a: y_f32 = 2 u_f32 in Float32, y_i32 = u_i32 + 1, y_i64 = 3 u_i64, y_b = not u_b (hand-computed)
+    y_f32 = F32(2) * F32(0.1)
+    assert d["a.y_f32"].dtype == np.float32 and (d["a.y_f32"] == y_f32).all()
+    assert d["a.y_i32"].dtype == np.int32 and (d["a.y_i32"] == 42).all()
+    assert d["a.y_i64"].dtype == np.int64 and (d["a.y_i64"] == 21).all()
+    assert d["a.y_b"].dtype == np.bool_ and d["a.y_b"].all()
+    # b, fed by a: u_i32 = 42, u_b = true, u_f64 = 1 (a Boolean true as 1.0), u_f32 = y_f32, u_i64 = 2 * 21
+    assert (d["b.y_i32"] == 43).all() and not d["b.y_b"].any()
+    assert (d["y_f64"] == 2.0).all() and (d["b.y_f32"] == F32(2) * y_f32).all()
+    assert (d["b.y_i64"] == 126).all()
+    np.testing.assert_allclose(d["x"], d["time"], atol=1e-12)  # b.x integrates u_f64 = 1
+    schema = pq.read_schema(tmp_path / "out" / "results.parquet")
+    assert [str(schema.field(n).type) for n in ("a.y_f32", "a.y_i32", "a.y_i64", "a.y_b", "x")] == \
+        ["float", "int32", "int64", "bool", "double"]
+    back, _, _ = read_results(tmp_path / "out" / "results.parquet")
+    assert back.dtype == d.dtype and all((back[n] == d[n]).all() for n in d.dtype.names)
+    header, first = (tmp_path / "out" / "results.csv").read_text().splitlines()[:2]
+    row = dict(zip([h.split(" [")[0] for h in header.split(",")], first.split(",")))
+    assert row["b.y_i32"] == "43" and row["a.y_b"] == "1" and row["b.y_b"] == "0"
+
+
+def test_compiled_engine_falls_back_for_typed_ports(tmp_path, third_party_fmu):
+    text = _two_feedthroughs(third_party_fmu("Feedthrough", 3), GOOD).replace('engine = "python"', "")
+    result = run(load_config(_write(tmp_path, text)), progress=False)
+    assert result.engine == "python" and "a.y_b is Boolean" in result.engine_note
+
+
+def test_controller_output_into_integer_and_boolean_inputs_needs_round(tmp_path, third_party_fmu):
+    (tmp_path / "u.csv").write_text("time,u\n0,2.6\n0.2,-0.4\n")
+    conns = """
+[controllers.replay]
+class = "controllers.playback:Playback"
+rate = 10
+parameters = { file = "u.csv", column = "u" }
+[[connections]]
+from = "replay.y"
+to = "b.u_i32"
+round = true
+[[connections]]
+from = "replay.y"
+to = "b.u_b"
+round = true
+"""
+    result = run(load_config(_write(tmp_path, _two_feedthroughs(third_party_fmu("Feedthrough", 3), conns))))
+    d = result.data
+    # 2.6 -> 3 (nearest), true (3 != 0); -0.4 -> 0, false; y_i32 = u_i32 + 1, y_b = not u_b. A row samples the
+    # FMUs before the controllers step: the row at 0 has the start values (0, false), the rows up to 0.2 s the 2.6
+    assert d["time"][0] == 0 and d["b.y_i32"][0] == 1 and d["b.y_b"][0]
+    early = (d["time"] > 0) & (d["time"] < 0.2 + 1e-9)
+    assert early.sum() == 2 and (d["b.y_i32"][early] == 4).all() and not d["b.y_b"][early].any()
+    late = d["time"] > 0.2 + 1e-9
+    assert late.sum() == 3 and (d["b.y_i32"][late] == 1).all() and d["b.y_b"][late].all()
+    with pytest.raises(ConfigError, match=r"types.toml:\d+: connections\[0\]\.to: replay.y \(Float64 \(a controller "
+                                          r"signal\)\) -> b.u_i32 \(Int32\): a real value does not drive"):
+        load_config(_write(tmp_path, _two_feedthroughs(third_party_fmu("Feedthrough", 3),
+                                                       conns.replace("round = true", ""))))
+
+
+@pytest.mark.parametrize("connection, message", [
+    ('from = "a.y_f64"\nto = "b.u_i32"', r"connections\[0\]\.to: a.y_f64 \(Float64\) -> b.u_i32 \(Int32\): a real value"),
+    ('from = "a.y_f32"\nto = "b.u_b"', r"connections\[0\]\.to: a.y_f32 \(Float32\) -> b.u_b \(Boolean\): a real value"),
+    ('from = "a.y_i32"\nto = "b.u_b"', r"connections\[0\]\.to: .* an Integer does not drive a Boolean input"),
+    ('from = "a.y_i32"\nto = "b.u_i64"\ngain = 1.5', r"connections\[0\]: .* needs an integer gain and offset; got gain=1.5"),
+    ('from = "a.y_b"\nto = "b.u_b"\noffset = 1', r"connections\[0\]: .* with gain 1 and offset 0 only"),
+])
+def test_type_mismatches_are_config_errors_at_load(tmp_path, third_party_fmu, connection, message):
+    text = _two_feedthroughs(third_party_fmu("Feedthrough", 3), f"[[connections]]\n{connection}\n")
+    lines = text.splitlines()
+    key = "to = " if ".to:" in message else "[[connections]]"
+    line = next(i for i, t in enumerate(lines, 1) if t.startswith(key))
+    with pytest.raises(ConfigError, match=rf"types.toml:{line}: " + message):
+        load_config(_write(tmp_path, text))
+
+
+def test_reserved_column_and_empty_signal_list_are_config_errors(tmp_path, third_party_fmu):
+    base = f"""[run]
+stop = 1.0
+
+[fmus.ball]
+path = "{third_party_fmu("BouncingBall", 3)}"
+
+[record]
+rate = 10
+"""
+    with pytest.raises(ConfigError, match=r"types.toml:9: record.signals\[1\]: ball.time: the column 'time' is "
+                                          r"reserved"):
+        load_config(_write(tmp_path, base + 'signals = ["ball.h", "ball.time"]\n'))
+    with pytest.raises(ConfigError, match=r"types.toml:9: record.signals: is empty"):
+        load_config(_write(tmp_path, base + "signals = []\n"))
+
+
+def test_parameter_and_start_values_must_fit_their_type(tmp_path, third_party_fmu):
+    text = f"""[run]
+stop = 1.0
+
+[fmus.ft]
+path = "{third_party_fmu("Feedthrough", 3)}"
+start = {{ u_i32 = 1.5, u_b = 1, u_f32 = true }}
+
+[record]
+signals = ["ft.x"]
+"""
+    with pytest.raises(ConfigError) as err:
+        load_config(_write(tmp_path, text))
+    problems = "\n".join(err.value.problems)
+    assert "types.toml:6: fmus.ft.start.u_i32: 'u_i32' is Int32: the value must be an integer; got 1.5" in problems
+    assert "fmus.ft.start.u_b: 'u_b' is Boolean: the value must be true or false; got 1" in problems
+    assert "fmus.ft.start.u_f32: 'u_f32' is Float32: the value must be a number; got True" in problems
+    ok = text.replace("u_i32 = 1.5, u_b = 1, u_f32 = true", "u_i32 = 2, u_b = true, u_f32 = 0.5")
+    assert load_config(_write(tmp_path, ok)).fmus["ft"].start == {"u_i32": 2, "u_b": True, "u_f32": 0.5}
