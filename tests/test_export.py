@@ -2,7 +2,6 @@
 CVode and Euler, the defects of the former DaeBuilder export (event indicators, stale outputs), and hybrid FMUs
 built from hand-written EventParts (bouncing ball, time events, terminate, assert) against closed forms."""
 
-import math
 import tempfile
 import warnings
 from pathlib import Path
@@ -19,6 +18,7 @@ from scipy.integrate import solve_ivp
 from cosim.compile import build_fmu
 from cosim.compile.export import export_fmu
 from cosim.compile.model import DiscreteVariable, EventPart, LoweredModel, ModelVariable
+from fmus.reference import bounce_times
 
 MODELS = Path(__file__).resolve().parent / "models" / "export" / "ExportTests.mo"
 G = 9.81
@@ -175,17 +175,6 @@ def _bouncing_ball(e=0.8, h0=1.0):
                     [ModelVariable("e", "1", "restitution", e)], p, x, t, m, events)
 
 
-def _bounce_times(e=0.8, h0=1.0, stop=3.0):
-    """Closed form: first impact at sqrt(2 h0 / g), then flights of 2 e^k v1 / g."""
-    t1 = math.sqrt(2 * h0 / G)
-    times, v = [t1], G * t1
-    while True:
-        v *= e
-        times.append(times[-1] + 2 * v / G)
-        if times[-1] > stop:
-            return np.array(times[:-1])
-
-
 def _event_times(result, name):
     """The time of the first recorded row at each new value of counter ``name``."""
     n = result[name]
@@ -207,7 +196,7 @@ def test_bouncing_ball_fmu_is_valid_and_declares_its_indicator(ball):
 
 def test_bouncing_ball_bounce_times_with_cvode(ball):
     r = _simulate(ball, "CVode", 3.0, output=["h", "n"])
-    expected = _bounce_times()
+    expected = bounce_times(e=0.8, v_min=0.0, stop=3.0)
     assert r["n"].dtype.kind == "i" and r["n"][-1] == len(expected)
     assert np.max(np.abs(_event_times(r, "n") - expected)) < 1e-6
     assert r["h"].min() > -1e-6
@@ -217,7 +206,7 @@ def test_bouncing_ball_bounce_times_with_euler_converge_at_first_order(ball):
     errors = []
     for step in (1e-3, 1e-4):
         r = _simulate(ball, "Euler", 3.0, step=step, output=["h", "n"])
-        expected = _bounce_times()
+        expected = bounce_times(e=0.8, v_min=0.0, stop=3.0)
         assert r["n"][-1] == len(expected)
         errors.append(np.max(np.abs(_event_times(r, "n") - expected)))
     # Euler finds an event at the end of the step that crosses it, and its height lags by about g t dt / 2:
@@ -340,7 +329,7 @@ def hybrid_fmus(tmp_path_factory):
 def test_modelica_bouncing_ball_fmu_bounces_at_the_closed_form_times(hybrid_fmus, solver, tolerance):
     assert validate_fmu(str(hybrid_fmus["BouncingBall"])) == []
     r = _simulate(hybrid_fmus["BouncingBall"], solver, 3.0, step=1e-4, output=["bounces"])
-    expected = _bounce_times()
+    expected = bounce_times(e=0.8, v_min=0.0, stop=3.0)
     assert r["bounces"].dtype.kind == "i" and r["bounces"][-1] == len(expected)
     assert np.max(np.abs(_event_times(r, "bounces") - expected)) < tolerance
 

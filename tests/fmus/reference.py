@@ -5,8 +5,9 @@ import math
 import numpy as np
 
 
-def bounce_times(h0=1.0, g=9.81, e=0.7, v_min=0.1):
-    """Impact instants of BouncingBall dropped from rest at ``h0``; the last one is where it comes to rest.
+def bounce_times(h0=1.0, g=9.81, e=0.7, v_min=0.1, stop=math.inf):
+    """Impact instants of a ball dropped from rest at ``h0`` up to ``stop``; with ``v_min > 0`` the last one is
+    where it comes to rest (BouncingBall of tests/fmus).
 
     The first impact is at sqrt(2 h0 / g) with speed w = g t1; after impact k the ball leaves with e^k w and
     is back 2 e^k w / g later; it rests at the first impact whose rebound speed is below ``v_min``.
@@ -17,8 +18,10 @@ def bounce_times(h0=1.0, g=9.81, e=0.7, v_min=0.1):
     while e * w >= v_min:
         w *= e
         t += 2 * w / g
+        if t > stop:
+            break
         times.append(t)
-    return np.array(times)
+    return np.array([t for t in times if t <= stop])
 
 
 def ball_state(t, h0=1.0, g=9.81, e=0.7, v_min=0.1):
