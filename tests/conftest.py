@@ -7,6 +7,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 COMPILER_MODELS = ROOT / "tests" / "models" / "compiler" / "CompilerTests.mo"
+HYBRID_MODELS = ROOT / "tests" / "models" / "hybrid" / "Hybrid.mo"
 
 
 @pytest.fixture(scope="session")
@@ -22,6 +23,22 @@ def compiler_fmu(tmp_path_factory):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 built[name] = build_fmu(COMPILER_MODELS, f"CompilerTests.{name}", out_dir=out)
+        return built[name]
+
+    return get
+
+
+@pytest.fixture(scope="session")
+def hybrid_fmu(tmp_path_factory):
+    """Build ``Hybrid.<name>`` (tests/models/hybrid, models with events) once per session: name -> FMU path."""
+    from cosim.compile import build_fmu
+
+    out = tmp_path_factory.mktemp("hybrid_fmus")
+    built = {}
+
+    def get(name):
+        if name not in built:
+            built[name] = build_fmu(HYBRID_MODELS, f"Hybrid.{name}", out_dir=out)
         return built[name]
 
     return get

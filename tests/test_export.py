@@ -315,45 +315,35 @@ def test_failed_assert_is_an_error_with_its_message(tmp_path):
 
 # ---- hybrid models end to end: Modelica (tests/models/hybrid, the compiler's) -> FMU -> fmpy --------------------
 
-HYBRID = Path(__file__).resolve().parent / "models" / "hybrid" / "Hybrid.mo"
-
-
-@pytest.fixture(scope="module")
-def hybrid_fmus(tmp_path_factory):
-    out = tmp_path_factory.mktemp("hybrid_fmus")
-    return {name: build_fmu(HYBRID, f"Hybrid.{name}", out_dir=out) for name in ("BouncingBall", "StepCounter", "Stop",
-                                                                           "Relay", "Thermostat")}
-
-
 @pytest.mark.parametrize("solver, tolerance", [("CVode", 1e-6), ("Euler", 30 * 1e-4)])  # Euler: see above
-def test_modelica_bouncing_ball_fmu_bounces_at_the_closed_form_times(hybrid_fmus, solver, tolerance):
-    assert validate_fmu(str(hybrid_fmus["BouncingBall"])) == []
-    r = _simulate(hybrid_fmus["BouncingBall"], solver, 3.0, step=1e-4, output=["bounces"])
+def test_modelica_bouncing_ball_fmu_bounces_at_the_closed_form_times(hybrid_fmu, solver, tolerance):
+    assert validate_fmu(str(hybrid_fmu("BouncingBall"))) == []
+    r = _simulate(hybrid_fmu("BouncingBall"), solver, 3.0, step=1e-4, output=["bounces"])
     expected = bounce_times(e=0.8, v_min=0.0, stop=3.0)
     assert r["bounces"].dtype.kind == "i" and r["bounces"][-1] == len(expected)
     assert np.max(np.abs(_event_times(r, "bounces") - expected)) < tolerance
 
 
 @pytest.mark.parametrize("solver", ["CVode", "Euler"])
-def test_modelica_step_counter_fmu_counts_its_time_events(hybrid_fmus, solver):
-    r = _simulate(hybrid_fmus["StepCounter"], solver, 1.1, step=1e-3, output=["steps"])
+def test_modelica_step_counter_fmu_counts_its_time_events(hybrid_fmu, solver):
+    r = _simulate(hybrid_fmu("StepCounter"), solver, 1.1, step=1e-3, output=["steps"])
     assert r["steps"][-1] == 4
     assert _event_times(r, "steps") == pytest.approx([0.25, 0.5, 0.75, 1.0], abs=1e-12)
 
 
 @pytest.mark.parametrize("solver", ["CVode", "Euler"])
-def test_modelica_terminate_stops_the_fmu_at_its_event(hybrid_fmus, solver):
-    r = _simulate(hybrid_fmus["Stop"], solver, 2.0, step=1e-4, output=["T"])
+def test_modelica_terminate_stops_the_fmu_at_its_event(hybrid_fmu, solver):
+    r = _simulate(hybrid_fmu("Stop"), solver, 2.0, step=1e-4, output=["T"])
     # CVode locates T = 0.7 to its root tolerance; Euler finds it at the end of the step that crosses it
     assert r["time"][-1] == pytest.approx(0.7, abs=1e-9 if solver == "CVode" else 1e-4)
 
 
 @pytest.mark.parametrize("solver, tolerance", [("CVode", 1e-6), ("Euler", 5e-4)])
-def test_modelica_relay_fmu_exposes_enumeration_and_booleans_with_their_types(hybrid_fmus, solver, tolerance):
-    md = fmpy.read_model_description(str(hybrid_fmus["Relay"]))
+def test_modelica_relay_fmu_exposes_enumeration_and_booleans_with_their_types(hybrid_fmu, solver, tolerance):
+    md = fmpy.read_model_description(str(hybrid_fmu("Relay")))
     types = {v.name: v.type for v in md.modelVariables if v.variability == "discrete"}
     assert types == {"dir": "Int64", "up": "Boolean", "rises": "Int64", "late": "Boolean"}
-    r = _simulate(hybrid_fmus["Relay"], solver, 3.0, step=1e-4, output=["dir", "up", "rises", "late"])
+    r = _simulate(hybrid_fmu("Relay"), solver, 3.0, step=1e-4, output=["dir", "up", "rises", "late"])
     # Hand-computed (as in test_compiler_events): x = 0.5 + t reaches 0.9 at 0.4, 0.1 at 1.2, 0.9 at 2.0, 0.1 at
     # 2.8; dir is the enumeration's ordinal (Up = 1, Down = 2). Euler: each event up to one step late, adding up.
     changes = {name: np.flatnonzero(np.diff(r[name].astype(float))) + 1 for name in ("dir", "rises", "late")}
@@ -380,10 +370,10 @@ def _thermostat_switch_times(stop=12.0, P=2.0, k=0.1, Ta=10.0, low=19.0, high=21
 
 
 @pytest.mark.parametrize("solver, tolerance", [("CVode", 1e-6), ("Euler", 3 * 1e-3)])  # Euler: 3 steps (1.9 measured)
-def test_modelica_thermostat_fmu_switches_where_scipy_does(hybrid_fmus, solver, tolerance):
+def test_modelica_thermostat_fmu_switches_where_scipy_does(hybrid_fmu, solver, tolerance):
     """CVode locates each crossing of T = 21 exactly at 0; the FMU reports an indicator at exactly 0 on its former
     side, so the event comes where the relation T > Thi has flipped (else the heater never switched off)."""
-    r = _simulate(hybrid_fmus["Thermostat"], solver, 12.0, step=1e-3, output=["switches"])
+    r = _simulate(hybrid_fmu("Thermostat"), solver, 12.0, step=1e-3, output=["switches"])
     expected = _thermostat_switch_times()
     assert len(expected) == 6 and r["switches"][-1] == 6
     assert np.max(np.abs(_event_times(r, "switches") - expected)) < tolerance
