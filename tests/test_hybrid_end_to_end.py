@@ -5,9 +5,11 @@ Euler runs of the same FMU."""
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import fmpy
 import numpy as np
+import pandas as pd
 import pytest
 from scipy.integrate import solve_ivp
 
@@ -117,8 +119,6 @@ def test_modelica_step_counter_counts_time_events_as_an_integer_column(tmp_path,
     done = subprocess.run([sys.executable, "-m", "cosim", "run", str(cfg), "--out", str(out)],
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    import pandas as pd
-
     data = pd.read_parquet(out / "results.parquet")
     assert data["steps"].dtype.kind == "i"
     np.testing.assert_array_equal(data["steps"], np.floor(data["time"] / 0.25 + 1e-9).astype(int))
@@ -135,3 +135,22 @@ def test_modelica_terminate_stops_the_run_and_keeps_the_rows(tmp_path, hybrid_fm
     assert result.stopped["time"] == pytest.approx(0.7, abs=1e-9)
     assert "done heating" in result.stopped["reason"]
     assert 0.69 <= result.data["time"][-1] <= 0.7
+
+
+def test_shipped_hybrid_example_builds_and_runs_from_the_command_line(tmp_path):
+    """examples/hybrid_ball.toml as docs/guide/build.md shows it: cosim build FILE --model, then cosim run."""
+    root = Path(__file__).resolve().parent.parent
+    fmus = tmp_path / "fmus"
+    built = subprocess.run([sys.executable, "-m", "cosim", "build", str(root / "examples/hybrid/BouncingBall.mo"),
+                            "--model", "BouncingBall", "--out", str(fmus)], capture_output=True, text=True, cwd=root)
+    assert built.returncode == 0, built.stderr
+    out = tmp_path / "out"
+    ran = subprocess.run([sys.executable, "-m", "cosim", "run", str(root / "examples/hybrid_ball.toml"), "--out",
+                          str(out), "--set", f'fmus.ball.path="{fmus / "BouncingBall.fmu"}"'],
+                         capture_output=True, text=True, cwd=root)
+    assert ran.returncode == 0, ran.stderr
+    data = pd.read_parquet(out / "results.parquet")
+    expected = bounce_times(e=0.8, v_min=0.0, stop=3.0)
+    assert data["bounces"].dtype.kind == "i" and data["bounces"].iloc[-1] == len(expected)
+    np.testing.assert_array_equal(data["bounces"], np.searchsorted(expected, data["time"], side="right"))
+    assert json.loads((out / "summary.json").read_text())["events"] == 2 * len(expected)
