@@ -43,11 +43,6 @@ class Variable:
     start: str | None = None
     description: str = ""
 
-    @property
-    def is_real(self):
-        """True for Real / Float64 / Float32 variables (the ones the master routes)."""
-        return self.type in ("Real", "Float64", "Float32")
-
 
 @dataclass(frozen=True)
 class ModelInfo:
