@@ -2,7 +2,6 @@
 arguments and results), lowered by the compiler and compared with numpy / scipy written by hand from the
 models' equations (tests/models/arrays/Arrays.mo)."""
 
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +10,7 @@ from scipy.integrate import solve_ivp
 
 from cosim.compile import lower
 from cosim.errors import ModelicaError, UnsupportedConstructError
+from modelica_support import write_package
 
 MODELS = Path(__file__).resolve().parent / "models" / "arrays" / "Arrays.mo"
 
@@ -146,12 +146,6 @@ def test_der_of_expressions_follows_the_hand_derived_ode():
     np.testing.assert_allclose(rate, ref.y[3] - ref.y[2], atol=1e-7)
 
 
-def _package(tmp_path, body):
-    path = tmp_path / "T.mo"
-    path.write_text("package T\n" + textwrap.dedent(body).strip("\n") + "\nend T;\n")
-    return path
-
-
 REJECTED = {
     "while": ("""
   function halve
@@ -267,7 +261,7 @@ REJECTED = {
 def test_rejected_array_and_function_constructs_name_file_and_line(tmp_path, construct):
     body, expected, line = REJECTED[construct]
     with pytest.raises(ModelicaError) as err:
-        lower(_package(tmp_path, body), "T.M")
+        lower(write_package(tmp_path, body), "T.M")
     assert expected in str(err.value)
     assert err.value.file.endswith("T.mo") and err.value.line == line, str(err.value)
     assert isinstance(err.value, UnsupportedConstructError), type(err.value)

@@ -2,7 +2,6 @@
 and parameters, solved into ``x0(p)``, against equilibria solved by hand (tests/models/arrays/Arrays.mo)."""
 
 import subprocess
-import textwrap
 from pathlib import Path
 
 import casadi as ca
@@ -11,6 +10,7 @@ import pytest
 
 from cosim.compile import lower
 from cosim.errors import StructureError
+from modelica_support import write_package
 
 MODELS = Path(__file__).resolve().parent / "models" / "arrays" / "Arrays.mo"
 
@@ -99,12 +99,6 @@ def test_x0_generates_c_code_that_agrees(tmp_path, model, p, expected):
     np.testing.assert_allclose([float(v) for v in run.stdout.split()], expected, rtol=1e-12, atol=1e-15)
 
 
-def _package(tmp_path, body):
-    path = tmp_path / "T.mo"
-    path.write_text("package T\n" + textwrap.dedent(body).strip("\n") + "\nend T;\n")
-    return path
-
-
 BAD = {
     "too many": ("""
   model M
@@ -135,6 +129,6 @@ BAD = {
 def test_initial_equations_that_do_not_determine_the_states_name_file_and_line(tmp_path, case):
     body, expected, line = BAD[case]
     with pytest.raises(StructureError) as err:
-        lower(_package(tmp_path, body), "T.M")
+        lower(write_package(tmp_path, body), "T.M")
     assert expected in str(err.value)
     assert err.value.file.endswith("T.mo") and err.value.line == line, str(err.value)
