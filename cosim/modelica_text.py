@@ -12,7 +12,8 @@ import re
 
 from cosim.errors import ConfigError, UnsupportedConstructError
 
-__all__ = ["find_class", "own_text", "resolve", "class_chain", "modifiers", "replaceables", "check_redeclares"]
+__all__ = ["find_class", "own_text", "resolve", "class_chain", "modifiers", "replaceables", "check_redeclares",
+           "line_of"]
 
 _KINDS = "(?:partial +)?(?:model|block|package|record|function|connector)"
 _REPLACEABLE = re.compile(r"\breplaceable\s+([\w.]+)\s+(\w+)\s*(\((?:[^()]|\([^()]*\))*\))?\s*"
@@ -92,7 +93,8 @@ def replaceables(text, name):
     return found
 
 
-def _line(text, pos):
+def line_of(text, pos):
+    """The 1-based line of character ``pos`` of ``text``."""
     return text.count("\n", 0, pos) + 1
 
 
@@ -115,7 +117,7 @@ def check_redeclares(text, file):
         With ``file`` and the line of the clause.
     """
     for pos, base, modification in _extends_clauses(text):
-        where = (file, _line(text, pos))
+        where = (file, line_of(text, pos))
         for found in re.finditer(r"\bredeclare\b", modification):
             head = modification[:found.start()]
             if head.count("(") - head.count(")") != 1:

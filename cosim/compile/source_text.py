@@ -6,6 +6,7 @@ in the Modelica text, lexically (comments and strings masked, nothing parsed), a
 import re
 
 from cosim.errors import UnsupportedConstructError
+from cosim.modelica_text import line_of
 
 __all__ = ["masked", "locate_rumoca_error"]
 
@@ -15,10 +16,6 @@ _LEXICAL = re.compile(r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\])*"', re.S)
 def masked(text):
     """``text`` with comments and string literals blanked (same length, same newlines)."""
     return _LEXICAL.sub(lambda m: re.sub(r"[^\n]", " ", m.group(0)), text)
-
-
-def _line(text, position):
-    return text.count("\n", 0, position) + 1
 
 
 def _function_span(text, name):
@@ -70,7 +67,7 @@ def _find(message, files):
                 continue
             hit = re.search(construct.format(**groups), text[start:end])
             if hit:
-                return what, instead, groups.get("function"), str(path), _line(text, start + hit.start())
+                return what, instead, groups.get("function"), str(path), line_of(text, start + hit.start())
     return known
 
 
