@@ -373,3 +373,24 @@ def test_numeric_helpers_of_a_hybrid_model_hold_the_relation_at_its_initial_valu
     assert_allclose(model.derivatives([0.2], []), [-0.1])
     above = model.events.initial([1.0], [], model.parameter_values, 0.0)
     assert_allclose(model.derivatives([0.2], [], m=above), [-0.2])
+
+
+def test_terminal_passes_fire_each_terminal_when_clause_once():
+    model = hybrid("Terminal")
+    ev = model.events
+    p = model.parameter_values
+    m = np.array(ev.initial([1.0], [], p, 0.0)).ravel()
+    x, m = _settle(model, np.array([1.0]), [], p, 0.0, m)
+    x_half = np.exp(-0.5)  # closed form of der(x) = -x at t = 0.5
+    x_pass, m_pass = _settle(model, np.array([x_half]), [], p, 0.5, m)
+    assert np.array_equal(m_pass, m)  # terminal() is false in ordinary event passes
+    for _ in range(3):  # passes with terminal() true, repeated as an importer does until m settles
+        x_end, m_end, status = ev.terminal([x_half], [], p, 0.5, m)
+        m = np.array(m_end).ravel()
+        assert int(status) == 0
+    assert m[0] == x_half and m[1] == 1.0  # x_end = x and n_end = pre(n_end) + 1, once
+    assert float(model.out([x_half], [], p, 0.5, m)[0]) == 2 * x_half  # y = 2 x_end
+
+
+def test_a_model_without_terminal_has_no_terminal_pass():
+    assert hybrid("Stop").events.terminal is None

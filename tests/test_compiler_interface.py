@@ -129,13 +129,11 @@ UNSUPPORTED = {
     "terminal": ("""
   model M
     Real x(start = 1);
-    discrete Real y(start = 0);
+    Real y;
   equation
     der(x) = -x;
-    when terminal() then
-      y = x;
-    end when;
-  end M;""", "terminal()", 8),
+    y = if terminal() then 1 else 0;
+  end M;""", "terminal() in an equation that holds in continuous time", 8),
     "clocked": ("""
   model M
     Real x(start = 1);

@@ -338,6 +338,19 @@ def test_modelica_terminate_stops_the_fmu_at_its_event(hybrid_fmu, solver):
     assert r["time"][-1] == pytest.approx(0.7, abs=1e-9 if solver == "CVode" else 1e-4)
 
 
+def test_terminal_when_clauses_fire_once_at_fmi3_terminate(hybrid_fmu):
+    md, model, vrs = _open(hybrid_fmu("Terminal"))
+    model.setTime(2.0)
+    model.setContinuousStates((fmi3Float64 * 1)(0.25), 1)  # an importer's x at the end, set by hand
+    names = ["x_end", "y"]
+    assert list(model.getFloat64([vrs[n] for n in names])) == [0.0, 0.0]  # terminal() false until the end
+    model.terminate()
+    # after fmi3Terminate: x_end = x, y = 2 x_end, and the counter raised once (FMI 3 lets the final values be read)
+    assert list(model.getFloat64([vrs[n] for n in names])) == [0.25, 0.5]
+    assert list(model.getInt64([vrs["n_end"]])) == [1]
+    model.freeInstance()
+
+
 @pytest.mark.parametrize("solver, tolerance", [("CVode", 1e-6), ("Euler", 5e-4)])
 def test_modelica_relay_fmu_exposes_enumeration_and_booleans_with_their_types(hybrid_fmu, solver, tolerance):
     md = fmpy.read_model_description(str(hybrid_fmu("Relay")))

@@ -52,6 +52,8 @@ class EventSystem:
     terminates: list = field(default_factory=list)   # (active, "file:line: message")
     clocks: list = field(default_factory=list)       # (counter symbol, tick symbol, start, interval)
     init: object = None                              # SX symbol: 1 during initialisation
+    terminal: object = None                          # SX symbol: 1 in the passes at the end of the simulation
+    reads_terminal: bool = False                     # the model uses terminal()
     initial_values: dict = field(default_factory=dict)  # discrete name -> value from an initial equation
 
 
@@ -65,7 +67,8 @@ class EventReader:
     def __init__(self, tr, discretes):
         self.tr = tr
         self.storage = tr.storage
-        self.system = EventSystem(discretes, tr.pre_syms, tr.relations, init=ca.SX.sym("$initial"))
+        self.system = EventSystem(discretes, tr.pre_syms, tr.relations, init=ca.SX.sym("$initial"),
+                                  terminal=ca.SX.sym("$terminal"))
         self.levels, self.fires = {}, {}
         for v in discretes:
             tr.pre_syms.setdefault(v.name, ca.SX.sym(f"pre({v.name})"))
@@ -164,7 +167,8 @@ class EventReader:
         if any(r is None for r in system.relations):
             self.tr.unsupported("a relation rumoca lists that is not a comparison", self.storage["relations"])
         system.clocks = [c for c in system.clocks if c is not None]
-        if not (system.discretes or system.relations or system.asserts or system.terminates or system.clocks):
+        if not (system.discretes or system.relations or system.asserts or system.terminates or system.clocks
+                or system.reads_terminal):
             return None
         return system
 
@@ -280,10 +284,10 @@ def referenced_names(events):
 
 
 def between_events(events, variables):
-    """(from, to) for the continuous equations: between events ``pre(v)`` is ``v``, ``initial()`` and
-    ``sample()`` are false. ``variables``: name -> symbol of every variable ``pre`` may name."""
+    """(from, to) for the continuous equations: between events ``pre(v)`` is ``v``, ``initial()``,
+    ``terminal()`` and ``sample()`` are false. ``variables``: name -> symbol of every variable ``pre`` may name."""
     pairs = [(sym, variables[n]) for n, sym in events.pre.items()]
-    pairs += [(events.init, ca.SX(0))] + [(c[1], ca.SX(0)) for c in events.clocks]
+    pairs += [(events.init, ca.SX(0)), (events.terminal, ca.SX(0))] + [(c[1], ca.SX(0)) for c in events.clocks]
     return [a for a, _ in pairs], [b for _, b in pairs]
 
 
@@ -357,7 +361,8 @@ def _resolve(assignments, discretes, location):
 
 
 def _pass(events, ctx):
-    """One event-iteration pass as an SX function (x, u, p, t, m_pre, w, initial) -> (x_new, m_new, status)."""
+    """One event-iteration pass as an SX function (x, u, p, t, m_pre, w, initial, terminal) -> (x_new, m_new,
+    status); ``terminal`` is 1 in the passes at the end of the simulation, where ``terminal()`` is true."""
     init = events.init
     pre_d = [events.pre[v.name] for v in events.discretes]
     d_to_pre = (ca.vertcat(*[v.sym for v in events.discretes]), ca.vertcat(*pre_d)) if pre_d else None
@@ -409,7 +414,7 @@ def _pass(events, ctx):
     m_pre = pre_d + [ca.SX.sym(f"$relpre{k}") for k in range(len(events.relations))] \
         + [h for h, _ in events.held] + [c[0] for c in events.clocks]
     m_new = [new[v.name] for v in events.discretes] + rel_new + held_new + counters
-    inputs = [ctx.X, ctx.U, ctx.P, ctx.T, _vec(m_pre), _vec(ctx.W), init]
+    inputs = [ctx.X, ctx.U, ctx.P, ctx.T, _vec(m_pre), _vec(ctx.W), init, events.terminal]
     outputs = [_vec(x_new), _vec(m_new), status]
     _check_free(outputs, inputs, ctx.location)
     return ca.Function("event_pass", inputs, outputs)
@@ -449,6 +454,12 @@ def _start_memory(events, ctx, M):
     return ca.Function("m_start", [ctx.X, ctx.U, ctx.P, ctx.T], [start])
 
 
+def _reads_terminal(step):
+    """Whether an event pass reads its ``terminal`` input (the model uses ``terminal()``)."""
+    outputs = step.call(step.sx_in())
+    return ca.depends_on(ca.vertcat(*[ca.vec(o) for o in outputs]), step.sx_in(7))
+
+
 def event_part(events, ctx, M):
     """The :class:`EventPart` of a hybrid model (``ctx.w_value`` gives the continuous unknowns at (x,u,p,t,m))."""
     _classify(events, ctx)
@@ -456,15 +467,19 @@ def event_part(events, ctx, M):
     names = ["x", "u", "p", "t"]
     Xm, Um, Pm, Tm = (ca.MX.sym(n, s.shape[0]) for n, s in zip(names, (ctx.X, ctx.U, ctx.P, ctx.T)))
     Mm = ca.MX.sym("m", M.shape[0])
-    x_new, m_new, status = step(Xm, Um, Pm, Tm, Mm, ctx.w_value(Xm, Um, Pm, Tm, Mm), 0)
-    update = ca.Function("update", [Xm, Um, Pm, Tm, Mm], [x_new, m_new, status], names + ["m_pre"],
-                         ["x_new", "m_new", "status"])
+    w = ctx.w_value(Xm, Um, Pm, Tm, Mm)
+    update = ca.Function("update", [Xm, Um, Pm, Tm, Mm], list(step(Xm, Um, Pm, Tm, Mm, w, 0, 0)),
+                         names + ["m_pre"], ["x_new", "m_new", "status"])
+    terminal = None
+    if _reads_terminal(step):
+        terminal = ca.Function("terminal", [Xm, Um, Pm, Tm, Mm], list(step(Xm, Um, Pm, Tm, Mm, w, 0, 1)),
+                               names + ["m_pre"], ["x_new", "m_new", "status"])
     start = _start_memory(events, ctx, M)(Xm, Um, Pm, Tm)
     keep = ca.DM([1.0 if k < len(events.discretes) else 0.0 for k in range(M.shape[0])])
     m = start
     for _ in range(INIT_PASSES):  # pre() of a discrete variable is its start value in every init pass
         m_pre = keep * start + (1 - keep) * m
-        m = step(Xm, Um, Pm, Tm, m_pre, ctx.w_value(Xm, Um, Pm, Tm, m), 1)[1]
+        m = step(Xm, Um, Pm, Tm, m_pre, ctx.w_value(Xm, Um, Pm, Tm, m), 1, 0)[1]
     initial = ca.Function("initial", [Xm, Um, Pm, Tm], [m], names, ["m"])
     state_relations = [r for r in events.relations if r.kind == "state"]
     z = ca.Function("z", [ctx.X, ctx.U, ctx.P, ctx.T, M, _vec(ctx.W)], [_vec([r.g for r in state_relations])])
@@ -473,7 +488,7 @@ def event_part(events, ctx, M):
     return EventPart(
         discretes=tuple(_discrete_variable(v, events, ctx) for v in events.discretes),
         n_memory=M.shape[0], n_indicators=len(state_relations), indicators=indicators, update=update,
-        initial=initial, next_time=_next_time(events, ctx, M),
+        initial=initial, next_time=_next_time(events, ctx, M), terminal=terminal,
         messages=tuple(msg for _, msg in events.asserts) + tuple(msg for _, msg in events.terminates[:1]),
     )
 

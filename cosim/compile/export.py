@@ -90,13 +90,15 @@ def _continuous_events(model):
     none = sym(0, 1)
     return [ca.Function("cosim_indicators", [x, u, p, t, m], [none]),
             ca.Function("cosim_update", [x, u, p, t, m], [x, none, sym(0.0)]),
+            ca.Function("cosim_terminal", [x, u, p, t, m], [x, none, sym(0.0)]),
             ca.Function("cosim_initial", [x, u, p, t], [none]),
             ca.Function("cosim_next_time", [t, p, none], [sym(float("inf"))])]
 
 
 def _c_functions(model):
     """The CasADi functions the C core calls, named cosim_ode, cosim_out, cosim_x0, cosim_indicators,
-    cosim_update, cosim_initial, cosim_next_time."""
+    cosim_update, cosim_terminal, cosim_initial, cosim_next_time (cosim_terminal: the update with terminal()
+    true; one that changes nothing when the model does not use terminal())."""
     events = model.events
     memory = 0 if events is None else None  # a continuous model's functions get an empty memory argument
     functions = [_named(model.ode, "cosim_ode", memory), _named(model.out, "cosim_out", memory),
@@ -104,7 +106,16 @@ def _c_functions(model):
     if events is None:
         return functions + _continuous_events(model)
     return functions + [_named(events.indicators, "cosim_indicators"), _named(events.update, "cosim_update"),
-                        _named(events.initial, "cosim_initial"), _named(events.next_time, "cosim_next_time")]
+                        _terminal_pass(events), _named(events.initial, "cosim_initial"),
+                        _named(events.next_time, "cosim_next_time")]
+
+
+def _terminal_pass(events):
+    """cosim_terminal: the model's terminal pass, or one that keeps x and m when it has no terminal()."""
+    if events.terminal is not None:
+        return _named(events.terminal, "cosim_terminal")
+    sym, (x, u, p, t, m) = _symbols(events.update, None)
+    return ca.Function("cosim_terminal", [x, u, p, t, m], [x, m, sym(0.0)])
 
 
 def _c_array(name, ctype, values):

@@ -13,7 +13,7 @@ from cosim.compile import events as hybrid
 from cosim.compile.initial import initial_state
 from cosim.compile.model import LoweredModel, ModelVariable
 from cosim.compile.newton import NEWTON_ITERATIONS, newton
-from cosim.errors import StructureError
+from cosim.errors import StructureError, UnsupportedConstructError
 
 __all__ = ["lower_system"]
 
@@ -338,6 +338,10 @@ def _hybrid_memory(system, equations):
     if system.events is None:
         return None, equations
     memory = hybrid.memory_symbols(system.events)
+    for e, loc in equations:
+        if ca.depends_on(e, system.events.terminal):
+            raise UnsupportedConstructError("terminal() in an equation that holds in continuous time (it is "
+                                            "supported as the condition of a when-clause)", *_file_line(loc))
     pre_from, pre_to = hybrid.between_events(system.events, {v.name: v.sym for v in system.variables})
     equations = [(ca.substitute(e, ca.vertcat(*pre_from), ca.vertcat(*pre_to)), loc) for e, loc in equations]
     return (ca.vertcat(*memory) if memory else ca.SX(0, 1)), equations

@@ -86,6 +86,10 @@ class EventPart:
     messages : tuple of str
         ``"file:line: message"`` of each assertion (index ``k`` of status ``2 + k``); the last entry is the
         message of ``terminate()`` when the model has one.
+    terminal : casadi.Function or None
+        Like ``update``, with ``terminal()`` true: the passes an importer runs when the simulation ends
+        (``fmi3Terminate``), repeated like ``update`` until ``m`` settles. None when the model does not use
+        ``terminal()``.
     """
 
     discretes: tuple
@@ -96,6 +100,7 @@ class EventPart:
     initial: object
     next_time: object
     messages: tuple = ()
+    terminal: object = None
 
 
 @dataclass(frozen=True)

@@ -47,7 +47,6 @@ _COMPARISON_OPERATORS = ("less", "less_equal", "greater", "greater_equal")
 _COORDINATE_NAMES = {
     "delay": "delay()",
     "previous": "previous() (clocked synchronous construct)",
-    "terminal": "terminal() (an FMU has no event at fmi3Terminate in which a when-clause could fire)",
 }
 _ROLES = {"state", "algebraic", "input", "output", "parameter", "constant", "discrete_real", "discrete_value"}
 
@@ -258,6 +257,9 @@ class _Translator:
             return self._pre(index)
         if ref == "condition":
             return self.reader.level(index)
+        if ref == "terminal":
+            self.reader.system.reads_terminal = True
+            return self.reader.system.terminal
         if ref in _COORDINATE_NAMES:
             self.unsupported(_COORDINATE_NAMES[ref], self.provenance[i])
         if ref == "function_parameter":

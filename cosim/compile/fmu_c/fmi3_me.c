@@ -135,8 +135,12 @@ fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance) {
     return fmi3OK;
 }
 
+/* The end of the simulation: the passes where terminal() is true, after which the final values can be read. */
 fmi3Status fmi3Terminate(fmi3Instance instance) {
-    ((Fmu3 *)instance)->mode = MODE_TERMINATED;
+    Fmu3 *f = (Fmu3 *)instance;
+    int initialised = f->mode == MODE_EVENT || f->mode == MODE_CONTINUOUS;
+    f->mode = MODE_TERMINATED;
+    if (initialised && model_terminal(f->model)) return fmi3Error;
     return fmi3OK;
 }
 

@@ -181,12 +181,13 @@ int model_initialize(Model *s) {
     return CORE_OK;
 }
 
-/* One pass of event iteration: update(x, u, p, t, m_pre) with m_pre the current memory. */
-int model_event_pass(Model *s, EventFlags *flags) {
+/* One pass of event iteration with `pass` (cosim_update, or cosim_terminal at the end): pass(x, u, p, t, m_pre)
+ * with m_pre the current memory. */
+static int event_pass_with(Model *s, casadi_fn pass, EventFlags *flags) {
     double x_new[N_X + 1], m_new[N_M + 1], status = 0.0;
     int i, k;
     memset(flags, 0, sizeof *flags);
-    if (call(s, cosim_update, s->m, x_new, m_new, &status)) return CORE_ERROR;
+    if (call(s, pass, s->m, x_new, m_new, &status)) return CORE_ERROR;
     for (i = 0; i < N_X; i++)
         if (x_new[i] != s->x[i]) flags->states_changed = 1;
     for (i = 0; i < N_M; i++)
@@ -203,6 +204,21 @@ int model_event_pass(Model *s, EventFlags *flags) {
         return CORE_ERROR;
     }
     return CORE_OK;
+}
+
+int model_event_pass(Model *s, EventFlags *flags) { return event_pass_with(s, cosim_update, flags); }
+
+/* The end of the simulation: passes with terminal() true until the memory settles (when-clauses on terminal()
+ * fire once: their held condition is set by the first pass). */
+int model_terminal(Model *s) {
+    EventFlags flags;
+    int pass;
+    for (pass = 0; pass < MAX_TERMINAL_PASSES; pass++) {
+        if (event_pass_with(s, cosim_terminal, &flags)) return CORE_ERROR;
+        if (!flags.discrete_changed && !flags.states_changed) return CORE_OK;
+    }
+    logf_(s, 1, "t = %.17g: the terminal() passes did not settle%s", s->t, "");
+    return CORE_ERROR;
 }
 
 /* The next time event strictly after the current time, or INFINITY. */

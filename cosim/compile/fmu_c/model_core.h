@@ -11,6 +11,9 @@
 #define CORE_OK 0
 #define CORE_ERROR 1
 
+/* Most passes with terminal() true at the end of the simulation (model_terminal). */
+#define MAX_TERMINAL_PASSES 100
+
 /* Types a value reference can be read or written as. */
 #define TYPE_FLOAT64 0
 #define TYPE_INT64 1
@@ -52,6 +55,7 @@ const double *model_indicators(Model *s);
 void model_settle_indicators(Model *s);
 int model_initialize(Model *s);
 int model_event_pass(Model *s, EventFlags *flags);
+int model_terminal(Model *s);
 double model_next_time(Model *s);
 
 #endif

@@ -208,4 +208,19 @@ package Hybrid "Hybrid test models; each test has an independent reference (clos
       n = pre(n) + 1;
     end when;
   end Inputs;
+
+  model Terminal "when terminal(): the last value of x = exp(-t) kept, a counter raised once"
+    Real x(start = 1, fixed = true);
+    discrete output Real x_end(start = 0, fixed = true);
+    output Integer n_end(start = 0, fixed = true);
+    output Real y = 2 * x_end;
+  equation
+    der(x) = -x;
+    when terminal() then
+      x_end = x;
+    end when;
+    when terminal() then
+      n_end = pre(n_end) + 1;
+    end when;
+  end Terminal;
 end Hybrid;
