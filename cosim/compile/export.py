@@ -25,7 +25,9 @@ __all__ = ["export_fmu", "C_TEMPLATE_DIR"]
 C_TEMPLATE_DIR = Path(__file__).parent / "fmu_c"
 """The C sources of the FMU wrapper (copied into every FMU's ``sources/``)."""
 
-_TEMPLATES = ("model_core.h", "model_core.c", "fmi3_me.c")
+# The wrapper's C files of each FMI version, and the C files compiled (with CasADi's model.c).
+_TEMPLATES = {3: ("model_core.h", "model_core.c", "fmi3_me.c"), 2: ("model_core.h", "model_core.c", "fmi2.c")}
+_SOURCES = {3: ("model.c", "model_core.c", "fmi3_me.c"), 2: ("model.c", "model_core.c", "fmi2.c")}
 _GENERATED = ("model.c", "model.h", "model_data.h")
 # Discrete kinds -> (FMI 3 type element, code in model_data.h D_KIND). An enumeration is exposed as its ordinal,
 # an Int64 (no enumeration type definitions in the modelDescription).
@@ -149,10 +151,12 @@ def _data_header(model, layout, functions, identifier, token):
     return "\n".join(lines)
 
 
-def _dependencies(f, layout):
-    """Per result row of ``f(x, u, ...)``: the value references of the states and inputs it depends on."""
+def _dependencies(f, layout, parameters=False):
+    """Per result row of ``f(x, u, p, ...)``: the value references of the states and inputs (and with
+    ``parameters``, the parameters) it depends on."""
     rows = [[] for _ in range(f.size1_out(0))]
-    for i, first in ((0, layout.x), (1, layout.u)):
+    blocks = ((0, layout.x), (1, layout.u)) + (((2, layout.p),) if parameters else ())
+    for i, first in blocks:
         sparsity = f.jac_sparsity(0, i)
         for row, col in zip(*sparsity.get_triplet()):
             rows[row].append(first + col)
@@ -226,11 +230,17 @@ def _structure(root, model, layout, functions):
 
 def _unit_definitions(root, variables):
     """Define every unit used (FMI requires it), with its SI base-unit exponents where the unit is understood."""
-    units = sorted({v.get("unit") for v in variables if v.get("unit")})
+    definitions = _unit_element({v.get("unit") for v in variables if v.get("unit")})
+    if definitions is not None:
+        root.insert(list(root).index(variables), definitions)
+
+
+def _unit_element(units):
+    """A UnitDefinitions element for ``units`` (the same in FMI 2.0 and 3.0), or None when there are none."""
     if not units:
-        return
+        return None
     definitions = ET.Element("UnitDefinitions")
-    for unit in units:
+    for unit in sorted(units):
         element = ET.SubElement(definitions, "Unit", name=unit)
         parsed = base_unit(unit)
         if parsed:
@@ -238,7 +248,7 @@ def _unit_definitions(root, variables):
             base = ET.SubElement(element, "BaseUnit", {k: str(v) for k, v in exponents.items()})
             if factor != 1.0:
                 base.set("factor", repr(factor))
-    root.insert(list(root).index(variables), definitions)
+    return definitions
 
 
 def _model_description(model, layout, functions, identifier, token, description):
@@ -261,20 +271,129 @@ def _model_description(model, layout, functions, identifier, token, description)
 def _build_description(identifier):
     root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
     files = ET.SubElement(ET.SubElement(root, "BuildConfiguration", modelIdentifier=identifier), "SourceFileSet")
-    for name in ("model.c", "model_core.c", "fmi3_me.c"):
+    for name in _SOURCES[3]:
         ET.SubElement(files, "SourceFile", name=name)
     tree = ET.ElementTree(root)
     ET.indent(tree, space="    ")
     return tree
 
 
-def _compile(sources, binary, model_name):
-    """gcc -O2 into a shared library that exports only the fmi3 functions (the CasADi symbols are hidden, so
-    several FMUs load into one process)."""
+# ---- FMI 2.0: the same layout and value references; variables are ScalarVariables, referred to by index ----
+
+_KINDS_2 = {"real": "Real", "integer": "Integer", "boolean": "Boolean", "enumeration": "Integer"}
+_TYPE_ATTRS_2 = ("unit", "start", "derivative")
+
+
+def _scalar(variables, index, name, vr, vtype="Real", variable=None, **attrs):
+    """Append a ScalarVariable; ``attrs`` holds its own attributes and those of its type element
+    (``_TYPE_ATTRS_2``); records its 1-based index by value reference in ``index``."""
+    own = {"name": name, "valueReference": str(vr)}
+    typed = {}
+    if variable is not None:
+        if variable.description:
+            own["description"] = variable.description
+        if variable.unit and vtype == "Real":
+            typed["unit"] = variable.unit
+    for key, value in attrs.items():
+        (typed if key in _TYPE_ATTRS_2 else own)[key] = value
+    element = ET.SubElement(variables, "ScalarVariable", own)
+    ET.SubElement(element, vtype, typed)
+    index[vr] = len(variables)
+    return element
+
+
+def _variables_2(model, layout):
+    """ModelVariables of FMI 2.0 and the index of each value reference (event indicators are no variables)."""
+    variables, index = ET.Element("ModelVariables"), {}
+    _scalar(variables, index, "time", 0, causality="independent", variability="continuous")
+    for k, p in enumerate(model.parameters):
+        _scalar(variables, index, p.name, layout.p + k, variable=p, causality="parameter", variability="tunable",
+                initial="exact", start=repr(float(p.start)))
+    for k, u in enumerate(model.inputs):
+        _scalar(variables, index, u.name, layout.u + k, variable=u, causality="input", start=repr(float(u.start)))
+    outputs = {y.name for y in model.outputs}
+    for k, x in enumerate(model.states):
+        _scalar(variables, index, x.name, layout.x + k, variable=x,
+                causality="output" if x.name in outputs else "local", initial="exact", start=repr(float(x.start)))
+    for k, x in enumerate(model.states):
+        _scalar(variables, index, f"der({x.name})", layout.dx + k, derivative=str(index[layout.x + k]))
+    for k, j in enumerate(layout.y_index):
+        _scalar(variables, index, model.outputs[j].name, layout.y + k, variable=model.outputs[j],
+                causality="output", initial="calculated")
+    for k, d in enumerate(model.events.discretes if model.events else ()):
+        _scalar(variables, index, d.name, layout.d + k, _KINDS_2[d.kind], variable=d, causality=d.causality,
+                variability="discrete", initial="calculated")
+    return variables, index
+
+
+def _structure_2(root, model, layout, functions, index):
+    """ModelStructure of FMI 2.0: outputs and derivatives with their dependencies on states and inputs, initial
+    unknowns (calculated outputs, derivatives, discrete outputs) with theirs on states, inputs and parameters;
+    a discrete output's dependencies are left implicit (it may depend on everything)."""
+    def deps(vrs):
+        return " ".join(str(i) for i in sorted(index[int(vr)] for vr in vrs.split()))
+
+    out_deps, ode_deps = _dependencies(functions[1], layout), _dependencies(functions[0], layout)
+    out_init = _dependencies(functions[1], layout, parameters=True)
+    ode_init = _dependencies(functions[0], layout, parameters=True)
+    events = model.events
+    discretes = [(layout.d + k, None, None) for k, d in enumerate(events.discretes if events else ())
+                 if d.causality == "output"]
+    outputs = [(layout.output_vr(model, y.name), out_deps[k], out_init[k]) for k, y in enumerate(model.outputs)]
+    derivatives = [(layout.dx + k, ode_deps[k], ode_init[k]) for k in range(len(model.states))]
+    initial = [o for o in outputs if o[0] >= layout.y] + discretes + derivatives
+    structure = ET.SubElement(root, "ModelStructure")
+    for tag, entries, which in (("Outputs", outputs + discretes, 1), ("Derivatives", derivatives, 1),
+                                ("InitialUnknowns", initial, 2)):
+        if not entries:
+            continue
+        group = ET.SubElement(structure, tag)
+        for entry in sorted(entries, key=lambda e: index[e[0]]):
+            attrs = {"index": str(index[entry[0]])}
+            if entry[which] is not None:
+                attrs["dependencies"] = deps(entry[which])
+            ET.SubElement(group, "Unknown", attrs)
+
+
+def _model_description_2(model, layout, functions, identifier, token, description, source):
+    """modelDescription.xml of FMI 2.0: Model Exchange and Co-Simulation in one FMU."""
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "2.0", "modelName": identifier, "guid": token, "generationTool": f"cosim {__version__}",
+        "generationDateAndTime": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "variableNamingConvention": "structured",
+        "numberOfEventIndicators": str(model.events.n_indicators if model.events else 0)})
+    if description:
+        root.set("description", description)
+    common = {"modelIdentifier": identifier, "canNotUseMemoryManagementFunctions": "true",
+              "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true", "providesDirectionalDerivative": "true"}
+    for tag, flags in (("ModelExchange", {"completedIntegratorStepNotNeeded": "true"}),
+                       ("CoSimulation", {"canHandleVariableCommunicationStepSize": "true"})):
+        element = ET.SubElement(root, tag, {**common, **flags})
+        if source:
+            files = ET.SubElement(element, "SourceFiles")
+            for name in _SOURCES[2]:
+                ET.SubElement(files, "File", name=name)
+    variables, index = _variables_2(model, layout)
+    units = _unit_element({t.get("unit") for t in variables.iter("Real") if t.get("unit")})
+    if units is not None:
+        root.append(units)
+    categories = ET.SubElement(root, "LogCategories")
+    for name, text in (("logEvents", "events and terminate()"), ("logStatusError", "errors")):
+        ET.SubElement(categories, "Category", name=name, description=text)
+    root.append(variables)
+    _structure_2(root, model, layout, functions, index)
+    tree = ET.ElementTree(root)
+    ET.indent(tree, space="    ")
+    return tree
+
+
+def _compile(sources, files, binary, model_name):
+    """gcc -O2 ``files`` into a shared library that exports only the FMI functions (the CasADi symbols are
+    hidden, so several FMUs load into one process); the standard's headers are those fmpy installs."""
     include = os.path.join(os.path.dirname(fmpy.__file__), "c-code")
     command = [os.environ.get("CC", "gcc"), "-shared", "-fPIC", "-O2", "-fvisibility=hidden",
                "-DCASADI_SYMBOL_EXPORT=", f"-I{sources}", f"-I{include}",
-               *(str(sources / name) for name in ("model.c", "model_core.c", "fmi3_me.c")), "-o", str(binary), "-lm"]
+               *(str(sources / name) for name in files), "-o", str(binary), "-lm"]
     try:
         done = subprocess.run(command, capture_output=True, text=True)
     except OSError as err:
@@ -283,8 +402,8 @@ def _compile(sources, binary, model_name):
         raise BuildError(f"{model_name}: compiling the FMU failed:\n{done.stderr.strip()[-2000:]}")
 
 
-def export_fmu(model, fmu_path, description=""):
-    """Write ``model`` (a :class:`~cosim.compile.model.LoweredModel`) to ``fmu_path`` as an FMI 3.0 ME FMU.
+def export_fmu(model, fmu_path, description="", fmi_version=3, source=False):
+    """Write ``model`` (a :class:`~cosim.compile.model.LoweredModel`) to ``fmu_path`` as an FMU.
 
     The file appears only when the build succeeded (written to a temporary name, then moved).
 
@@ -296,6 +415,11 @@ def export_fmu(model, fmu_path, description=""):
         Target file; its stem is the FMU's model identifier.
     description : str, optional
         Written as the modelDescription's description attribute.
+    fmi_version : {3, 2}, default 3
+        FMI 3.0, or FMI 2.0 (Model Exchange and Co-Simulation in one FMU).
+    source : bool, default False
+        Also put the C sources in the FMU (``sources/``, listed in the modelDescription for FMI 2.0 and in
+        ``sources/buildDescription.xml`` for FMI 3.0), so that an importer on another platform compiles them.
 
     Returns
     -------
@@ -305,29 +429,44 @@ def export_fmu(model, fmu_path, description=""):
     identifier = fmu_path.stem
     if not identifier.isidentifier():
         raise BuildError(f"FMU name {identifier!r} is not a valid C identifier")
+    if fmi_version not in _TEMPLATES:
+        raise BuildError(f"{model.name}: FMI version {fmi_version!r} is not supported (expected 2 or 3)")
     layout = _Layout.of(model)
     functions = _c_functions(model)
     token = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="cosim-build-") as work:
-        root = Path(work) / "fmu"
-        sources, binaries = root / "sources", root / "binaries" / fmpy.platform_tuple
-        sources.mkdir(parents=True)
+        root, sources = Path(work) / "fmu", Path(work) / "sources"
+        binaries = root / "binaries" / (fmpy.platform_tuple if fmi_version == 3 else fmpy.platform)  # x86_64-linux, linux64
         binaries.mkdir(parents=True)
-        generator = ca.CodeGenerator("model.c", {"with_header": True})
-        for f in functions:
-            generator.add(f)
-        generator.generate(str(sources) + os.sep)
-        (sources / "model_data.h").write_text(_data_header(model, layout, functions, identifier, token))
-        for name in _TEMPLATES:
-            shutil.copyfile(C_TEMPLATE_DIR / name, sources / name)
-        _build_description(identifier).write(sources / "buildDescription.xml", encoding="UTF-8",
-                                             xml_declaration=True)
-        _model_description(model, layout, functions, identifier, token, description).write(
-            root / "modelDescription.xml", encoding="UTF-8", xml_declaration=True)
-        _compile(sources, binaries / f"{identifier}{fmpy.sharedLibraryExtension}", model.name)
+        _write_sources(sources, model, layout, functions, identifier, token, fmi_version)
+        if fmi_version == 3:
+            tree = _model_description(model, layout, functions, identifier, token, description)
+        else:
+            tree = _model_description_2(model, layout, functions, identifier, token, description, source)
+        tree.write(root / "modelDescription.xml", encoding="UTF-8", xml_declaration=True)
+        _compile(sources, _SOURCES[fmi_version], binaries / f"{identifier}{fmpy.sharedLibraryExtension}",
+                 model.name)
+        if source:
+            shutil.copytree(sources, root / "sources")
         archive = shutil.make_archive(str(Path(work) / identifier), "zip", root)
         fmu_path.parent.mkdir(parents=True, exist_ok=True)
         staging = fmu_path.with_name(f".{identifier}.fmu.partial")
         shutil.copyfile(archive, staging)
         os.replace(staging, fmu_path)
     return fmu_path
+
+
+def _write_sources(sources, model, layout, functions, identifier, token, fmi_version):
+    """The FMU's C sources: CasADi's model.c/model.h, model_data.h, the wrapper's files of ``fmi_version``
+    (and for FMI 3.0 the buildDescription.xml that lists them)."""
+    sources.mkdir(parents=True)
+    generator = ca.CodeGenerator("model.c", {"with_header": True})
+    for f in functions:
+        generator.add(f)
+    generator.generate(str(sources) + os.sep)
+    (sources / "model_data.h").write_text(_data_header(model, layout, functions, identifier, token))
+    for name in _TEMPLATES[fmi_version]:
+        shutil.copyfile(C_TEMPLATE_DIR / name, sources / name)
+    if fmi_version == 3:
+        _build_description(identifier).write(sources / "buildDescription.xml", encoding="UTF-8",
+                                             xml_declaration=True)
