@@ -18,9 +18,9 @@ import fmpy
 
 from cosim import __version__
 from cosim.compile.units import base_unit
-from cosim.errors import BuildError
+from cosim.errors import BuildError, ConfigError
 
-__all__ = ["export_fmu", "C_TEMPLATE_DIR"]
+__all__ = ["export_fmu", "C_TEMPLATE_DIR", "METHODS", "DEFAULT_CS_STEP"]
 
 C_TEMPLATE_DIR = Path(__file__).parent / "fmu_c"
 """The C sources of the FMU wrapper (copied into every FMU's ``sources/``)."""
@@ -32,12 +32,17 @@ _GENERATED = ("model.c", "model.h", "model_data.h")
 # Discrete kinds -> (FMI 3 type element, code in model_data.h D_KIND). An enumeration is exposed as its ordinal,
 # an Int64 (no enumeration type definitions in the modelDescription).
 _KINDS = {"real": ("Float64", 0), "integer": ("Int64", 1), "boolean": ("Boolean", 2), "enumeration": ("Int64", 3)}
+METHODS = ("rk4", "implicit_euler")
+"""The embedded Co-Simulation solvers, in the order of their codes (``_cs_method``; CS_RK4, CS_IMPLICIT_EULER)."""
+DEFAULT_CS_STEP = 1e-3
+"""s: the internal step of the embedded solver when the model list gives none."""
 
 
 @dataclass(frozen=True)
 class _Layout:
     """Value references: 0 time, then parameters, inputs, states, derivatives, the outputs that are not states,
-    discrete variables, event indicators, each a contiguous block starting at the given reference."""
+    discrete variables, event indicators, the embedded solver's settings (``_cs_step``, ``_cs_method``), each a
+    contiguous block starting at the given reference."""
 
     p: int
     u: int
@@ -46,6 +51,7 @@ class _Layout:
     y: int
     d: int
     z: int
+    cs: int
     end: int
     y_index: tuple  # position in out()'s result of each output of the y block
 
@@ -55,7 +61,7 @@ class _Layout:
         y_index = tuple(k for k, y in enumerate(model.outputs) if y.name not in states)
         events = model.events
         sizes = [len(model.parameters), len(model.inputs), len(model.states), len(model.states), len(y_index),
-                 len(events.discretes) if events else 0, events.n_indicators if events else 0]
+                 len(events.discretes) if events else 0, events.n_indicators if events else 0, 2]
         starts = [1]
         for size in sizes:
             starts.append(starts[-1] + size)
@@ -96,17 +102,32 @@ def _continuous_events(model):
             ca.Function("cosim_next_time", [t, p, none], [sym(float("inf"))])]
 
 
+def _derivative_functions(ode, out):
+    """Exact derivatives for the C core, from CasADi's algorithmic differentiation: ``cosim_jac_x(x, u, p, t, m)``
+    the dense Jacobian of ode w.r.t. x (the implicit solver's Newton), ``cosim_dode`` and ``cosim_dout(x, u, p,
+    t, m, dx, du)`` the forward derivatives of ode and out along seeds dx, du (directional derivatives)."""
+    sym, args = _symbols(ode)
+    x, u = args[0], args[1]
+    dx, du = sym.sym("dx", x.numel()), sym.sym("du", u.numel())
+    xdot, y = ode.call(args)[0], out.call(args)[0]
+    return [ca.Function("cosim_jac_x", args, [ca.densify(ca.jacobian(xdot, x))]),
+            *(ca.Function(name, args + [dx, du], [ca.densify(ca.jtimes(e, x, dx) + ca.jtimes(e, u, du))])
+              for name, e in (("cosim_dode", xdot), ("cosim_dout", y)))]
+
+
 def _c_functions(model):
     """The CasADi functions the C core calls, named cosim_ode, cosim_out, cosim_x0, cosim_indicators,
-    cosim_update, cosim_initial, cosim_next_time."""
+    cosim_update, cosim_initial, cosim_next_time, then the derivatives (:func:`_derivative_functions`)."""
     events = model.events
     memory = 0 if events is None else None  # a continuous model's functions get an empty memory argument
-    functions = [_named(model.ode, "cosim_ode", memory), _named(model.out, "cosim_out", memory),
-                 _named(model.x0, "cosim_x0")]
+    ode, out = _named(model.ode, "cosim_ode", memory), _named(model.out, "cosim_out", memory)
+    functions = [ode, out, _named(model.x0, "cosim_x0")]
     if events is None:
-        return functions + _continuous_events(model)
-    return functions + [_named(events.indicators, "cosim_indicators"), _named(events.update, "cosim_update"),
-                        _named(events.initial, "cosim_initial"), _named(events.next_time, "cosim_next_time")]
+        functions += _continuous_events(model)
+    else:
+        functions += [_named(events.indicators, "cosim_indicators"), _named(events.update, "cosim_update"),
+                      _named(events.initial, "cosim_initial"), _named(events.next_time, "cosim_next_time")]
+    return functions + _derivative_functions(ode, out)
 
 
 def _c_array(name, ctype, values):
@@ -119,8 +140,9 @@ def _c_string(text):
                          for b in text.encode()) + '"'
 
 
-def _data_header(model, layout, functions, identifier, token):
-    """model_data.h: sizes, value-reference blocks, start values and messages for the C core."""
+def _data_header(model, layout, functions, identifier, token, cs_step, cs_method):
+    """model_data.h: sizes, value-reference blocks, start values, messages and the default solver settings for
+    the C core."""
     events = model.events
     discretes = events.discretes if events else ()
     n_memory = events.n_memory if events else 0
@@ -132,7 +154,8 @@ def _data_header(model, layout, functions, identifier, token):
         "N_Y": len(model.outputs), "N_M": n_memory, "N_D": len(discretes),
         "N_Z": events.n_indicators if events else 0, "N_MSG": len(messages),
         "VR_P": layout.p, "VR_U": layout.u, "VR_X": layout.x, "VR_DX": layout.dx, "VR_Y": layout.y,
-        "VR_D": layout.d, "VR_Z": layout.z, "N_VR": layout.end,
+        "VR_D": layout.d, "VR_Z": layout.z, "VR_CS": layout.cs, "N_VR": layout.end,
+        "CS_STEP": repr(float(cs_step)), "CS_METHOD": METHODS.index(cs_method),
         "SZ_ARG": max(f.sz_arg() for f in functions), "SZ_RES": max(f.sz_res() for f in functions),
         "SZ_IW": max(f.sz_iw() for f in functions), "SZ_W": max(f.sz_w() for f in functions),
     }
@@ -173,7 +196,18 @@ def _float(parent, name, vr, variable=None, **attrs):
     return ET.SubElement(parent, "Float64", attrs)
 
 
-def _variables(root, model, layout):
+def _solver_settings(variables, layout, cs_step, cs_method):
+    """The embedded solver's settings as fixed parameters (an importer sets them before initialisation ends)."""
+    _float(variables, "_cs_step", layout.cs, causality="parameter", variability="fixed", initial="exact",
+           start=repr(float(cs_step)), unit="s", min="0",
+           description="Co-Simulation: internal step of the embedded solver (at most; equal steps between events)")
+    ET.SubElement(variables, "Int64", name="_cs_method", valueReference=str(layout.cs + 1), causality="parameter",
+                  variability="fixed", initial="exact", start=str(METHODS.index(cs_method)), min="0",
+                  max=str(len(METHODS) - 1),
+                  description="Co-Simulation: embedded solver, 0 RK4, 1 implicit Euler (Newton, exact Jacobian)")
+
+
+def _variables(root, model, layout, cs_step, cs_method):
     variables = ET.SubElement(root, "ModelVariables")
     _float(variables, "time", 0, causality="independent", variability="continuous")
     for k, p in enumerate(model.parameters):
@@ -202,6 +236,7 @@ def _variables(root, model, layout):
     for k in range(events.n_indicators if events else 0):
         _float(variables, f"_eventIndicator{k + 1}", layout.z + k, causality="local", variability="continuous",
                initial="calculated", description="event indicator (a sign change is a state event)")
+    _solver_settings(variables, layout, cs_step, cs_method)
     return variables
 
 
@@ -251,7 +286,7 @@ def _unit_element(units):
     return definitions
 
 
-def _model_description(model, layout, functions, identifier, token, description):
+def _model_description(model, layout, functions, identifier, token, description, cs_step, cs_method):
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "3.0", "modelName": identifier, "instantiationToken": token,
         "generationTool": f"cosim {__version__}",
@@ -260,7 +295,7 @@ def _model_description(model, layout, functions, identifier, token, description)
     if description:
         root.set("description", description)
     ET.SubElement(root, "ModelExchange", modelIdentifier=identifier)
-    variables = _variables(root, model, layout)
+    variables = _variables(root, model, layout, cs_step, cs_method)
     _unit_definitions(root, variables)
     _structure(root, model, layout, functions)
     tree = ET.ElementTree(root)
@@ -281,7 +316,7 @@ def _build_description(identifier):
 # ---- FMI 2.0: the same layout and value references; variables are ScalarVariables, referred to by index ----
 
 _KINDS_2 = {"real": "Real", "integer": "Integer", "boolean": "Boolean", "enumeration": "Integer"}
-_TYPE_ATTRS_2 = ("unit", "start", "derivative")
+_TYPE_ATTRS_2 = ("unit", "start", "derivative", "min", "max")
 
 
 def _scalar(variables, index, name, vr, vtype="Real", variable=None, **attrs):
@@ -302,8 +337,9 @@ def _scalar(variables, index, name, vr, vtype="Real", variable=None, **attrs):
     return element
 
 
-def _variables_2(model, layout):
-    """ModelVariables of FMI 2.0 and the index of each value reference (event indicators are no variables)."""
+def _variables_2(model, layout, cs_step, cs_method):
+    """ModelVariables of FMI 2.0 and the index of each value reference (event indicators are no variables; the
+    embedded solver's settings are fixed parameters, as in FMI 3.0)."""
     variables, index = ET.Element("ModelVariables"), {}
     _scalar(variables, index, "time", 0, causality="independent", variability="continuous")
     for k, p in enumerate(model.parameters):
@@ -323,6 +359,12 @@ def _variables_2(model, layout):
     for k, d in enumerate(model.events.discretes if model.events else ()):
         _scalar(variables, index, d.name, layout.d + k, _KINDS_2[d.kind], variable=d, causality=d.causality,
                 variability="discrete", initial="calculated")
+    fixed = {"causality": "parameter", "variability": "fixed", "initial": "exact", "min": "0"}
+    _scalar(variables, index, "_cs_step", layout.cs, **fixed, start=repr(float(cs_step)), unit="s",
+            description="Co-Simulation: internal step of the embedded solver (at most; equal steps between events)")
+    _scalar(variables, index, "_cs_method", layout.cs + 1, "Integer", **fixed, start=str(METHODS.index(cs_method)),
+            max=str(len(METHODS) - 1),
+            description="Co-Simulation: embedded solver, 0 RK4, 1 implicit Euler (Newton, exact Jacobian)")
     return variables, index
 
 
@@ -355,8 +397,10 @@ def _structure_2(root, model, layout, functions, index):
             ET.SubElement(group, "Unknown", attrs)
 
 
-def _model_description_2(model, layout, functions, identifier, token, description, source):
-    """modelDescription.xml of FMI 2.0: Model Exchange and Co-Simulation in one FMU."""
+def _model_description_2(model, layout, functions, names, settings, source):
+    """modelDescription.xml of FMI 2.0: Model Exchange and Co-Simulation in one FMU; ``names`` is (identifier,
+    token, description), ``settings`` the embedded solver's (cs_step, cs_method)."""
+    identifier, token, description = names
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "2.0", "modelName": identifier, "guid": token, "generationTool": f"cosim {__version__}",
         "generationDateAndTime": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
@@ -373,7 +417,7 @@ def _model_description_2(model, layout, functions, identifier, token, descriptio
             files = ET.SubElement(element, "SourceFiles")
             for name in _SOURCES[2]:
                 ET.SubElement(files, "File", name=name)
-    variables, index = _variables_2(model, layout)
+    variables, index = _variables_2(model, layout, *settings)
     units = _unit_element({t.get("unit") for t in variables.iter("Real") if t.get("unit")})
     if units is not None:
         root.append(units)
@@ -402,8 +446,10 @@ def _compile(sources, files, binary, model_name):
         raise BuildError(f"{model_name}: compiling the FMU failed:\n{done.stderr.strip()[-2000:]}")
 
 
-def export_fmu(model, fmu_path, description="", fmi_version=3, source=False):
-    """Write ``model`` (a :class:`~cosim.compile.model.LoweredModel`) to ``fmu_path`` as an FMU.
+def export_fmu(model, fmu_path, description="", cs_step=DEFAULT_CS_STEP, cs_method="rk4", fmi_version=3,
+               source=False):
+    """Write ``model`` (a :class:`~cosim.compile.model.LoweredModel`) to ``fmu_path`` as an FMU with both
+    interfaces, Model Exchange and Co-Simulation (an embedded fixed-step solver).
 
     The file appears only when the build succeeded (written to a temporary name, then moved).
 
@@ -415,8 +461,12 @@ def export_fmu(model, fmu_path, description="", fmi_version=3, source=False):
         Target file; its stem is the FMU's model identifier.
     description : str, optional
         Written as the modelDescription's description attribute.
+    cs_step : float, default DEFAULT_CS_STEP (1e-3 s)
+        Co-Simulation: the embedded solver's internal step in s (the default of parameter ``_cs_step``).
+    cs_method : {"rk4", "implicit_euler"}, default "rk4"
+        Co-Simulation: the embedded solver (the default of parameter ``_cs_method``).
     fmi_version : {3, 2}, default 3
-        FMI 3.0, or FMI 2.0 (Model Exchange and Co-Simulation in one FMU).
+        FMI 3.0 or FMI 2.0.
     source : bool, default False
         Also put the C sources in the FMU (``sources/``, listed in the modelDescription for FMI 2.0 and in
         ``sources/buildDescription.xml`` for FMI 3.0), so that an importer on another platform compiles them.
@@ -425,6 +475,10 @@ def export_fmu(model, fmu_path, description="", fmi_version=3, source=False):
     -------
     Path
     """
+    if not (isinstance(cs_step, (int, float)) and 0.0 < cs_step < float("inf")):
+        raise ConfigError(f"cs_step: expected a positive internal step in s, received {cs_step!r}")
+    if cs_method not in METHODS:
+        raise ConfigError(f"cs_method: expected one of {', '.join(METHODS)}, received {cs_method!r}")
     fmu_path = Path(fmu_path).resolve()
     identifier = fmu_path.stem
     if not identifier.isidentifier():
@@ -438,11 +492,13 @@ def export_fmu(model, fmu_path, description="", fmi_version=3, source=False):
         root, sources = Path(work) / "fmu", Path(work) / "sources"
         binaries = root / "binaries" / (fmpy.platform_tuple if fmi_version == 3 else fmpy.platform)  # x86_64-linux, linux64
         binaries.mkdir(parents=True)
-        _write_sources(sources, model, layout, functions, identifier, token, fmi_version)
+        settings = (cs_step, cs_method)
+        _write_sources(sources, model, layout, functions, (identifier, token), settings, fmi_version)
         if fmi_version == 3:
-            tree = _model_description(model, layout, functions, identifier, token, description)
+            tree = _model_description(model, layout, functions, identifier, token, description, *settings)
         else:
-            tree = _model_description_2(model, layout, functions, identifier, token, description, source)
+            tree = _model_description_2(model, layout, functions, (identifier, token, description), settings,
+                                        source)
         tree.write(root / "modelDescription.xml", encoding="UTF-8", xml_declaration=True)
         _compile(sources, _SOURCES[fmi_version], binaries / f"{identifier}{fmpy.sharedLibraryExtension}",
                  model.name)
@@ -456,15 +512,17 @@ def export_fmu(model, fmu_path, description="", fmi_version=3, source=False):
     return fmu_path
 
 
-def _write_sources(sources, model, layout, functions, identifier, token, fmi_version):
+def _write_sources(sources, model, layout, functions, names, settings, fmi_version):
     """The FMU's C sources: CasADi's model.c/model.h, model_data.h, the wrapper's files of ``fmi_version``
-    (and for FMI 3.0 the buildDescription.xml that lists them)."""
+    (and for FMI 3.0 the buildDescription.xml that lists them); ``names`` is (identifier, token), ``settings``
+    (cs_step, cs_method)."""
+    identifier, token = names
     sources.mkdir(parents=True)
     generator = ca.CodeGenerator("model.c", {"with_header": True})
     for f in functions:
         generator.add(f)
     generator.generate(str(sources) + os.sep)
-    (sources / "model_data.h").write_text(_data_header(model, layout, functions, identifier, token))
+    (sources / "model_data.h").write_text(_data_header(model, layout, functions, identifier, token, *settings))
     for name in _TEMPLATES[fmi_version]:
         shutil.copyfile(C_TEMPLATE_DIR / name, sources / name)
     if fmi_version == 3:

@@ -12,9 +12,6 @@
 
 enum { MODE_INSTANTIATED, MODE_INITIALIZATION, MODE_EVENT, MODE_CONTINUOUS, MODE_TERMINATED };
 
-/* Event-iteration passes at one instant of Co-Simulation initialisation before giving up (as the master). */
-#define MAX_EVENT_PASSES 100
-
 typedef struct {
     Model *model;
     fmi2Type kind;
@@ -105,22 +102,6 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
     return fmi2OK;
 }
 
-/* Co-Simulation: the event iteration at the start time that a Model-Exchange master would do. */
-static int initial_events(Fmu2 *f) {
-    EventFlags flags;
-    int pass;
-    for (pass = 0; pass < MAX_EVENT_PASSES; pass++) {
-        if (model_event_pass(f->model, &flags)) return CORE_ERROR;
-        if (flags.terminate) f->terminated = 1;
-        if (!flags.discrete_changed) {
-            model_settle_indicators(f->model);
-            return CORE_OK;
-        }
-    }
-    refuse(f, "the event iteration at the start time did not settle");
-    return CORE_ERROR;
-}
-
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Fmu2 *f = (Fmu2 *)c;
     if (model_initialize(f->model)) return fmi2Error;
@@ -129,7 +110,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
         return fmi2OK;
     }
     f->mode = MODE_CONTINUOUS;
-    return status(initial_events(f));
+    return status(model_event_iteration(f->model, &f->terminated));
 }
 
 fmi2Status fmi2Terminate(fmi2Component c) {
