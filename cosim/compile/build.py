@@ -7,7 +7,7 @@ import tomllib
 from pathlib import Path
 
 from cosim import __version__
-from cosim.compile.export import export_fmu
+from cosim.compile.export import DEFAULT_CS_STEP, METHODS, export_fmu
 from cosim.compile.frontend import load_flat_model
 from cosim.compile.lower import lower_system
 from cosim.compile.translate import translate
@@ -16,7 +16,7 @@ from cosim.errors import ConfigError
 __all__ = ["lower", "build_fmu", "build_all", "read_model_list"]
 
 _STATE_FILE = ".build-state.json"
-_ENTRY_KEYS = {"name", "model", "source", "description", "fmi_version", "c_sources"}
+_ENTRY_KEYS = {"name", "model", "source", "description", "fmi_version", "c_sources", "cs_step", "cs_method"}
 _FMI_VERSIONS = (2, 3)
 
 
@@ -40,7 +40,8 @@ def lower(path, model):
     return lower_system(translate(load_flat_model(path, model)))
 
 
-def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_version=3, source=False):
+def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_version=3, source=False,
+              cs_step=DEFAULT_CS_STEP, cs_method="rk4"):
     """Build Modelica model ``model`` of file ``path`` to ``out_dir/<name>.fmu``.
 
     Parameters
@@ -58,6 +59,10 @@ def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_versio
         FMI 3.0, or FMI 2.0 (Model Exchange and Co-Simulation in one FMU).
     source : bool, default False
         Also ship the C sources in the FMU (``sources/``), for importers on other platforms.
+    cs_step : float, default 1e-3
+        Co-Simulation: the embedded solver's internal step (s), the start value of parameter ``_cs_step``.
+    cs_method : {"rk4", "implicit_euler"}
+        Co-Simulation: the embedded solver, the start value of parameter ``_cs_method``.
 
     Returns
     -------
@@ -66,8 +71,8 @@ def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_versio
     """
     lowered = lower(path, model)
     name = name or model.rsplit(".", 1)[-1]
-    return export_fmu(lowered, Path(out_dir) / f"{name}.fmu", description=description, fmi_version=fmi_version,
-                      source=source)
+    return export_fmu(lowered, Path(out_dir) / f"{name}.fmu", description=description, cs_step=cs_step,
+                      cs_method=cs_method, fmi_version=fmi_version, source=source)
 
 
 def _compiler_fingerprint():
@@ -96,7 +101,8 @@ def _line_of(text, needle):
 
 
 def read_model_list(models_toml):
-    """Read ``models.toml``: a list of ``[[model]]`` tables with ``name``, ``model``, ``source``.
+    """Read ``models.toml``: a list of ``[[model]]`` tables with ``name``, ``model``, ``source`` and optional
+    ``description``, ``fmi_version`` (2 or 3), ``c_sources`` (bool), ``cs_step`` (s), ``cs_method``.
 
     Parameters
     ----------
@@ -132,6 +138,12 @@ def read_model_list(models_toml):
             problems.append(f"{where}: model[{k}] fmi_version must be 2 or 3, not {entry['fmi_version']!r}")
         if not isinstance(entry.get("c_sources", False), bool):
             problems.append(f"{where}: model[{k}] c_sources must be true or false, not {entry['c_sources']!r}")
+        step = entry.get("cs_step", DEFAULT_CS_STEP)
+        if isinstance(step, bool) or not isinstance(step, (int, float)) or not 0 < step < float("inf"):
+            problems.append(f"{where}: model[{k}] cs_step must be a positive step in s, not {step!r}")
+        if entry.get("cs_method", "rk4") not in METHODS:
+            problems.append(f"{where}: model[{k}] cs_method must be one of {', '.join(METHODS)}, "
+                            f"not {entry['cs_method']!r}")
         if not problems:
             entries.append(dict(entry, source=models_toml.parent / entry["source"]))
     if problems:
@@ -162,12 +174,13 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi
         fmu = out_dir / f"{entry['name']}.fmu"
         version = fmi_version or entry.get("fmi_version", 3)
         with_source = entry.get("c_sources", False) if source is None else source
-        digest = _source_hash(entry["source"], entry["model"], f"fmi{version} sources={with_source}")
+        solver = {"cs_step": entry.get("cs_step", DEFAULT_CS_STEP), "cs_method": entry.get("cs_method", "rk4")}
+        digest = _source_hash(entry["source"], entry["model"], f"fmi{version} sources={with_source} {solver}")
         if not force and fmu.is_file() and state.get(entry["name"]) == digest:
             yield f"{entry['name']}: up to date ({fmu})"
             continue
         build_fmu(entry["source"], entry["model"], out_dir=out_dir, name=entry["name"],
-                  description=entry.get("description", ""), fmi_version=version, source=with_source)
+                  description=entry.get("description", ""), fmi_version=version, source=with_source, **solver)
         state[entry["name"]] = digest
         out_dir.mkdir(parents=True, exist_ok=True)
         state_path.write_text(json.dumps(state, indent=1, sort_keys=True))
