@@ -1,7 +1,10 @@
-"""Export a lowered model as an FMI 3.0 Model-Exchange FMU: CasADi generates C for the model functions, our own
-C wrapper (``fmu_c/``: a model core and an FMI 3 API layer over it) gives them the FMI interface, gcc compiles
-both. The wrapper carries events (indicators, ``fmi3UpdateDiscreteStates``, time events, terminate, asserts),
-Integer and Boolean variables, and recomputes results lazily after any change of time, states or inputs."""
+"""Export a lowered model as an FMI 3.0 FMU with Model Exchange and Co-Simulation: CasADi generates C for the
+model functions and their exact derivatives, our own C wrapper (``fmu_c/``: a model core and an FMI 3 API layer
+over it) gives them the FMI interface, gcc compiles both. The wrapper carries events (indicators,
+``fmi3UpdateDiscreteStates``, time events, terminate, asserts), Integer and Boolean variables, recomputes results
+lazily after any change of time, states or inputs, and for Co-Simulation an embedded fixed-step solver (RK4 or
+implicit Euler) with the events handled inside ``fmi3DoStep``; FMU state and directional derivatives for both.
+FMI 2.0 (``fmi_version=2``) is another API layer (``fmi2.c``) over the same core, with a modelDescription 2.0."""
 
 import datetime
 import os
@@ -25,9 +28,10 @@ __all__ = ["export_fmu", "C_TEMPLATE_DIR", "METHODS", "DEFAULT_CS_STEP"]
 C_TEMPLATE_DIR = Path(__file__).parent / "fmu_c"
 """The C sources of the FMU wrapper (copied into every FMU's ``sources/``)."""
 
-# The wrapper's C files of each FMI version, and the C files compiled (with CasADi's model.c).
-_TEMPLATES = {3: ("model_core.h", "model_core.c", "fmi3_me.c"), 2: ("model_core.h", "model_core.c", "fmi2.c")}
-_SOURCES = {3: ("model.c", "model_core.c", "fmi3_me.c"), 2: ("model.c", "model_core.c", "fmi2.c")}
+# The wrapper's C files of each FMI version, and the C files compiled (with CasADi's model.c), in this order.
+_TEMPLATES = {3: ("model_core.h", "model_core.c", "fmi3_common.h", "fmi3_me.c", "fmi3_cs.c"),
+              2: ("model_core.h", "model_core.c", "fmi2.c")}
+_SOURCES = {3: ("model.c", "model_core.c", "fmi3_me.c", "fmi3_cs.c"), 2: ("model.c", "model_core.c", "fmi2.c")}
 _GENERATED = ("model.c", "model.h", "model_data.h")
 # Discrete kinds -> (FMI 3 type element, code in model_data.h D_KIND). An enumeration is exposed as its ordinal,
 # an Int64 (no enumeration type definitions in the modelDescription).
@@ -294,7 +298,11 @@ def _model_description(model, layout, functions, identifier, token, description,
         "variableNamingConvention": "structured"})
     if description:
         root.set("description", description)
-    ET.SubElement(root, "ModelExchange", modelIdentifier=identifier)
+    services = {"modelIdentifier": identifier, "canGetAndSetFMUState": "true", "canSerializeFMUState": "true",
+                "providesDirectionalDerivatives": "true"}
+    ET.SubElement(root, "ModelExchange", services)
+    ET.SubElement(root, "CoSimulation", services, canHandleVariableCommunicationStepSize="true",
+                  fixedInternalStepSize=repr(float(cs_step)))
     variables = _variables(root, model, layout, cs_step, cs_method)
     _unit_definitions(root, variables)
     _structure(root, model, layout, functions)
