@@ -32,8 +32,8 @@ def _add_build(sub):
         "build",
         help="compile Modelica models to FMUs (FMI 3.0 or 2.0)",
         description=(
-            "Compile Modelica to FMUs (FMI 3.0 by default; FMI 2.0 with --fmi-version 2: Model Exchange and "
-            "Co-Simulation in one FMU). With FILE and --model, build that model to "
+            "Compile Modelica to FMUs with Model Exchange and Co-Simulation (FMI 3.0 by default, FMI 2.0 with "
+            "--fmi-version 2). With FILE and --model, build that model to "
             "OUT/<Model>.fmu. With no FILE, build every model listed in modelica/models.toml, skipping those "
             "whose sources and compiler version are unchanged."
         ),
