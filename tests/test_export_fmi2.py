@@ -105,6 +105,32 @@ def test_bouncing_ball_fmi2_bounces_at_the_closed_form_times(ball, kind, solver,
     assert np.max(np.abs(_bounce_times(r) - expected)) < tolerance
 
 
+@pytest.fixture(scope="module")
+def relay(tmp_path_factory):
+    return build_fmu(HYBRID_MODELS, "Hybrid.Relay", out_dir=tmp_path_factory.mktemp("relay2"), fmi_version=2)
+
+
+@pytest.mark.parametrize("kind", ["ModelExchange", "CoSimulation"])
+def test_relay_fmi2_maps_enumeration_and_booleans_to_integer_and_boolean(relay, kind):
+    fmu = relay
+    assert validate_fmu(str(fmu)) == []
+    md = fmpy.read_model_description(str(fmu))
+    types = {v.name: v.type for v in md.modelVariables if v.variability == "discrete"}
+    assert types == {"dir": "Integer", "up": "Boolean", "rises": "Integer", "late": "Boolean"}
+    r = fmpy.simulate_fmu(str(fmu), fmi_type=kind, stop_time=3.0, output_interval=1e-3, relative_tolerance=1e-10,
+                          output=["dir", "up", "rises", "late"])
+    # Hand-computed (tests/test_export.py): x = 0.5 + t reaches 0.9 at 0.4, 0.1 at 1.2, 0.9 at 2.0, 0.1 at 2.8;
+    # dir is the ordinal (Up = 1, Down = 2); ``late`` is a time event at 0.9. CS shows a change at the end of
+    # the step holding it: one output interval.
+    changes = {name: np.flatnonzero(np.diff(r[name].astype(float))) + 1 for name in ("dir", "rises", "late")}
+    tolerance = 1e-6 if kind == "ModelExchange" else 1e-3 + 1e-9
+    assert r["time"][changes["dir"]] == pytest.approx([0.4, 1.2, 2.0, 2.8], abs=tolerance)
+    assert list(r["dir"][changes["dir"]]) == [2, 1, 2, 1] and r["dir"].dtype.kind == "i"
+    assert list(r["up"][changes["dir"]]) == [False, True, False, True] and r["up"].dtype == bool
+    assert r["time"][changes["rises"]] == pytest.approx([1.2, 2.8], abs=tolerance)
+    assert r["time"][changes["late"]] == pytest.approx([0.9], abs=tolerance)
+
+
 def _model2(fmu, tmp_path):
     md = fmpy.read_model_description(str(fmu))
     unzipped = fmpy.extract(str(fmu), unzipdir=tmp_path / "unzipped")
