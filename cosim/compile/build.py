@@ -7,7 +7,7 @@ import tomllib
 from pathlib import Path
 
 from cosim import __version__
-from cosim.compile.export import export_fmu
+from cosim.compile.export import DEFAULT_CS_STEP, METHODS, export_fmu
 from cosim.compile.frontend import load_flat_model
 from cosim.compile.lower import lower_system
 from cosim.compile.translate import translate
@@ -16,7 +16,7 @@ from cosim.errors import ConfigError
 __all__ = ["lower", "build_fmu", "build_all", "read_model_list"]
 
 _STATE_FILE = ".build-state.json"
-_ENTRY_KEYS = {"name", "model", "source", "description"}
+_ENTRY_KEYS = {"name", "model", "source", "description", "cs_step", "cs_method"}
 
 
 def lower(path, model):
@@ -39,8 +39,9 @@ def lower(path, model):
     return lower_system(translate(load_flat_model(path, model)))
 
 
-def build_fmu(path, model, out_dir="fmus", name=None, description=""):
-    """Build Modelica model ``model`` of file ``path`` to ``out_dir/<name>.fmu`` (FMI 3.0 Model Exchange).
+def build_fmu(path, model, out_dir="fmus", name=None, description="", cs_step=DEFAULT_CS_STEP, cs_method="rk4"):
+    """Build Modelica model ``model`` of file ``path`` to ``out_dir/<name>.fmu`` (FMI 3.0, Model Exchange and
+    Co-Simulation).
 
     Parameters
     ----------
@@ -53,6 +54,10 @@ def build_fmu(path, model, out_dir="fmus", name=None, description=""):
         FMU file stem; default: the model's last name component.
     description : str, optional
         The FMU's ``description`` attribute.
+    cs_step : float, default 1e-3
+        Co-Simulation: the embedded solver's internal step in s (``cs_step`` of the model list).
+    cs_method : {"rk4", "implicit_euler"}, default "rk4"
+        Co-Simulation: the embedded solver (``cs_method`` of the model list).
 
     Returns
     -------
@@ -61,7 +66,8 @@ def build_fmu(path, model, out_dir="fmus", name=None, description=""):
     """
     lowered = lower(path, model)
     name = name or model.rsplit(".", 1)[-1]
-    return export_fmu(lowered, Path(out_dir) / f"{name}.fmu", description=description)
+    return export_fmu(lowered, Path(out_dir) / f"{name}.fmu", description=description, cs_step=cs_step,
+                      cs_method=cs_method)
 
 
 def _compiler_fingerprint():
@@ -122,6 +128,12 @@ def read_model_list(models_toml):
         for key in ("name", "model", "source"):
             if key not in entry:
                 problems.append(f"{where}: model[{k}] misses {key!r}")
+        step = entry.get("cs_step", DEFAULT_CS_STEP)
+        if isinstance(step, bool) or not isinstance(step, (int, float)) or not 0 < step < float("inf"):
+            problems.append(f"{where}: model[{k}] cs_step must be a positive step in s, not {step!r}")
+        if entry.get("cs_method", "rk4") not in METHODS:
+            problems.append(f"{where}: model[{k}] cs_method must be one of {', '.join(METHODS)}, "
+                            f"not {entry['cs_method']!r}")
         if not problems:
             entries.append(dict(entry, source=models_toml.parent / entry["source"]))
     if problems:
@@ -146,12 +158,13 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False):
     state = json.loads(state_path.read_text()) if state_path.is_file() else {}
     for entry in read_model_list(models_toml):
         fmu = out_dir / f"{entry['name']}.fmu"
-        digest = _source_hash(entry["source"], entry["model"])
+        solver = {"cs_step": entry.get("cs_step", DEFAULT_CS_STEP), "cs_method": entry.get("cs_method", "rk4")}
+        digest = _source_hash(entry["source"], entry["model"] + repr(solver))
         if not force and fmu.is_file() and state.get(entry["name"]) == digest:
             yield f"{entry['name']}: up to date ({fmu})"
             continue
         build_fmu(entry["source"], entry["model"], out_dir=out_dir, name=entry["name"],
-                  description=entry.get("description", ""))
+                  description=entry.get("description", ""), **solver)
         state[entry["name"]] = digest
         out_dir.mkdir(parents=True, exist_ok=True)
         state_path.write_text(json.dumps(state, indent=1, sort_keys=True))
