@@ -15,12 +15,14 @@ def _cmd_build(args):
     if args.file is None:
         if args.model is not None:
             raise CosimError("--model needs a FILE: cosim build FILE.mo --model Pkg.Model")
-        for line in build_all(models_toml=args.models, out_dir=args.out, force=args.force):
+        for line in build_all(models_toml=args.models, out_dir=args.out, force=args.force,
+                              fmi_version=args.fmi_version, source=args.source or None):
             print(line)
         return 0
     if args.model is None:
         raise CosimError(f"{args.file}: name the model to build with --model Pkg.Model")
-    path = build_fmu(args.file, args.model, out_dir=args.out or "fmus")
+    path = build_fmu(args.file, args.model, out_dir=args.out or "fmus", fmi_version=args.fmi_version or 3,
+                     source=args.source)
     print(f"built {path}")
     return 0
 
@@ -28,9 +30,10 @@ def _cmd_build(args):
 def _add_build(sub):
     p = sub.add_parser(
         "build",
-        help="compile Modelica models to FMI 3.0 Model-Exchange FMUs",
+        help="compile Modelica models to FMUs (FMI 3.0 or 2.0)",
         description=(
-            "Compile Modelica to FMI 3.0 Model-Exchange FMUs. With FILE and --model, build that model to "
+            "Compile Modelica to FMUs with Model Exchange and Co-Simulation (FMI 3.0 by default, FMI 2.0 with "
+            "--fmi-version 2). With FILE and --model, build that model to "
             "OUT/<Model>.fmu. With no FILE, build every model listed in modelica/models.toml, skipping those "
             "whose sources and compiler version are unchanged."
         ),
@@ -40,6 +43,10 @@ def _add_build(sub):
     p.add_argument("--out", help="output directory (default: fmus/, or the one models.toml names)")
     p.add_argument("--models", default="modelica/models.toml", help="model list used when no FILE is given")
     p.add_argument("--force", action="store_true", help="rebuild even when up to date")
+    p.add_argument("--fmi-version", type=int, choices=(2, 3),
+                   help="FMI version of the FMUs (default: 3, or each models.toml entry's fmi_version)")
+    p.add_argument("--source", action="store_true",
+                   help="also ship the C sources in the FMUs (sources/), for importers on other platforms")
     p.set_defaults(func=_cmd_build)
 
 

@@ -67,3 +67,24 @@ def third_party_fmu(tmp_path_factory):
         return built[name, fmi_version]
 
     return get
+
+
+@pytest.fixture(scope="session")
+def fmi2_fmu(tmp_path_factory):
+    """A model of modelica/models.toml built as an FMI 2.0 FMU (Model Exchange and Co-Simulation) with the
+    list's settings, once per session: a function name -> FMU path, e.g. ``fmi2_fmu("GripperPlant")``."""
+    from cosim.compile import build_fmu, read_model_list
+
+    out = tmp_path_factory.mktemp("fmi2_fmus")
+    entries = {entry["name"]: entry for entry in read_model_list(ROOT / "modelica" / "models.toml")}
+    built = {}
+
+    def get(name):
+        if name not in built:
+            entry = entries[name]
+            solver = {key: entry[key] for key in ("cs_step", "cs_method") if key in entry}
+            built[name] = build_fmu(entry["source"], entry["model"], out_dir=out, name=name, fmi_version=2,
+                                    **solver)
+        return built[name]
+
+    return get

@@ -17,7 +17,8 @@ RTOL = 1e-3  # of the signal's range
 
 def simulate(fmu, stop, outputs, start_values=None, input=None, interval=1e-3):
     return simulate_fmu(str(fmu), stop_time=stop, output=outputs, start_values=start_values or {}, input=input,
-                        output_interval=interval, relative_tolerance=1e-9, solver="CVode")
+                        output_interval=interval, relative_tolerance=1e-9, solver="CVode",
+                        fmi_type="ModelExchange")
 
 
 def reference(rhs, x0, t):

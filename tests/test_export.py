@@ -33,12 +33,13 @@ def fmus(tmp_path_factory):
 
 
 def _simulate(fmu, solver, stop_time, step=1e-4, **kwargs):
-    """fmpy's own simulation; Euler takes one step per output interval, so the interval is the step."""
+    """fmpy's own simulation of the Model Exchange interface (fmpy prefers Co-Simulation when an FMU has both);
+    Euler takes one step per output interval, so the interval is the step."""
     if solver == "Euler":
         kwargs.update(step_size=step, output_interval=step)
     else:
         kwargs.update(relative_tolerance=1e-10, output_interval=0.01)
-    return fmpy.simulate_fmu(str(fmu), stop_time=stop_time, solver=solver, **kwargs)
+    return fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange", stop_time=stop_time, solver=solver, **kwargs)
 
 
 def _open(fmu, log=None):
@@ -290,7 +291,7 @@ def _events_at(model, times):
 
 def test_terminate_stops_the_simulation_and_logs_its_message(tmp_path):
     fmu = export_fmu(_clock(status_when=(2, 1)), tmp_path / "Clock.fmu")
-    r = fmpy.simulate_fmu(str(fmu), stop_time=2.0, relative_tolerance=1e-10, output=["k"])
+    r = fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange", stop_time=2.0, relative_tolerance=1e-10, output=["k"])
     assert r["time"][-1] == pytest.approx(0.7, abs=1e-12)  # fmpy stops at the event, before recording after it
     messages = []
     _, model, vr = _open(fmu, log=lambda env, status, category, message: messages.append(message.decode()))

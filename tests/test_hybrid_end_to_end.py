@@ -63,7 +63,8 @@ def test_modelica_bouncing_ball_event_times_agree_with_fmpy(tmp_path, hybrid_fmu
     fmu = hybrid_fmu("BouncingBall")
     kwargs = {"step_size": 1e-4, "output_interval": 1e-4} if solver == "Euler" else {
         "relative_tolerance": 1e-10, "output_interval": 1e-3}
-    ref = fmpy.simulate_fmu(str(fmu), stop_time=3.0, solver=solver, output=["bounces"], **kwargs)
+    ref = fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange", stop_time=3.0, solver=solver, output=["bounces"],
+                            **kwargs)
     theirs = np.array([ref["time"][np.argmax(ref["bounces"] >= k)] for k in range(1, ref["bounces"][-1] + 1)])
     result = run(load_config(_config(tmp_path, fmu, ["bounces"], 3.0)))
     n = result.data["bounces"]

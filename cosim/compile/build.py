@@ -7,7 +7,7 @@ import tomllib
 from pathlib import Path
 
 from cosim import __version__
-from cosim.compile.export import export_fmu
+from cosim.compile.export import DEFAULT_CS_STEP, METHODS, export_fmu
 from cosim.compile.frontend import load_flat_model
 from cosim.compile.lower import lower_system
 from cosim.compile.translate import translate
@@ -16,7 +16,8 @@ from cosim.errors import ConfigError
 __all__ = ["lower", "build_fmu", "build_all", "read_model_list"]
 
 _STATE_FILE = ".build-state.json"
-_ENTRY_KEYS = {"name", "model", "source", "description"}
+_ENTRY_KEYS = {"name", "model", "source", "description", "fmi_version", "c_sources", "cs_step", "cs_method"}
+_FMI_VERSIONS = (2, 3)
 
 
 def lower(path, model):
@@ -39,8 +40,9 @@ def lower(path, model):
     return lower_system(translate(load_flat_model(path, model)))
 
 
-def build_fmu(path, model, out_dir="fmus", name=None, description=""):
-    """Build Modelica model ``model`` of file ``path`` to ``out_dir/<name>.fmu`` (FMI 3.0 Model Exchange).
+def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_version=3, source=False,
+              cs_step=DEFAULT_CS_STEP, cs_method="rk4"):
+    """Build Modelica model ``model`` of file ``path`` to ``out_dir/<name>.fmu``.
 
     Parameters
     ----------
@@ -53,6 +55,14 @@ def build_fmu(path, model, out_dir="fmus", name=None, description=""):
         FMU file stem; default: the model's last name component.
     description : str, optional
         The FMU's ``description`` attribute.
+    fmi_version : {3, 2}, default 3
+        FMI 3.0, or FMI 2.0 (Model Exchange and Co-Simulation in one FMU).
+    source : bool, default False
+        Also ship the C sources in the FMU (``sources/``), for importers on other platforms.
+    cs_step : float, default 1e-3
+        Co-Simulation: the embedded solver's internal step (s), the start value of parameter ``_cs_step``.
+    cs_method : {"rk4", "implicit_euler"}
+        Co-Simulation: the embedded solver, the start value of parameter ``_cs_method``.
 
     Returns
     -------
@@ -61,7 +71,8 @@ def build_fmu(path, model, out_dir="fmus", name=None, description=""):
     """
     lowered = lower(path, model)
     name = name or model.rsplit(".", 1)[-1]
-    return export_fmu(lowered, Path(out_dir) / f"{name}.fmu", description=description)
+    return export_fmu(lowered, Path(out_dir) / f"{name}.fmu", description=description, cs_step=cs_step,
+                      cs_method=cs_method, fmi_version=fmi_version, source=source)
 
 
 def _compiler_fingerprint():
@@ -73,8 +84,8 @@ def _compiler_fingerprint():
     return digest.hexdigest()
 
 
-def _source_hash(source, model):
-    digest = hashlib.sha256(model.encode())
+def _source_hash(source, model, options=""):
+    digest = hashlib.sha256(f"{model} {options}".encode())
     digest.update(_compiler_fingerprint().encode())
     for mo in sorted(source.parent.glob("*.mo")):
         digest.update(mo.name.encode())
@@ -90,7 +101,8 @@ def _line_of(text, needle):
 
 
 def read_model_list(models_toml):
-    """Read ``models.toml``: a list of ``[[model]]`` tables with ``name``, ``model``, ``source``.
+    """Read ``models.toml``: a list of ``[[model]]`` tables with ``name``, ``model``, ``source`` and optional
+    ``description``, ``fmi_version`` (2 or 3), ``c_sources`` (bool), ``cs_step`` (s), ``cs_method``.
 
     Parameters
     ----------
@@ -122,6 +134,16 @@ def read_model_list(models_toml):
         for key in ("name", "model", "source"):
             if key not in entry:
                 problems.append(f"{where}: model[{k}] misses {key!r}")
+        if entry.get("fmi_version", 3) not in _FMI_VERSIONS:
+            problems.append(f"{where}: model[{k}] fmi_version must be 2 or 3, not {entry['fmi_version']!r}")
+        if not isinstance(entry.get("c_sources", False), bool):
+            problems.append(f"{where}: model[{k}] c_sources must be true or false, not {entry['c_sources']!r}")
+        step = entry.get("cs_step", DEFAULT_CS_STEP)
+        if isinstance(step, bool) or not isinstance(step, (int, float)) or not 0 < step < float("inf"):
+            problems.append(f"{where}: model[{k}] cs_step must be a positive step in s, not {step!r}")
+        if entry.get("cs_method", "rk4") not in METHODS:
+            problems.append(f"{where}: model[{k}] cs_method must be one of {', '.join(METHODS)}, "
+                            f"not {entry['cs_method']!r}")
         if not problems:
             entries.append(dict(entry, source=models_toml.parent / entry["source"]))
     if problems:
@@ -129,7 +151,7 @@ def read_model_list(models_toml):
     return entries
 
 
-def build_all(models_toml="modelica/models.toml", out_dir=None, force=False):
+def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi_version=None, source=None):
     """Build every model listed in ``models_toml``; yields one line of report per model.
 
     Parameters
@@ -139,6 +161,10 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False):
         Default: ``fmus/`` beside the directory holding ``models_toml``.
     force : bool
         Rebuild even when sources and compiler are unchanged.
+    fmi_version : {None, 2, 3}
+        FMI version of every FMU; None: each entry's ``fmi_version`` (default 3).
+    source : {None, True, False}
+        Ship the C sources in every FMU; None: each entry's ``c_sources`` (default false).
     """
     models_toml = Path(models_toml)
     out_dir = Path(out_dir) if out_dir else models_toml.resolve().parent.parent / "fmus"
@@ -146,12 +172,15 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False):
     state = json.loads(state_path.read_text()) if state_path.is_file() else {}
     for entry in read_model_list(models_toml):
         fmu = out_dir / f"{entry['name']}.fmu"
-        digest = _source_hash(entry["source"], entry["model"])
+        version = fmi_version or entry.get("fmi_version", 3)
+        with_source = entry.get("c_sources", False) if source is None else source
+        solver = {"cs_step": entry.get("cs_step", DEFAULT_CS_STEP), "cs_method": entry.get("cs_method", "rk4")}
+        digest = _source_hash(entry["source"], entry["model"], f"fmi{version} sources={with_source} {solver}")
         if not force and fmu.is_file() and state.get(entry["name"]) == digest:
             yield f"{entry['name']}: up to date ({fmu})"
             continue
         build_fmu(entry["source"], entry["model"], out_dir=out_dir, name=entry["name"],
-                  description=entry.get("description", ""))
+                  description=entry.get("description", ""), fmi_version=version, source=with_source, **solver)
         state[entry["name"]] = digest
         out_dir.mkdir(parents=True, exist_ok=True)
         state_path.write_text(json.dumps(state, indent=1, sort_keys=True))

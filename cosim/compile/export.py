@@ -1,7 +1,10 @@
-"""Export a lowered model as an FMI 3.0 Model-Exchange FMU: CasADi generates C for the model functions, our own
-C wrapper (``fmu_c/``: a model core and an FMI 3 API layer over it) gives them the FMI interface, gcc compiles
-both. The wrapper carries events (indicators, ``fmi3UpdateDiscreteStates``, time events, terminate, asserts),
-Integer and Boolean variables, and recomputes results lazily after any change of time, states or inputs."""
+"""Export a lowered model as an FMI 3.0 FMU with Model Exchange and Co-Simulation: CasADi generates C for the
+model functions and their exact derivatives, our own C wrapper (``fmu_c/``: a model core and an FMI 3 API layer
+over it) gives them the FMI interface, gcc compiles both. The wrapper carries events (indicators,
+``fmi3UpdateDiscreteStates``, time events, terminate, asserts), Integer and Boolean variables, recomputes results
+lazily after any change of time, states or inputs, and for Co-Simulation an embedded fixed-step solver (RK4 or
+implicit Euler) with the events handled inside ``fmi3DoStep``; FMU state and directional derivatives for both.
+FMI 2.0 (``fmi_version=2``) is another API layer (``fmi2.c``) over the same core, with a modelDescription 2.0."""
 
 import datetime
 import os
@@ -18,24 +21,32 @@ import fmpy
 
 from cosim import __version__
 from cosim.compile.units import base_unit
-from cosim.errors import BuildError
+from cosim.errors import BuildError, ConfigError
 
-__all__ = ["export_fmu", "C_TEMPLATE_DIR"]
+__all__ = ["export_fmu", "C_TEMPLATE_DIR", "METHODS", "DEFAULT_CS_STEP"]
 
 C_TEMPLATE_DIR = Path(__file__).parent / "fmu_c"
 """The C sources of the FMU wrapper (copied into every FMU's ``sources/``)."""
 
-_TEMPLATES = ("model_core.h", "model_core.c", "fmi3_me.c")
+# The wrapper's C files of each FMI version, and the C files compiled (with CasADi's model.c), in this order.
+_TEMPLATES = {3: ("model_core.h", "model_core.c", "fmi3_common.h", "fmi3_me.c", "fmi3_cs.c"),
+              2: ("model_core.h", "model_core.c", "fmi2.c")}
+_SOURCES = {3: ("model.c", "model_core.c", "fmi3_me.c", "fmi3_cs.c"), 2: ("model.c", "model_core.c", "fmi2.c")}
 _GENERATED = ("model.c", "model.h", "model_data.h")
 # Discrete kinds -> (FMI 3 type element, code in model_data.h D_KIND). An enumeration is exposed as its ordinal,
 # an Int64 (no enumeration type definitions in the modelDescription).
 _KINDS = {"real": ("Float64", 0), "integer": ("Int64", 1), "boolean": ("Boolean", 2), "enumeration": ("Int64", 3)}
+METHODS = ("rk4", "implicit_euler")
+"""The embedded Co-Simulation solvers, in the order of their codes (``_cs_method``; CS_RK4, CS_IMPLICIT_EULER)."""
+DEFAULT_CS_STEP = 1e-3
+"""s: the internal step of the embedded solver when the model list gives none."""
 
 
 @dataclass(frozen=True)
 class _Layout:
     """Value references: 0 time, then parameters, inputs, states, derivatives, the outputs that are not states,
-    discrete variables, event indicators, each a contiguous block starting at the given reference."""
+    discrete variables, event indicators, the embedded solver's settings (``_cs_step``, ``_cs_method``), each a
+    contiguous block starting at the given reference."""
 
     p: int
     u: int
@@ -44,6 +55,7 @@ class _Layout:
     y: int
     d: int
     z: int
+    cs: int
     end: int
     y_index: tuple  # position in out()'s result of each output of the y block
 
@@ -53,7 +65,7 @@ class _Layout:
         y_index = tuple(k for k, y in enumerate(model.outputs) if y.name not in states)
         events = model.events
         sizes = [len(model.parameters), len(model.inputs), len(model.states), len(model.states), len(y_index),
-                 len(events.discretes) if events else 0, events.n_indicators if events else 0]
+                 len(events.discretes) if events else 0, events.n_indicators if events else 0, 2]
         starts = [1]
         for size in sizes:
             starts.append(starts[-1] + size)
@@ -95,19 +107,35 @@ def _continuous_events(model):
             ca.Function("cosim_next_time", [t, p, none], [sym(float("inf"))])]
 
 
+def _derivative_functions(ode, out):
+    """Exact derivatives for the C core, from CasADi's algorithmic differentiation: ``cosim_jac_x(x, u, p, t, m)``
+    the dense Jacobian of ode w.r.t. x (the implicit solver's Newton), ``cosim_dode`` and ``cosim_dout(x, u, p,
+    t, m, dx, du)`` the forward derivatives of ode and out along seeds dx, du (directional derivatives)."""
+    sym, args = _symbols(ode)
+    x, u = args[0], args[1]
+    dx, du = sym.sym("dx", x.numel()), sym.sym("du", u.numel())
+    xdot, y = ode.call(args)[0], out.call(args)[0]
+    return [ca.Function("cosim_jac_x", args, [ca.densify(ca.jacobian(xdot, x))]),
+            *(ca.Function(name, args + [dx, du], [ca.densify(ca.jtimes(e, x, dx) + ca.jtimes(e, u, du))])
+              for name, e in (("cosim_dode", xdot), ("cosim_dout", y)))]
+
+
 def _c_functions(model):
     """The CasADi functions the C core calls, named cosim_ode, cosim_out, cosim_x0, cosim_indicators,
     cosim_update, cosim_terminal, cosim_initial, cosim_next_time (cosim_terminal: the update with terminal()
-    true; one that changes nothing when the model does not use terminal())."""
+    true; one that changes nothing when the model does not use terminal()), then the derivatives
+    (:func:`_derivative_functions`)."""
     events = model.events
     memory = 0 if events is None else None  # a continuous model's functions get an empty memory argument
-    functions = [_named(model.ode, "cosim_ode", memory), _named(model.out, "cosim_out", memory),
-                 _named(model.x0, "cosim_x0")]
+    ode, out = _named(model.ode, "cosim_ode", memory), _named(model.out, "cosim_out", memory)
+    functions = [ode, out, _named(model.x0, "cosim_x0")]
     if events is None:
-        return functions + _continuous_events(model)
-    return functions + [_named(events.indicators, "cosim_indicators"), _named(events.update, "cosim_update"),
-                        _terminal_pass(events), _named(events.initial, "cosim_initial"),
-                        _named(events.next_time, "cosim_next_time")]
+        functions += _continuous_events(model)
+    else:
+        functions += [_named(events.indicators, "cosim_indicators"), _named(events.update, "cosim_update"),
+                      _terminal_pass(events), _named(events.initial, "cosim_initial"),
+                      _named(events.next_time, "cosim_next_time")]
+    return functions + _derivative_functions(ode, out)
 
 
 def _terminal_pass(events):
@@ -128,8 +156,9 @@ def _c_string(text):
                          for b in text.encode()) + '"'
 
 
-def _data_header(model, layout, functions, identifier, token):
-    """model_data.h: sizes, value-reference blocks, start values and messages for the C core."""
+def _data_header(model, layout, functions, identifier, token, cs_step, cs_method):
+    """model_data.h: sizes, value-reference blocks, start values, messages and the default solver settings for
+    the C core."""
     events = model.events
     discretes = events.discretes if events else ()
     n_memory = events.n_memory if events else 0
@@ -141,7 +170,8 @@ def _data_header(model, layout, functions, identifier, token):
         "N_Y": len(model.outputs), "N_M": n_memory, "N_D": len(discretes),
         "N_Z": events.n_indicators if events else 0, "N_MSG": len(messages),
         "VR_P": layout.p, "VR_U": layout.u, "VR_X": layout.x, "VR_DX": layout.dx, "VR_Y": layout.y,
-        "VR_D": layout.d, "VR_Z": layout.z, "N_VR": layout.end,
+        "VR_D": layout.d, "VR_Z": layout.z, "VR_CS": layout.cs, "N_VR": layout.end,
+        "CS_STEP": repr(float(cs_step)), "CS_METHOD": METHODS.index(cs_method),
         "SZ_ARG": max(f.sz_arg() for f in functions), "SZ_RES": max(f.sz_res() for f in functions),
         "SZ_IW": max(f.sz_iw() for f in functions), "SZ_W": max(f.sz_w() for f in functions),
     }
@@ -160,10 +190,12 @@ def _data_header(model, layout, functions, identifier, token):
     return "\n".join(lines)
 
 
-def _dependencies(f, layout):
-    """Per result row of ``f(x, u, ...)``: the value references of the states and inputs it depends on."""
+def _dependencies(f, layout, parameters=False):
+    """Per result row of ``f(x, u, p, ...)``: the value references of the states and inputs (and with
+    ``parameters``, the parameters) it depends on."""
     rows = [[] for _ in range(f.size1_out(0))]
-    for i, first in ((0, layout.x), (1, layout.u)):
+    blocks = ((0, layout.x), (1, layout.u)) + (((2, layout.p),) if parameters else ())
+    for i, first in blocks:
         sparsity = f.jac_sparsity(0, i)
         for row, col in zip(*sparsity.get_triplet()):
             rows[row].append(first + col)
@@ -180,7 +212,18 @@ def _float(parent, name, vr, variable=None, **attrs):
     return ET.SubElement(parent, "Float64", attrs)
 
 
-def _variables(root, model, layout):
+def _solver_settings(variables, layout, cs_step, cs_method):
+    """The embedded solver's settings as fixed parameters (an importer sets them before initialisation ends)."""
+    _float(variables, "_cs_step", layout.cs, causality="parameter", variability="fixed", initial="exact",
+           start=repr(float(cs_step)), unit="s", min="0",
+           description="Co-Simulation: internal step of the embedded solver (at most; equal steps between events)")
+    ET.SubElement(variables, "Int64", name="_cs_method", valueReference=str(layout.cs + 1), causality="parameter",
+                  variability="fixed", initial="exact", start=str(METHODS.index(cs_method)), min="0",
+                  max=str(len(METHODS) - 1),
+                  description="Co-Simulation: embedded solver, 0 RK4, 1 implicit Euler (Newton, exact Jacobian)")
+
+
+def _variables(root, model, layout, cs_step, cs_method):
     variables = ET.SubElement(root, "ModelVariables")
     _float(variables, "time", 0, causality="independent", variability="continuous")
     for k, p in enumerate(model.parameters):
@@ -209,6 +252,7 @@ def _variables(root, model, layout):
     for k in range(events.n_indicators if events else 0):
         _float(variables, f"_eventIndicator{k + 1}", layout.z + k, causality="local", variability="continuous",
                initial="calculated", description="event indicator (a sign change is a state event)")
+    _solver_settings(variables, layout, cs_step, cs_method)
     return variables
 
 
@@ -237,11 +281,17 @@ def _structure(root, model, layout, functions):
 
 def _unit_definitions(root, variables):
     """Define every unit used (FMI requires it), with its SI base-unit exponents where the unit is understood."""
-    units = sorted({v.get("unit") for v in variables if v.get("unit")})
+    definitions = _unit_element({v.get("unit") for v in variables if v.get("unit")})
+    if definitions is not None:
+        root.insert(list(root).index(variables), definitions)
+
+
+def _unit_element(units):
+    """A UnitDefinitions element for ``units`` (the same in FMI 2.0 and 3.0), or None when there are none."""
     if not units:
-        return
+        return None
     definitions = ET.Element("UnitDefinitions")
-    for unit in units:
+    for unit in sorted(units):
         element = ET.SubElement(definitions, "Unit", name=unit)
         parsed = base_unit(unit)
         if parsed:
@@ -249,10 +299,10 @@ def _unit_definitions(root, variables):
             base = ET.SubElement(element, "BaseUnit", {k: str(v) for k, v in exponents.items()})
             if factor != 1.0:
                 base.set("factor", repr(factor))
-    root.insert(list(root).index(variables), definitions)
+    return definitions
 
 
-def _model_description(model, layout, functions, identifier, token, description):
+def _model_description(model, layout, functions, identifier, token, description, cs_step, cs_method):
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "3.0", "modelName": identifier, "instantiationToken": token,
         "generationTool": f"cosim {__version__}",
@@ -260,8 +310,12 @@ def _model_description(model, layout, functions, identifier, token, description)
         "variableNamingConvention": "structured"})
     if description:
         root.set("description", description)
-    ET.SubElement(root, "ModelExchange", modelIdentifier=identifier)
-    variables = _variables(root, model, layout)
+    services = {"modelIdentifier": identifier, "canGetAndSetFMUState": "true", "canSerializeFMUState": "true",
+                "providesDirectionalDerivatives": "true"}
+    ET.SubElement(root, "ModelExchange", services)
+    ET.SubElement(root, "CoSimulation", services, canHandleVariableCommunicationStepSize="true",
+                  fixedInternalStepSize=repr(float(cs_step)))
+    variables = _variables(root, model, layout, cs_step, cs_method)
     _unit_definitions(root, variables)
     _structure(root, model, layout, functions)
     tree = ET.ElementTree(root)
@@ -272,20 +326,138 @@ def _model_description(model, layout, functions, identifier, token, description)
 def _build_description(identifier):
     root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
     files = ET.SubElement(ET.SubElement(root, "BuildConfiguration", modelIdentifier=identifier), "SourceFileSet")
-    for name in ("model.c", "model_core.c", "fmi3_me.c"):
+    for name in _SOURCES[3]:
         ET.SubElement(files, "SourceFile", name=name)
     tree = ET.ElementTree(root)
     ET.indent(tree, space="    ")
     return tree
 
 
-def _compile(sources, binary, model_name):
-    """gcc -O2 into a shared library that exports only the fmi3 functions (the CasADi symbols are hidden, so
-    several FMUs load into one process)."""
+# ---- FMI 2.0: the same layout and value references; variables are ScalarVariables, referred to by index ----
+
+_KINDS_2 = {"real": "Real", "integer": "Integer", "boolean": "Boolean", "enumeration": "Integer"}
+_TYPE_ATTRS_2 = ("unit", "start", "derivative", "min", "max")
+
+
+def _scalar(variables, index, name, vr, vtype="Real", variable=None, **attrs):
+    """Append a ScalarVariable; ``attrs`` holds its own attributes and those of its type element
+    (``_TYPE_ATTRS_2``); records its 1-based index by value reference in ``index``."""
+    own = {"name": name, "valueReference": str(vr)}
+    typed = {}
+    if variable is not None:
+        if variable.description:
+            own["description"] = variable.description
+        if variable.unit and vtype == "Real":
+            typed["unit"] = variable.unit
+    for key, value in attrs.items():
+        (typed if key in _TYPE_ATTRS_2 else own)[key] = value
+    element = ET.SubElement(variables, "ScalarVariable", own)
+    ET.SubElement(element, vtype, typed)
+    index[vr] = len(variables)
+    return element
+
+
+def _variables_2(model, layout, cs_step, cs_method):
+    """ModelVariables of FMI 2.0 and the index of each value reference (event indicators are no variables; the
+    embedded solver's settings are fixed parameters, as in FMI 3.0)."""
+    variables, index = ET.Element("ModelVariables"), {}
+    _scalar(variables, index, "time", 0, causality="independent", variability="continuous")
+    for k, p in enumerate(model.parameters):
+        _scalar(variables, index, p.name, layout.p + k, variable=p, causality="parameter", variability="tunable",
+                initial="exact", start=repr(float(p.start)))
+    for k, u in enumerate(model.inputs):
+        _scalar(variables, index, u.name, layout.u + k, variable=u, causality="input", start=repr(float(u.start)))
+    outputs = {y.name for y in model.outputs}
+    for k, x in enumerate(model.states):
+        _scalar(variables, index, x.name, layout.x + k, variable=x,
+                causality="output" if x.name in outputs else "local", initial="exact", start=repr(float(x.start)))
+    for k, x in enumerate(model.states):
+        _scalar(variables, index, f"der({x.name})", layout.dx + k, derivative=str(index[layout.x + k]))
+    for k, j in enumerate(layout.y_index):
+        _scalar(variables, index, model.outputs[j].name, layout.y + k, variable=model.outputs[j],
+                causality="output", initial="calculated")
+    for k, d in enumerate(model.events.discretes if model.events else ()):
+        _scalar(variables, index, d.name, layout.d + k, _KINDS_2[d.kind], variable=d, causality=d.causality,
+                variability="discrete", initial="calculated")
+    fixed = {"causality": "parameter", "variability": "fixed", "initial": "exact", "min": "0"}
+    _scalar(variables, index, "_cs_step", layout.cs, **fixed, start=repr(float(cs_step)), unit="s",
+            description="Co-Simulation: internal step of the embedded solver (at most; equal steps between events)")
+    _scalar(variables, index, "_cs_method", layout.cs + 1, "Integer", **fixed, start=str(METHODS.index(cs_method)),
+            max=str(len(METHODS) - 1),
+            description="Co-Simulation: embedded solver, 0 RK4, 1 implicit Euler (Newton, exact Jacobian)")
+    return variables, index
+
+
+def _structure_2(root, model, layout, functions, index):
+    """ModelStructure of FMI 2.0: outputs and derivatives with their dependencies on states and inputs, initial
+    unknowns (calculated outputs, derivatives, discrete outputs) with theirs on states, inputs and parameters;
+    a discrete output's dependencies are left implicit (it may depend on everything)."""
+    def deps(vrs):
+        return " ".join(str(i) for i in sorted(index[int(vr)] for vr in vrs.split()))
+
+    out_deps, ode_deps = _dependencies(functions[1], layout), _dependencies(functions[0], layout)
+    out_init = _dependencies(functions[1], layout, parameters=True)
+    ode_init = _dependencies(functions[0], layout, parameters=True)
+    events = model.events
+    discretes = [(layout.d + k, None, None) for k, d in enumerate(events.discretes if events else ())
+                 if d.causality == "output"]
+    outputs = [(layout.output_vr(model, y.name), out_deps[k], out_init[k]) for k, y in enumerate(model.outputs)]
+    derivatives = [(layout.dx + k, ode_deps[k], ode_init[k]) for k in range(len(model.states))]
+    initial = [o for o in outputs if o[0] >= layout.y] + discretes + derivatives
+    structure = ET.SubElement(root, "ModelStructure")
+    for tag, entries, which in (("Outputs", outputs + discretes, 1), ("Derivatives", derivatives, 1),
+                                ("InitialUnknowns", initial, 2)):
+        if not entries:
+            continue
+        group = ET.SubElement(structure, tag)
+        for entry in sorted(entries, key=lambda e: index[e[0]]):
+            attrs = {"index": str(index[entry[0]])}
+            if entry[which] is not None:
+                attrs["dependencies"] = deps(entry[which])
+            ET.SubElement(group, "Unknown", attrs)
+
+
+def _model_description_2(model, layout, functions, names, settings, source):
+    """modelDescription.xml of FMI 2.0: Model Exchange and Co-Simulation in one FMU; ``names`` is (identifier,
+    token, description), ``settings`` the embedded solver's (cs_step, cs_method)."""
+    identifier, token, description = names
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "2.0", "modelName": identifier, "guid": token, "generationTool": f"cosim {__version__}",
+        "generationDateAndTime": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "variableNamingConvention": "structured",
+        "numberOfEventIndicators": str(model.events.n_indicators if model.events else 0)})
+    if description:
+        root.set("description", description)
+    common = {"modelIdentifier": identifier, "canNotUseMemoryManagementFunctions": "true",
+              "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true", "providesDirectionalDerivative": "true"}
+    for tag, flags in (("ModelExchange", {"completedIntegratorStepNotNeeded": "true"}),
+                       ("CoSimulation", {"canHandleVariableCommunicationStepSize": "true"})):
+        element = ET.SubElement(root, tag, {**common, **flags})
+        if source:
+            files = ET.SubElement(element, "SourceFiles")
+            for name in _SOURCES[2]:
+                ET.SubElement(files, "File", name=name)
+    variables, index = _variables_2(model, layout, *settings)
+    units = _unit_element({t.get("unit") for t in variables.iter("Real") if t.get("unit")})
+    if units is not None:
+        root.append(units)
+    categories = ET.SubElement(root, "LogCategories")
+    for name, text in (("logEvents", "events and terminate()"), ("logStatusError", "errors")):
+        ET.SubElement(categories, "Category", name=name, description=text)
+    root.append(variables)
+    _structure_2(root, model, layout, functions, index)
+    tree = ET.ElementTree(root)
+    ET.indent(tree, space="    ")
+    return tree
+
+
+def _compile(sources, files, binary, model_name):
+    """gcc -O2 ``files`` into a shared library that exports only the FMI functions (the CasADi symbols are
+    hidden, so several FMUs load into one process); the standard's headers are those fmpy installs."""
     include = os.path.join(os.path.dirname(fmpy.__file__), "c-code")
     command = [os.environ.get("CC", "gcc"), "-shared", "-fPIC", "-O2", "-fvisibility=hidden",
                "-DCASADI_SYMBOL_EXPORT=", f"-I{sources}", f"-I{include}",
-               *(str(sources / name) for name in ("model.c", "model_core.c", "fmi3_me.c")), "-o", str(binary), "-lm"]
+               *(str(sources / name) for name in files), "-o", str(binary), "-lm"]
     try:
         done = subprocess.run(command, capture_output=True, text=True)
     except OSError as err:
@@ -294,8 +466,10 @@ def _compile(sources, binary, model_name):
         raise BuildError(f"{model_name}: compiling the FMU failed:\n{done.stderr.strip()[-2000:]}")
 
 
-def export_fmu(model, fmu_path, description=""):
-    """Write ``model`` (a :class:`~cosim.compile.model.LoweredModel`) to ``fmu_path`` as an FMI 3.0 ME FMU.
+def export_fmu(model, fmu_path, description="", cs_step=DEFAULT_CS_STEP, cs_method="rk4", fmi_version=3,
+               source=False):
+    """Write ``model`` (a :class:`~cosim.compile.model.LoweredModel`) to ``fmu_path`` as an FMU with both
+    interfaces, Model Exchange and Co-Simulation (an embedded fixed-step solver).
 
     The file appears only when the build succeeded (written to a temporary name, then moved).
 
@@ -307,38 +481,70 @@ def export_fmu(model, fmu_path, description=""):
         Target file; its stem is the FMU's model identifier.
     description : str, optional
         Written as the modelDescription's description attribute.
+    cs_step : float, default DEFAULT_CS_STEP (1e-3 s)
+        Co-Simulation: the embedded solver's internal step in s (the default of parameter ``_cs_step``).
+    cs_method : {"rk4", "implicit_euler"}, default "rk4"
+        Co-Simulation: the embedded solver (the default of parameter ``_cs_method``).
+    fmi_version : {3, 2}, default 3
+        FMI 3.0 or FMI 2.0.
+    source : bool, default False
+        Also put the C sources in the FMU (``sources/``, listed in the modelDescription for FMI 2.0 and in
+        ``sources/buildDescription.xml`` for FMI 3.0), so that an importer on another platform compiles them.
 
     Returns
     -------
     Path
     """
+    if not (isinstance(cs_step, (int, float)) and 0.0 < cs_step < float("inf")):
+        raise ConfigError(f"cs_step: expected a positive internal step in s, received {cs_step!r}")
+    if cs_method not in METHODS:
+        raise ConfigError(f"cs_method: expected one of {', '.join(METHODS)}, received {cs_method!r}")
     fmu_path = Path(fmu_path).resolve()
     identifier = fmu_path.stem
     if not identifier.isidentifier():
         raise BuildError(f"FMU name {identifier!r} is not a valid C identifier")
+    if fmi_version not in _TEMPLATES:
+        raise BuildError(f"{model.name}: FMI version {fmi_version!r} is not supported (expected 2 or 3)")
     layout = _Layout.of(model)
     functions = _c_functions(model)
     token = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="cosim-build-") as work:
-        root = Path(work) / "fmu"
-        sources, binaries = root / "sources", root / "binaries" / fmpy.platform_tuple
-        sources.mkdir(parents=True)
+        root, sources = Path(work) / "fmu", Path(work) / "sources"
+        binaries = root / "binaries" / (fmpy.platform_tuple if fmi_version == 3 else fmpy.platform)  # x86_64-linux, linux64
         binaries.mkdir(parents=True)
-        generator = ca.CodeGenerator("model.c", {"with_header": True})
-        for f in functions:
-            generator.add(f)
-        generator.generate(str(sources) + os.sep)
-        (sources / "model_data.h").write_text(_data_header(model, layout, functions, identifier, token))
-        for name in _TEMPLATES:
-            shutil.copyfile(C_TEMPLATE_DIR / name, sources / name)
-        _build_description(identifier).write(sources / "buildDescription.xml", encoding="UTF-8",
-                                             xml_declaration=True)
-        _model_description(model, layout, functions, identifier, token, description).write(
-            root / "modelDescription.xml", encoding="UTF-8", xml_declaration=True)
-        _compile(sources, binaries / f"{identifier}{fmpy.sharedLibraryExtension}", model.name)
+        settings = (cs_step, cs_method)
+        _write_sources(sources, model, layout, functions, (identifier, token), settings, fmi_version)
+        if fmi_version == 3:
+            tree = _model_description(model, layout, functions, identifier, token, description, *settings)
+        else:
+            tree = _model_description_2(model, layout, functions, (identifier, token, description), settings,
+                                        source)
+        tree.write(root / "modelDescription.xml", encoding="UTF-8", xml_declaration=True)
+        _compile(sources, _SOURCES[fmi_version], binaries / f"{identifier}{fmpy.sharedLibraryExtension}",
+                 model.name)
+        if source:
+            shutil.copytree(sources, root / "sources")
         archive = shutil.make_archive(str(Path(work) / identifier), "zip", root)
         fmu_path.parent.mkdir(parents=True, exist_ok=True)
         staging = fmu_path.with_name(f".{identifier}.fmu.partial")
         shutil.copyfile(archive, staging)
         os.replace(staging, fmu_path)
     return fmu_path
+
+
+def _write_sources(sources, model, layout, functions, names, settings, fmi_version):
+    """The FMU's C sources: CasADi's model.c/model.h, model_data.h, the wrapper's files of ``fmi_version``
+    (and for FMI 3.0 the buildDescription.xml that lists them); ``names`` is (identifier, token), ``settings``
+    (cs_step, cs_method)."""
+    identifier, token = names
+    sources.mkdir(parents=True)
+    generator = ca.CodeGenerator("model.c", {"with_header": True})
+    for f in functions:
+        generator.add(f)
+    generator.generate(str(sources) + os.sep)
+    (sources / "model_data.h").write_text(_data_header(model, layout, functions, identifier, token, *settings))
+    for name in _TEMPLATES[fmi_version]:
+        shutil.copyfile(C_TEMPLATE_DIR / name, sources / name)
+    if fmi_version == 3:
+        _build_description(identifier).write(sources / "buildDescription.xml", encoding="UTF-8",
+                                             xml_declaration=True)

@@ -1,49 +1,37 @@
-/* FMI 3.0 Model Exchange API over the model core (model_core.h): modes, type conversions and status codes.
- * Functions this FMU does not provide (Co-Simulation, FMU state, derivatives, clocks, other types) are present,
- * as the standard requires, and answer fmi3Error. */
+/* FMI 3.0 API over the model core (model_core.h): instances, modes, variables, type conversions, status codes and
+ * the Model Exchange functions. Co-Simulation, FMU state and directional derivatives are in fmi3_cs.c. Functions
+ * this FMU does not provide (clocks, scheduled execution, other types) are present, as the standard requires,
+ * and answer fmi3Error. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "fmi3Functions.h"
-#include "model_core.h"
+#include "fmi3_common.h"
 
-enum { MODE_INSTANTIATED, MODE_INITIALIZATION, MODE_EVENT, MODE_CONTINUOUS, MODE_TERMINATED };
-
-typedef struct {
-    Model *model;
-    int mode;
-    fmi3LogMessageCallback log;
-    fmi3InstanceEnvironment env;
-} Fmu3;
-
-static void log3(void *env, int error, const char *message) {
+void log3(void *env, int error, const char *message) {
     Fmu3 *f = (Fmu3 *)env;
     if (f->log) f->log(f->env, error ? fmi3Error : fmi3OK, error ? "logStatusError" : "logEvents", message);
 }
 
-static fmi3Status refuse(fmi3Instance instance, const char *function) {
+fmi3Status refuse(fmi3Instance instance, const char *function) {
     Fmu3 *f = (Fmu3 *)instance;
-    char text[160];
-    snprintf(text, sizeof text, "%s is not provided by this FMU (FMI 3.0 Model Exchange of %s)", function,
+    char text[200];
+    snprintf(text, sizeof text, "%s is not provided by this FMU or not now (FMI 3.0, %s)", function,
              MODEL_IDENTIFIER);
     if (f) log3(f, 1, text);
     return fmi3Error;
 }
 
-static fmi3Status status(int core_result) { return core_result == CORE_OK ? fmi3OK : fmi3Error; }
+fmi3Status status(int core_result) { return core_result == CORE_OK ? fmi3OK : fmi3Error; }
 
 static int initialising(Fmu3 *f) { return f->mode == MODE_INSTANTIATED || f->mode == MODE_INITIALIZATION; }
 
 /* ---- instance life cycle ---- */
 
-fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
-                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
-                                          fmi3InstanceEnvironment instanceEnvironment,
-                                          fmi3LogMessageCallback logMessage) {
+Fmu3 *fmu3_new(fmi3String instantiationToken, fmi3InstanceEnvironment instanceEnvironment,
+               fmi3LogMessageCallback logMessage, int co_simulation) {
     Fmu3 *f;
-    (void)instanceName, (void)resourcePath, (void)visible, (void)loggingOn;
     if (instantiationToken && strcmp(instantiationToken, INSTANTIATION_TOKEN) != 0) {
         if (logMessage) logMessage(instanceEnvironment, fmi3Error, "logStatusError",
                                    "instantiationToken does not match the modelDescription of " MODEL_IDENTIFIER);
@@ -54,6 +42,7 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
     f->log = logMessage;
     f->env = instanceEnvironment;
     f->mode = MODE_INSTANTIATED;
+    f->co_simulation = co_simulation;
     f->model = model_new(log3, f);
     if (!f->model) {
         free(f);
@@ -62,20 +51,12 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
     return f;
 }
 
-fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
-                                         fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
-                                         fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
-                                         const fmi3ValueReference requiredIntermediateVariables[],
-                                         size_t nRequiredIntermediateVariables,
-                                         fmi3InstanceEnvironment instanceEnvironment,
-                                         fmi3LogMessageCallback logMessage,
-                                         fmi3IntermediateUpdateCallback intermediateUpdate) {
-    (void)instanceName, (void)instantiationToken, (void)resourcePath, (void)visible, (void)loggingOn;
-    (void)eventModeUsed, (void)earlyReturnAllowed, (void)requiredIntermediateVariables;
-    (void)nRequiredIntermediateVariables, (void)intermediateUpdate;
-    if (logMessage) logMessage(instanceEnvironment, fmi3Error, "logStatusError",
-                               MODEL_IDENTIFIER " is a Model Exchange FMU only");
-    return NULL;
+fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
+                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                          fmi3InstanceEnvironment instanceEnvironment,
+                                          fmi3LogMessageCallback logMessage) {
+    (void)instanceName, (void)resourcePath, (void)visible, (void)loggingOn;
+    return fmu3_new(instantiationToken, instanceEnvironment, logMessage, 0);
 }
 
 fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3String instantiationToken,
@@ -88,7 +69,7 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3Stri
     (void)instanceName, (void)instantiationToken, (void)resourcePath, (void)visible, (void)loggingOn;
     (void)clockUpdate, (void)lockPreemption, (void)unlockPreemption;
     if (logMessage) logMessage(instanceEnvironment, fmi3Error, "logStatusError",
-                               MODEL_IDENTIFIER " is a Model Exchange FMU only");
+                               MODEL_IDENTIFIER " does not provide Scheduled Execution");
     return NULL;
 }
 
@@ -117,10 +98,13 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
     return fmi3OK;
 }
 
+/* Model Exchange: on to Event Mode (the importer iterates the events). Co-Simulation: the FMU iterates the
+ * events of the initial instant itself and is then in Step Mode. */
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
     Fmu3 *f = (Fmu3 *)instance;
-    f->mode = MODE_EVENT;
-    return status(model_initialize(f->model));
+    f->mode = f->co_simulation ? MODE_STEP : MODE_EVENT;
+    if (model_initialize(f->model)) return fmi3Error;
+    return f->co_simulation ? status(model_event_iteration(f->model, &f->terminated)) : fmi3OK;
 }
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
@@ -148,6 +132,7 @@ fmi3Status fmi3Reset(fmi3Instance instance) {
     Fmu3 *f = (Fmu3 *)instance;
     model_reset(f->model);
     f->mode = MODE_INSTANTIATED;
+    f->terminated = 0;
     return fmi3OK;
 }
 
@@ -327,7 +312,7 @@ fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference valueRef
     return nValueReferences ? refuse(instance, "fmi3SetClock") : fmi3OK;
 }
 
-/* ---- not provided (a later issue: FMU state, derivatives, Co-Simulation) ---- */
+/* ---- not provided: variable dependencies, adjoint derivatives, clocks, configuration, output derivatives ---- */
 
 fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance instance, fmi3ValueReference valueReference,
                                                size_t *nDependencies) {
@@ -342,47 +327,6 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference
     (void)dependent, (void)elementIndicesOfDependent, (void)independents, (void)elementIndicesOfIndependents;
     (void)dependencyKinds, (void)nDependencies;
     return refuse(instance, "fmi3GetVariableDependencies");
-}
-
-fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *FMUState) {
-    (void)FMUState;
-    return refuse(instance, "fmi3GetFMUState");
-}
-
-fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState) {
-    (void)FMUState;
-    return refuse(instance, "fmi3SetFMUState");
-}
-
-fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *FMUState) {
-    (void)FMUState;
-    return refuse(instance, "fmi3FreeFMUState");
-}
-
-fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState FMUState, size_t *size) {
-    (void)FMUState, (void)size;
-    return refuse(instance, "fmi3SerializedFMUStateSize");
-}
-
-fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState FMUState, fmi3Byte serializedState[],
-                                 size_t size) {
-    (void)FMUState, (void)serializedState, (void)size;
-    return refuse(instance, "fmi3SerializeFMUState");
-}
-
-fmi3Status fmi3DeserializeFMUState(fmi3Instance instance, const fmi3Byte serializedState[], size_t size,
-                                   fmi3FMUState *FMUState) {
-    (void)serializedState, (void)size, (void)FMUState;
-    return refuse(instance, "fmi3DeserializeFMUState");
-}
-
-fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[],
-                                        size_t nUnknowns, const fmi3ValueReference knowns[], size_t nKnowns,
-                                        const fmi3Float64 seed[], size_t nSeed, fmi3Float64 sensitivity[],
-                                        size_t nSensitivity) {
-    (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed;
-    (void)sensitivity, (void)nSensitivity;
-    return refuse(instance, "fmi3GetDirectionalDerivative");
 }
 
 fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
@@ -451,22 +395,11 @@ fmi3Status fmi3SetShiftFraction(fmi3Instance instance, const fmi3ValueReference 
 
 fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance) { return refuse(instance, "fmi3EvaluateDiscreteStates"); }
 
-fmi3Status fmi3EnterStepMode(fmi3Instance instance) { return refuse(instance, "fmi3EnterStepMode"); }
-
 fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                                     size_t nValueReferences, const fmi3Int32 orders[], fmi3Float64 values[],
                                     size_t nValues) {
     (void)valueReferences, (void)nValueReferences, (void)orders, (void)values, (void)nValues;
     return refuse(instance, "fmi3GetOutputDerivatives");
-}
-
-fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint,
-                      fmi3Float64 communicationStepSize, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
-                      fmi3Boolean *eventHandlingNeeded, fmi3Boolean *terminateSimulation,
-                      fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime) {
-    (void)currentCommunicationPoint, (void)communicationStepSize, (void)noSetFMUStatePriorToCurrentPoint;
-    (void)eventHandlingNeeded, (void)terminateSimulation, (void)earlyReturn, (void)lastSuccessfulTime;
-    return refuse(instance, "fmi3DoStep");
 }
 
 fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference clockReference,

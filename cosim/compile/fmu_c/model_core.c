@@ -1,5 +1,6 @@
 /* The model core: see model_core.h. The CasADi functions all take (x, u, p, t, m); a continuous model has an
- * empty m, no indicators, an update that changes nothing and next_time = inf. */
+ * empty m, no indicators, an update that changes nothing and next_time = inf. Below the FMI-independent
+ * services, the Co-Simulation ones: event iteration, the embedded solver, directional derivatives, the state. */
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
@@ -55,6 +56,8 @@ void model_reset(Model *s) {
     memcpy(s->m, M_START, N_M * sizeof(double));
     memset(s->x_set, 0, sizeof s->x_set);
     memset(s->z_side, 0, sizeof s->z_side);
+    s->cs_step = CS_STEP;
+    s->cs_method = CS_METHOD;
     model_touch(s);
 }
 
@@ -109,6 +112,7 @@ static const char *TYPE_NAMES[] = {"Float64", "Int64", "Boolean"};
 /* The FMI type of value reference vr, or -1 when there is no such variable. */
 static int type_of(unsigned int vr) {
     if (vr >= N_VR) return -1;
+    if (vr == VR_CS + 1) return TYPE_INT64;
     if (vr >= VR_D && vr < VR_D + N_D) return discrete_type((int)(vr - VR_D));
     return TYPE_FLOAT64;
 }
@@ -138,6 +142,8 @@ int model_get(Model *s, unsigned int vr, int type, double *value) {
         if (!(r = outputs(s))) return CORE_ERROR;
         *value = r[Y_INDEX[vr - VR_Y]];
     } else if (vr < VR_Z) *value = s->m[vr - VR_D];
+    else if (vr == VR_CS) *value = s->cs_step;
+    else if (vr == VR_CS + 1) *value = s->cs_method;
     else {
         if (!(r = model_indicators(s))) return CORE_ERROR;
         *value = r[vr - VR_Z];
@@ -145,9 +151,25 @@ int model_get(Model *s, unsigned int vr, int type, double *value) {
     return CORE_OK;
 }
 
-/* Parameters and inputs can be set at any time, states only before initialisation ends. */
+/* The solver settings, before initialisation ends: a positive finite step, a known method. */
+static int set_solver(Model *s, unsigned int vr, double value) {
+    char text[160];
+    if (vr == VR_CS && value > 0.0 && isfinite(value)) s->cs_step = value;
+    else if (vr == VR_CS + 1 && (value == CS_RK4 || value == CS_IMPLICIT_EULER)) s->cs_method = (int)value;
+    else {
+        snprintf(text, sizeof text, "%s = %.17g is not allowed (expected %s)", vr == VR_CS ? "_cs_step" : "_cs_method",
+                 value, vr == VR_CS ? "a positive step in s" : "0 (RK4) or 1 (implicit Euler)");
+        logf_(s, 1, "t = %.17g: %s", s->t, text);
+        return CORE_ERROR;
+    }
+    return CORE_OK;
+}
+
+/* Parameters and inputs can be set at any time; states and the solver settings only before initialisation
+ * ends. */
 int model_set(Model *s, unsigned int vr, int type, double value, int initialising) {
     if (check_type(s, vr, type)) return CORE_ERROR;
+    if ((vr == VR_CS || vr == VR_CS + 1) && initialising) return set_solver(s, vr, value);
     if (vr >= VR_P && vr < VR_U) s->p[vr - VR_P] = value;
     else if (vr >= VR_U && vr < VR_X) s->u[vr - VR_U] = value;
     else if (vr >= VR_X && vr < VR_DX && initialising) {
@@ -155,8 +177,8 @@ int model_set(Model *s, unsigned int vr, int type, double value, int initialisin
         s->x_set[vr - VR_X] = 1;
     } else {
         char text[160];
-        snprintf(text, sizeof text, "value reference %u cannot be set now (only parameters, inputs, and states "
-                 "before initialisation)", vr);
+        snprintf(text, sizeof text, "value reference %u cannot be set now (only parameters and inputs; states and "
+                 "solver settings before initialisation ends)", vr);
         logf_(s, 1, "t = %.17g: %s", s->t, text);
         return CORE_ERROR;
     }
@@ -230,4 +252,324 @@ double model_next_time(Model *s) {
     s->res[0] = &next;
     if (cosim_next_time(s->arg, s->res, (casadi_int *)s->iw, s->w, 0)) return INFINITY;
     return next;
+}
+
+/* ---- Co-Simulation services: event iteration, the embedded solver ---- */
+
+int model_event_iteration(Model *s, int *terminated) {
+    EventFlags flags;
+    int pass;
+    *terminated = 0;
+    for (pass = 0; pass < MAX_EVENT_PASSES; pass++) {
+        if (model_event_pass(s, &flags)) return CORE_ERROR;
+        if (flags.terminate) {
+            *terminated = 1;
+            return CORE_OK;
+        }
+        if (!flags.discrete_changed) {
+            model_settle_indicators(s);
+            return CORE_OK;
+        }
+    }
+    logf_(s, 1, "t = %.17g: event iteration did not settle after %s passes", s->t, "MAX_EVENT_PASSES (100)");
+    return CORE_ERROR;
+}
+
+/* s->xdot at (t, x): s is moved there. */
+static const double *derivatives_at(Model *s, double t, const double *x) {
+    s->t = t;
+    if (x != s->x && N_X) memcpy(s->x, x, N_X * sizeof(double));
+    model_touch(s);
+    return model_derivatives(s);
+}
+
+/* One RK4 step of length h from (t0, x0), whose derivative is k1, to (t1, s->x). */
+static int rk4(Model *s, double t0, const double *x0, const double *k1, double h, double t1) {
+    double k2[N_X + 1], k3[N_X + 1], xs[N_X + 1], x1[N_X + 1];
+    const double *f;
+    int i;
+    for (i = 0; i < N_X; i++) xs[i] = x0[i] + 0.5 * h * k1[i];
+    if (!(f = derivatives_at(s, t0 + 0.5 * h, xs))) return CORE_ERROR;
+    for (i = 0; i < N_X; i++) k2[i] = f[i], xs[i] = x0[i] + 0.5 * h * f[i];
+    if (!(f = derivatives_at(s, t0 + 0.5 * h, xs))) return CORE_ERROR;
+    for (i = 0; i < N_X; i++) k3[i] = f[i], xs[i] = x0[i] + h * f[i];
+    if (!(f = derivatives_at(s, t1, xs))) return CORE_ERROR;
+    for (i = 0; i < N_X; i++) x1[i] = x0[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + f[i]);
+    s->t = t1;
+    if (N_X) memcpy(s->x, x1, N_X * sizeof(double));
+    model_touch(s);
+    return CORE_OK;
+}
+
+/* Solve a x = b in place (a: n x n column-major, destroyed; b becomes x) by Gaussian elimination with partial
+ * pivoting; nonzero when a is singular. */
+static int solve_dense(int n, double *a, double *b) {
+    int i, j, k, pivot;
+    double factor, swap;
+    for (k = 0; k < n; k++) {
+        pivot = k;
+        for (i = k + 1; i < n; i++)
+            if (fabs(a[i + k * n]) > fabs(a[pivot + k * n])) pivot = i;
+        if (a[pivot + k * n] == 0.0) return 1;
+        if (pivot != k) {
+            for (j = 0; j < n; j++) swap = a[k + j * n], a[k + j * n] = a[pivot + j * n], a[pivot + j * n] = swap;
+            swap = b[k], b[k] = b[pivot], b[pivot] = swap;
+        }
+        for (i = k + 1; i < n; i++) {
+            factor = a[i + k * n] / a[k + k * n];
+            for (j = k; j < n; j++) a[i + j * n] -= factor * a[k + j * n];
+            b[i] -= factor * b[k];
+        }
+    }
+    for (k = n - 1; k >= 0; k--) {
+        for (j = k + 1; j < n; j++) b[k] -= a[k + j * n] * b[j];
+        b[k] /= a[k + k * n];
+    }
+    return 0;
+}
+
+#define NEWTON_ITERATIONS 20
+#define NEWTON_RTOL 1e-10
+#define NEWTON_ATOL 1e-12
+
+/* One implicit Euler step x1 = x0 + h f(t1, x1) from (t0, x0): Newton from the explicit Euler guess, with the
+ * exact Jacobian I - h df/dx (cosim_jac_x) at every iteration. */
+static int implicit_euler(Model *s, const double *x0, const double *k1, double h, double t1) {
+    double x[N_X + 1], r[N_X + 1], a[N_X * N_X + 1];
+    const double *f;
+    int i, iteration, converged = 0;
+    for (i = 0; i < N_X; i++) x[i] = x0[i] + h * k1[i];
+    for (iteration = 0; iteration < NEWTON_ITERATIONS && !converged; iteration++) {
+        if (!(f = derivatives_at(s, t1, x))) return CORE_ERROR;
+        for (i = 0; i < N_X; i++) r[i] = x[i] - x0[i] - h * f[i];
+        if (call(s, cosim_jac_x, s->m, a, NULL, NULL)) return CORE_ERROR;
+        for (i = 0; i < N_X * N_X; i++) a[i] *= -h;
+        for (i = 0; i < N_X; i++) a[i + i * N_X] += 1.0;
+        if (solve_dense(N_X, a, r)) {
+            logf_(s, 1, "t = %.17g: implicit Euler: I - h df/dx is singular%s", t1, "");
+            return CORE_ERROR;
+        }
+        converged = 1;
+        for (i = 0; i < N_X; i++) {
+            x[i] -= r[i];
+            if (fabs(r[i]) > NEWTON_ATOL + NEWTON_RTOL * fabs(x[i])) converged = 0;
+        }
+    }
+    if (!converged) {
+        logf_(s, 1, "t = %.17g: implicit Euler: Newton did not converge in 20 iterations (%s)", t1,
+              "a smaller _cs_step helps");
+        return CORE_ERROR;
+    }
+    s->t = t1;
+    if (N_X) memcpy(s->x, x, N_X * sizeof(double));
+    model_touch(s);
+    return CORE_OK;
+}
+
+static int step_from(Model *s, double t0, const double *x0, const double *k1, double h, double t1) {
+    if (s->cs_method == CS_IMPLICIT_EULER) return implicit_euler(s, x0, k1, h, t1);
+    return rk4(s, t0, x0, k1, h, t1);
+}
+
+/* Whether an indicator changed sign between z0 and z1 (an exact 0 is on its former side: model_indicators). */
+static int crossed(const double *z0, const double *z1) {
+    int k;
+    for (k = 0; k < N_Z; k++)
+        if ((z0[k] > 0.0 && z1[k] < 0.0) || (z0[k] < 0.0 && z1[k] > 0.0)) return 1;
+    return 0;
+}
+
+/* A step from (t0, x0) to t1 crossed an indicator: bisect the step length down to EVENT_TOL and end on the
+ * far side of the first crossing, where update() sees the relation flipped. */
+static int locate(Model *s, double t0, const double *x0, const double *k1, const double *z0, double h) {
+    double a = 0.0, b = h, mid;
+    const double *z;
+    while (b - a > EVENT_TOL) {
+        mid = a + 0.5 * (b - a);
+        if (step_from(s, t0, x0, k1, mid, t0 + mid)) return CORE_ERROR;
+        if (!(z = model_indicators(s))) return CORE_ERROR;
+        if (crossed(z0, z)) b = mid;
+        else a = mid;
+    }
+    return step_from(s, t0, x0, k1, b, t0 + b);
+}
+
+/* An indicator on the other side of where continuous time began (an input or parameter changed it). */
+static int off_side(Model *s, int *event) {
+    const double *z;
+    int k;
+    *event = 0;
+    if (!N_Z) return CORE_OK;
+    if (!(z = model_indicators(s))) return CORE_ERROR;
+    for (k = 0; k < N_Z; k++)
+        if (z[k] * s->z_side[k] < 0.0) *event = 1;
+    return CORE_OK;
+}
+
+/* One internal step toward min(t_end, next time event), equal steps of at most cs_step; *event when it ended
+ * at an event (state: located; time: stepped onto). */
+static int internal_step(Model *s, double t_end, double next_event, int *event) {
+    double x0[N_X + 1], k1[N_X + 1], z0[N_Z + 1], target, h, t0 = s->t;
+    const double *f, *z;
+    double n;
+    int time_event = next_event <= t_end;
+    target = time_event ? next_event : t_end;
+    n = ceil((target - t0) / s->cs_step * (1.0 - 1e-12));
+    h = n > 1.0 ? (target - t0) / n : target - t0;
+    if (N_X) memcpy(x0, s->x, N_X * sizeof(double));
+    if (!(f = model_derivatives(s))) return CORE_ERROR;
+    if (N_X) memcpy(k1, f, N_X * sizeof(double));
+    if (N_Z) {
+        if (!(z = model_indicators(s))) return CORE_ERROR;
+        memcpy(z0, z, N_Z * sizeof(double));
+    }
+    if (step_from(s, t0, x0, k1, h, n > 1.0 ? t0 + h : target)) return CORE_ERROR;
+    *event = time_event && n <= 1.0;
+    if (N_Z) {
+        if (!(z = model_indicators(s))) return CORE_ERROR;
+        if (crossed(z0, z)) {
+            *event = 1;
+            return locate(s, t0, x0, k1, z0, h);
+        }
+    }
+    return CORE_OK;
+}
+
+int model_do_step(Model *s, double t_end, int *terminated) {
+    double next_event, last_event = -INFINITY;
+    int event, in_a_row = 0;
+    *terminated = 0;
+    if (off_side(s, &event)) return CORE_ERROR;
+    if (event && (model_event_iteration(s, terminated) || *terminated)) return *terminated ? CORE_OK : CORE_ERROR;
+    next_event = model_next_time(s);
+    while (s->t < t_end) {
+        if (next_event <= s->t) next_event = INFINITY;  /* next_time is strictly later; never step backward */
+        if (internal_step(s, t_end, next_event, &event)) return CORE_ERROR;
+        if (!event) continue;
+        in_a_row = s->t - last_event < CHATTER_WINDOW ? in_a_row + 1 : 0;
+        last_event = s->t;
+        if (in_a_row >= MAX_EVENTS_IN_A_ROW) {
+            logf_(s, 1, "t = %.17g: %s events in a row, each within 1e-8 s of the last (chattering)", s->t,
+                  "MAX_EVENTS_IN_A_ROW (100)");
+            return CORE_ERROR;
+        }
+        if (model_event_iteration(s, terminated)) return CORE_ERROR;
+        if (*terminated) return CORE_OK;
+        next_event = model_next_time(s);
+    }
+    return CORE_OK;
+}
+
+/* ---- directional derivatives ---- */
+
+static int seed_of(Model *s, unsigned vr, double value, double *dx, double *du) {
+    char text[160];
+    if (vr >= VR_X && vr < VR_DX) dx[vr - VR_X] += value;
+    else if (vr >= VR_U && vr < VR_X) du[vr - VR_U] += value;
+    else {
+        snprintf(text, sizeof text, "directional derivatives are taken with respect to states and inputs; value "
+                 "reference %u is neither", vr);
+        logf_(s, 1, "t = %.17g: %s", s->t, text);
+        return CORE_ERROR;
+    }
+    return CORE_OK;
+}
+
+/* Forward derivative of f (cosim_dode or cosim_dout: f(x, u, p, t, m, dx, du)) into r. */
+static int forward(Model *s, casadi_fn f, const double *dx, const double *du, double *r) {
+    s->arg[0] = s->x;
+    s->arg[1] = s->u;
+    s->arg[2] = s->p;
+    s->arg[3] = &s->t;
+    s->arg[4] = s->m;
+    s->arg[5] = dx;
+    s->arg[6] = du;
+    s->res[0] = r;
+    if (f(s->arg, s->res, (casadi_int *)s->iw, s->w, 0)) {
+        logf_(s, 1, "t = %.17g: evaluation of the directional derivative failed%s", s->t, "");
+        return CORE_ERROR;
+    }
+    return CORE_OK;
+}
+
+int model_directional(Model *s, const unsigned *unknown, size_t n_unknown, const unsigned *known,
+                      size_t n_known, const double *seed, double *sensitivity) {
+    double dx[N_X + 1] = {0}, du[N_U + 1] = {0}, dxdot[N_X + 1], dy[N_Y + 1];
+    int have_dxdot = 0, have_dy = 0;
+    size_t i;
+    char text[160];
+    unsigned vr;
+    for (i = 0; i < n_known; i++)
+        if (seed_of(s, known[i], seed[i], dx, du)) return CORE_ERROR;
+    for (i = 0; i < n_unknown; i++) {
+        vr = unknown[i];
+        if (vr >= VR_DX && vr < VR_Y) {
+            if (!have_dxdot && forward(s, cosim_dode, dx, du, dxdot)) return CORE_ERROR;
+            have_dxdot = 1;
+            sensitivity[i] = dxdot[vr - VR_DX];
+        } else if (vr >= VR_Y && vr < VR_D) {
+            if (!have_dy && forward(s, cosim_dout, dx, du, dy)) return CORE_ERROR;
+            have_dy = 1;
+            sensitivity[i] = dy[Y_INDEX[vr - VR_Y]];
+        } else if (vr >= VR_X && vr < VR_DX) sensitivity[i] = dx[vr - VR_X];
+        else {
+            snprintf(text, sizeof text, "value reference %u has no directional derivative (unknowns are state "
+                     "derivatives, outputs and states)", vr);
+            logf_(s, 1, "t = %.17g: %s", s->t, text);
+            return CORE_ERROR;
+        }
+    }
+    return CORE_OK;
+}
+
+/* ---- the state as a flat array ---- */
+
+#define N_SIZES 5
+
+size_t model_state_size(void) { return N_SIZES + 1 + 2 * N_X + N_U + N_P + N_M + N_Z + 2; }
+
+static double *put(double *to, const double *from, int n) {
+    if (n) memcpy(to, from, (size_t)n * sizeof(double));
+    return to + n;
+}
+
+static const double *take(double *to, const double *from, int n) {
+    if (n) memcpy(to, from, (size_t)n * sizeof(double));
+    return from + n;
+}
+
+void model_state_save(const Model *s, double *buf) {
+    const double sizes[N_SIZES] = {N_X, N_U, N_P, N_M, N_Z};
+    int i;
+    buf = put(buf, sizes, N_SIZES);
+    *buf++ = s->t;
+    buf = put(buf, s->x, N_X);
+    buf = put(buf, s->u, N_U);
+    buf = put(buf, s->p, N_P);
+    buf = put(buf, s->m, N_M);
+    for (i = 0; i < N_X; i++) *buf++ = s->x_set[i];
+    buf = put(buf, s->z_side, N_Z);
+    *buf++ = s->cs_step;
+    *buf = s->cs_method;
+}
+
+int model_state_load(Model *s, const double *buf) {
+    const double sizes[N_SIZES] = {N_X, N_U, N_P, N_M, N_Z};
+    int i;
+    if (memcmp(buf, sizes, sizeof sizes) != 0) {
+        logf_(s, 1, "t = %.17g: the FMU state was saved by another model (its sizes differ)%s", s->t, "");
+        return CORE_ERROR;
+    }
+    buf += N_SIZES;
+    s->t = *buf++;
+    buf = take(s->x, buf, N_X);
+    buf = take(s->u, buf, N_U);
+    buf = take(s->p, buf, N_P);
+    buf = take(s->m, buf, N_M);
+    for (i = 0; i < N_X; i++) s->x_set[i] = *buf++ != 0.0;
+    buf = take(s->z_side, buf, N_Z);
+    s->cs_step = *buf++;
+    s->cs_method = (int)*buf;
+    model_touch(s);
+    return CORE_OK;
 }

@@ -1,9 +1,14 @@
 /* The model core of an FMU exported by cosim: one instance of a lowered model (states, inputs, parameters,
  * event memory), lazy evaluation of the CasADi-generated functions, and one pass of event iteration.
- * It knows nothing of FMI: the API layers (fmi3_me.c today; FMI 2.0 and Co-Simulation later) sit on top.
+ * It knows nothing of FMI: the API layers (FMI 3.0 and 2.0, Model Exchange and Co-Simulation) sit on top.
+ * It also carries what a Co-Simulation layer needs: an embedded solver that advances to a communication point
+ * with the events handled inside (model_do_step), exact directional derivatives (model_directional) and the
+ * instance's state as a flat array of doubles (model_state_*).
  * All values are doubles inside; Integer and Boolean variables are whole numbers (see model_get/model_set). */
 #ifndef COSIM_MODEL_CORE_H
 #define COSIM_MODEL_CORE_H
+
+#include <stddef.h>
 
 #include "model_data.h"
 
@@ -19,6 +24,18 @@
 #define TYPE_INT64 1
 #define TYPE_BOOLEAN 2
 
+/* Embedded solvers of model_do_step (Model.cs_method). */
+#define CS_RK4 0             /* classical fourth-order Runge-Kutta, fixed step */
+#define CS_IMPLICIT_EULER 1  /* implicit Euler, Newton with the exact Jacobian of ode w.r.t. x (stiff plants) */
+
+/* Events inside model_do_step: a state event is located to a bracket of EVENT_TOL seconds; event iteration
+ * stops with an error after MAX_EVENT_PASSES passes at one instant, and model_do_step after MAX_EVENTS_IN_A_ROW
+ * events each within CHATTER_WINDOW of the last (chattering). The same rules as the master's (plant.py). */
+#define EVENT_TOL 1e-10
+#define CHATTER_WINDOW (100 * EVENT_TOL)
+#define MAX_EVENT_PASSES 100
+#define MAX_EVENTS_IN_A_ROW 100
+
 /* Logger the API layer provides: error is 0 for information, 1 for an error. */
 typedef void (*core_logger)(void *env, int error, const char *message);
 
@@ -29,6 +46,8 @@ typedef struct {
     int x_set[N_X + 1];          /* state set by the importer before initialisation (x0 does not override) */
     double z_side[N_Z + 1];      /* sign of each indicator when continuous time last began (0: not known) */
     int fresh_xdot, fresh_y, fresh_z;  /* cached results valid for the current t, x, u, p, m */
+    double cs_step;              /* internal step of model_do_step, s (value reference VR_CS: _cs_step) */
+    int cs_method;               /* CS_RK4 or CS_IMPLICIT_EULER (value reference VR_CS + 1: _cs_method) */
     core_logger log;
     void *log_env;
     const double *arg[SZ_ARG + 1];
@@ -57,5 +76,27 @@ int model_initialize(Model *s);
 int model_event_pass(Model *s, EventFlags *flags);
 int model_terminal(Model *s);
 double model_next_time(Model *s);
+
+/* Event iteration at the current instant: passes until m settles, then the indicators' sides are remembered.
+ * *terminated is set when terminate() fired. A Co-Simulation layer calls it once after model_initialize. */
+int model_event_iteration(Model *s, int *terminated);
+
+/* Advance from s->t to t_end with the embedded solver (s->cs_method, internal step at most s->cs_step, equal
+ * steps between events): state events located within the step, time events stepped onto exactly, event
+ * iteration at each; an indicator whose sign differs at the start (an input changed) is an event at s->t.
+ * s->t == t_end on return unless *terminated (then s->t is the instant terminate() fired). */
+int model_do_step(Model *s, double t_end, int *terminated);
+
+/* sensitivity = d(unknown)/d(known) seed at the current point, exact (CasADi forward mode). known: value
+ * references of states and inputs; unknown: state derivatives, outputs, states. */
+int model_directional(Model *s, const unsigned *unknown, size_t n_unknown, const unsigned *known,
+                      size_t n_known, const double *seed, double *sensitivity);
+
+/* The instance's state as model_state_size() doubles: the sizes (to check a buffer belongs to this model),
+ * t, x, u, p, m, x_set, z_side, cs_step, cs_method. Serialisation is the buffer's bytes. model_state_load
+ * fails (and changes nothing) when the sizes differ. */
+size_t model_state_size(void);
+void model_state_save(const Model *s, double *buf);
+int model_state_load(Model *s, const double *buf);
 
 #endif
