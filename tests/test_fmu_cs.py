@@ -239,6 +239,25 @@ def test_fmu_state_restored_and_deserialised_repeats_the_run_bitwise(hybrid_fmu,
     slave.freeInstance()
 
 
+def test_fmu_state_of_a_model_exchange_instance_restores_time_states_and_inputs(linear):
+    _, model, vr = _open(linear, FMU3Model)
+    model.enterContinuousTimeMode()
+    model.setTime(0.5)
+    model.setContinuousStates((fmi3Float64 * 3)(2.0, 0.5, 0.25), 3)
+    state = model.getFMUState()
+    model.setTime(0.9)
+    model.setContinuousStates((fmi3Float64 * 3)(1.0, 1.0, 1.0), 3)
+    model.setFloat64([vr["a"]], [4.0])
+    model.setFMUState(model.deserializeFMUState(model.serializeFMUState(state)))
+    x, xdot = (fmi3Float64 * 3)(), (fmi3Float64 * 3)()
+    model.getContinuousStates(x, 3)
+    model.getContinuousStateDerivatives(xdot, 3)
+    assert (list(x), list(xdot)) == ([2.0, 0.5, 0.25], [-4.0, 0.25, -4.5])  # -a x1, v, -w^2 q at a = 2
+    assert model.getFloat64([vr["time"], vr["y"]]) == [0.5, 2.5]
+    model.freeFMUState(state)
+    model.freeInstance()
+
+
 def test_solver_settings_are_checked(linear):
     messages = []
     md = fmpy.read_model_description(str(linear))
