@@ -269,3 +269,15 @@ def test_solver_settings_are_checked(linear):
     with pytest.raises(FMICallException):
         _open(linear, FMU3Slave, log=lambda *a: messages.append(a[-1].decode()), _cs_step=-1.0)
     assert "_cs_step = -1 is not allowed" in messages[-1]
+
+
+def test_model_list_checks_the_solver_keys(tmp_path):
+    from cosim.errors import ConfigError
+
+    models = tmp_path / "models.toml"
+    models.write_text('[[model]]\nname = "A"\nmodel = "P.A"\nsource = "P/package.mo"\ncs_step = 0\n'
+                      'cs_method = "bdf"\n')
+    with pytest.raises(ConfigError) as err:
+        read_model_list(models)
+    assert "models.toml:2: model[0] cs_step must be a positive step in s, not 0" in str(err.value)
+    assert "cs_method must be one of rk4, implicit_euler, not 'bdf'" in str(err.value)
