@@ -163,6 +163,19 @@ def test_cs_time_events_are_stepped_onto_and_terminate_returns_early(hybrid_fmu)
     slave.freeInstance()
 
 
+def test_cs_inputs_set_between_steps_are_seen_at_the_next_step_start(hybrid_fmu):
+    """Hybrid.Inputs: n counts the rising edges of input b, der(x) = k: each doStep begins with an event iteration."""
+    _, slave, vr = _open(hybrid_fmu("Inputs"), FMU3Slave)
+    seen = []
+    for k, b in enumerate((0.0, 1.0, 1.0, 0.0, 1.0)):
+        slave.setFloat64([vr["b"], vr["k"]], [b, 2.0])
+        slave.doStep(k * 0.1, 0.1)
+        seen.append(slave.getInt64([vr["n"]])[0])
+    assert seen == [0, 1, 1, 1, 2]
+    assert slave.getFloat64([vr["x"]])[0] == pytest.approx(1.0, abs=1e-12)  # 0.5 s at k = 2
+    slave.freeInstance()
+
+
 # ---- directional derivatives ---------------------------------------------------------------------------------------
 
 def test_directional_derivatives_equal_central_differences(shipped):

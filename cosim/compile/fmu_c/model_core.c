@@ -392,18 +392,6 @@ static int locate(Model *s, double t0, const double *x0, const double *k1, const
     return step_from(s, t0, x0, k1, b, t0 + b);
 }
 
-/* An indicator on the other side of where continuous time began (an input or parameter changed it). */
-static int off_side(Model *s, int *event) {
-    const double *z;
-    int k;
-    *event = 0;
-    if (!N_Z) return CORE_OK;
-    if (!(z = model_indicators(s))) return CORE_ERROR;
-    for (k = 0; k < N_Z; k++)
-        if (z[k] * s->z_side[k] < 0.0) *event = 1;
-    return CORE_OK;
-}
-
 /* One internal step toward min(t_end, next time event), equal steps of at most cs_step; *event when it ended
  * at an event (state: located; time: stepped onto). */
 static int internal_step(Model *s, double t_end, double next_event, int *event) {
@@ -437,8 +425,9 @@ int model_do_step(Model *s, double t_end, int *terminated) {
     double next_event, last_event = -INFINITY;
     int event, in_a_row = 0;
     *terminated = 0;
-    if (off_side(s, &event)) return CORE_ERROR;
-    if (event && (model_event_iteration(s, terminated) || *terminated)) return *terminated ? CORE_OK : CORE_ERROR;
+    /* the importer may have changed inputs or parameters since the last step: an event iteration at the start
+     * sees the relations and edges they flipped (a converged one changes nothing) */
+    if (N_M && (model_event_iteration(s, terminated) || *terminated)) return *terminated ? CORE_OK : CORE_ERROR;
     next_event = model_next_time(s);
     while (s->t < t_end) {
         if (next_event <= s->t) next_event = INFINITY;  /* next_time is strictly later; never step backward */
