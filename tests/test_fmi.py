@@ -1,5 +1,6 @@
 """cosim.fmi: model description records, safe unpacking, the status checker, and driving an ME FMU."""
 
+import re
 import zipfile
 
 import numpy as np
@@ -14,7 +15,7 @@ from cosim.fmi import FmuInstance, check, read_model_info, safe_extract
 
 def test_model_info_of_a_compiled_model(master_dir):
     info = read_model_info(master_dir / "Osc.fmu")
-    assert info.fmi_version == 3 and info.kinds == ("ME",)
+    assert info.fmi_version == 3 and info.kinds == ("ME", "CS")  # both interfaces in one FMU
     assert info.n_states == 2
     assert info.names("input") == ["u"]
     assert set(info.names("output")) == {"y", "v_out"}
@@ -74,9 +75,18 @@ def test_missing_and_invalid_files(tmp_path):
         read_model_info(bad)
 
 
-def test_cs_requested_from_an_me_only_fmu(master_dir):
+def test_cs_requested_from_an_me_only_fmu(master_dir, tmp_path):
+    # our FMUs carry both interfaces: a copy whose modelDescription declares Model Exchange only
+    me_only = tmp_path / "Osc.fmu"
+    with zipfile.ZipFile(master_dir / "Osc.fmu") as source, zipfile.ZipFile(me_only, "w") as target:
+        for item in source.infolist():
+            data = source.read(item)
+            if item.filename == "modelDescription.xml":
+                data = re.sub(rb"<CoSimulation[^>]*/>", b"", data)
+            target.writestr(item, data)
+    assert read_model_info(me_only).kinds == ("ME",)
     with pytest.raises(FmiCallError, match="not CS"):
-        FmuInstance(master_dir / "Osc.fmu", "osc", kind="CS")
+        FmuInstance(me_only, "osc", kind="CS")
 
 
 def test_safe_extract_refuses_escaping_members(tmp_path):

@@ -331,9 +331,11 @@ static int solve_dense(int n, double *a, double *b) {
 #define NEWTON_ITERATIONS 20
 #define NEWTON_RTOL 1e-10
 #define NEWTON_ATOL 1e-12
+#define NEWTON_FAILED 2
+#define MAX_SPLITS 10
 
 /* One implicit Euler step x1 = x0 + h f(t1, x1) from (t0, x0): Newton from the explicit Euler guess, with the
- * exact Jacobian I - h df/dx (cosim_jac_x) at every iteration. */
+ * exact Jacobian I - h df/dx (cosim_jac_x) at every iteration; NEWTON_FAILED when it does not converge. */
 static int implicit_euler(Model *s, const double *x0, const double *k1, double h, double t1) {
     double x[N_X + 1], r[N_X + 1], a[N_X * N_X + 1];
     const double *f;
@@ -345,29 +347,41 @@ static int implicit_euler(Model *s, const double *x0, const double *k1, double h
         if (call(s, cosim_jac_x, s->m, a, NULL, NULL)) return CORE_ERROR;
         for (i = 0; i < N_X * N_X; i++) a[i] *= -h;
         for (i = 0; i < N_X; i++) a[i + i * N_X] += 1.0;
-        if (solve_dense(N_X, a, r)) {
-            logf_(s, 1, "t = %.17g: implicit Euler: I - h df/dx is singular%s", t1, "");
-            return CORE_ERROR;
-        }
+        if (solve_dense(N_X, a, r)) return NEWTON_FAILED;
         converged = 1;
         for (i = 0; i < N_X; i++) {
             x[i] -= r[i];
-            if (fabs(r[i]) > NEWTON_ATOL + NEWTON_RTOL * fabs(x[i])) converged = 0;
+            if (!(fabs(r[i]) <= NEWTON_ATOL + NEWTON_RTOL * fabs(x[i]))) converged = 0;
         }
     }
-    if (!converged) {
-        logf_(s, 1, "t = %.17g: implicit Euler: Newton did not converge in 20 iterations (%s)", t1,
-              "a smaller _cs_step helps");
-        return CORE_ERROR;
-    }
+    if (!converged) return NEWTON_FAILED;
     s->t = t1;
     if (N_X) memcpy(s->x, x, N_X * sizeof(double));
     model_touch(s);
     return CORE_OK;
 }
 
+/* Implicit Euler from (t0, x0) to t1; where Newton fails (a kink of the model inside the step: contact,
+ * friction), the step is done as two halves, down to 2^-MAX_SPLITS of it. */
+static int implicit_step(Model *s, double t0, const double *x0, const double *k1, double h, double t1, int depth) {
+    double xm[N_X + 1], km[N_X + 1];
+    const double *f;
+    int result = implicit_euler(s, x0, k1, h, t1);
+    if (result != NEWTON_FAILED) return result;
+    if (depth == MAX_SPLITS) {
+        logf_(s, 1, "t = %.17g: implicit Euler: Newton did not converge even on 1/1024 of the step (%s)", t0,
+              "a smaller _cs_step, or RK4, helps");
+        return CORE_ERROR;
+    }
+    if ((result = implicit_step(s, t0, x0, k1, 0.5 * h, t0 + 0.5 * h, depth + 1))) return result;
+    if (N_X) memcpy(xm, s->x, N_X * sizeof(double));
+    if (!(f = model_derivatives(s))) return CORE_ERROR;
+    if (N_X) memcpy(km, f, N_X * sizeof(double));
+    return implicit_step(s, t0 + 0.5 * h, xm, km, 0.5 * h, t1, depth + 1);
+}
+
 static int step_from(Model *s, double t0, const double *x0, const double *k1, double h, double t1) {
-    if (s->cs_method == CS_IMPLICIT_EULER) return implicit_euler(s, x0, k1, h, t1);
+    if (s->cs_method == CS_IMPLICIT_EULER) return implicit_step(s, t0, x0, k1, h, t1, 0);
     return rk4(s, t0, x0, k1, h, t1);
 }
 
@@ -392,18 +406,6 @@ static int locate(Model *s, double t0, const double *x0, const double *k1, const
         else a = mid;
     }
     return step_from(s, t0, x0, k1, b, t0 + b);
-}
-
-/* An indicator on the other side of where continuous time began (an input or parameter changed it). */
-static int off_side(Model *s, int *event) {
-    const double *z;
-    int k;
-    *event = 0;
-    if (!N_Z) return CORE_OK;
-    if (!(z = model_indicators(s))) return CORE_ERROR;
-    for (k = 0; k < N_Z; k++)
-        if (z[k] * s->z_side[k] < 0.0) *event = 1;
-    return CORE_OK;
 }
 
 /* One internal step toward min(t_end, next time event), equal steps of at most cs_step; *event when it ended
@@ -439,8 +441,9 @@ int model_do_step(Model *s, double t_end, int *terminated) {
     double next_event, last_event = -INFINITY;
     int event, in_a_row = 0;
     *terminated = 0;
-    if (off_side(s, &event)) return CORE_ERROR;
-    if (event && (model_event_iteration(s, terminated) || *terminated)) return *terminated ? CORE_OK : CORE_ERROR;
+    /* the importer may have changed inputs or parameters since the last step: an event iteration at the start
+     * sees the relations and edges they flipped (a converged one changes nothing) */
+    if (N_M && (model_event_iteration(s, terminated) || *terminated)) return *terminated ? CORE_OK : CORE_ERROR;
     next_event = model_next_time(s);
     while (s->t < t_end) {
         if (next_event <= s->t) next_event = INFINITY;  /* next_time is strictly later; never step backward */

@@ -83,7 +83,7 @@ int model_event_iteration(Model *s, int *terminated);
 
 /* Advance from s->t to t_end with the embedded solver (s->cs_method, internal step at most s->cs_step, equal
  * steps between events): state events located within the step, time events stepped onto exactly, event
- * iteration at each; an indicator whose sign differs at the start (an input changed) is an event at s->t.
+ * iteration at each; a hybrid model also iterates its events at the start (inputs may have changed).
  * s->t == t_end on return unless *terminated (then s->t is the instant terminate() fired). */
 int model_do_step(Model *s, double t_end, int *terminated);
 
