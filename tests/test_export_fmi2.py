@@ -270,3 +270,17 @@ def test_model_list_rejects_bad_fmu_settings_with_the_line(tmp_path, line, messa
     models.write_text(f'[[model]]\nname = "M"\nmodel = "P.M"\nsource = "P/package.mo"\n{line}\n')
     with pytest.raises(ConfigError, match=f"models.toml:2: model\\[0\\] {message}"):
         read_model_list(models)
+
+
+def test_terminal_when_clauses_fire_at_fmi2_terminate_after_co_simulation_steps(tmp_path):
+    fmu = build_fmu(HYBRID_MODELS, "Hybrid.Terminal", out_dir=tmp_path, fmi_version=2, cs_step=1e-3)
+    slave, vrs = _slave(fmu, tmp_path, "terminal")
+    for k in range(500):
+        slave.doStep(currentCommunicationPoint=k * 1e-3, communicationStepSize=1e-3)
+    assert slave.getReal([vrs["x_end"]]) == [0.0]  # terminal() false while the simulation runs
+    slave.terminate()
+    x_end, y = slave.getReal([vrs["x_end"], vrs["y"]])
+    # der(x) = -x from x = 1: x(0.5) = exp(-0.5) (RK4 at 1 ms: error ~1e-14); y = 2 x_end
+    assert x_end == pytest.approx(np.exp(-0.5), rel=1e-10) and y == 2 * x_end
+    assert slave.getInteger([vrs["n_end"]]) == [1]
+    slave.freeInstance()

@@ -113,8 +113,12 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     return status(model_event_iteration(f->model, &f->terminated));
 }
 
+/* The end of the simulation: the passes where terminal() is true, after which the final values can be read. */
 fmi2Status fmi2Terminate(fmi2Component c) {
-    ((Fmu2 *)c)->mode = MODE_TERMINATED;
+    Fmu2 *f = (Fmu2 *)c;
+    int initialised = f->mode == MODE_EVENT || f->mode == MODE_CONTINUOUS;
+    f->mode = MODE_TERMINATED;
+    if (initialised && model_terminal(f->model)) return fmi2Error;
     return fmi2OK;
 }
 

@@ -122,7 +122,7 @@ fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance) {
 /* The end of the simulation: the passes where terminal() is true, after which the final values can be read. */
 fmi3Status fmi3Terminate(fmi3Instance instance) {
     Fmu3 *f = (Fmu3 *)instance;
-    int initialised = f->mode == MODE_EVENT || f->mode == MODE_CONTINUOUS;
+    int initialised = f->mode == MODE_EVENT || f->mode == MODE_CONTINUOUS || f->mode == MODE_STEP;
     f->mode = MODE_TERMINATED;
     if (initialised && model_terminal(f->model)) return fmi3Error;
     return fmi3OK;
