@@ -77,3 +77,24 @@ def test_conditions_match_reference_table(table):
             assert_allclose(c["k_P"], _value(table, f"k_{coating}"))
             assert_allclose(c["k_P"] * c["k_H_ratio"], _value(table, f"k_H{coating[1]}"))
             assert_allclose(c["C_p"], _value(table, "C_p"))
+
+
+IMPACT_FIT = ROOT / "cosim" / "data" / "gripper_impact_fit.csv"
+IMPACT_START = {"J_r": "J_r", "C_h": "C_h", "C_p": "C_hs", "d_lim": "x_lim"}  # fitted parameter -> reference row
+IMPACT_CONFIGS = {"bare_dynamic_abs": "gripper_impact.toml", "P3_dynamic_abs": "gripper_impact_p3.toml"}
+
+
+def test_impact_fit_starts_from_the_reference_and_the_impact_configs_use_it(table):
+    import tomllib
+
+    with open(IMPACT_FIT, newline="") as f:
+        rows = list(csv.DictReader(row for row in f if not row.startswith("#")))
+    assert sorted(r["parameter"] for r in rows) == sorted(IMPACT_START)
+    for r in rows:
+        assert_allclose(float(r["start"]), _value(table, IMPACT_START[r["parameter"]]), rtol=1e-3)
+        assert r["fitted_to"], r["parameter"]
+    for condition, name in IMPACT_CONFIGS.items():
+        with open(ROOT / "examples" / name, "rb") as f:
+            used = tomllib.load(f)["fmus"]["plant"]["parameters"]
+        fitted = {r["parameter"]: float(r["value"]) for r in rows if condition in r["conditions"].split(";")}
+        assert fitted and {k: used.get(k) for k in fitted} == fitted, name

@@ -1,6 +1,8 @@
 """Write impact_p3.csv: a synthetic "measured" impact of the gripper with P3 coated fingers on the ABS cylinder
 (1000 rpm, 1 A tightening), for the contact calibration job. Known truth: the plant parameters of
-examples/gripper_impact_p3.toml with the coating's region boundary d_lim = 0.5 mm.
+examples/gripper_impact_p3.toml with the coating's region boundary d_lim = 0.5 mm, and the shaft inertia and the
+second-region damping pinned to the model's defaults (J_r = 1e-5 kg.m2, C_h = 2000 N.s/m), which the calibration
+job assumes (the impact config itself carries the values fitted to the paper, cosim/data/gripper_impact_fit.csv).
 
 How it is measured, as in the gripper paper's setup: the co-simulation (GripperPlant FMU, FOC at 26.6 kHz,
 outer loop at 100 Hz) is run by `cosim run`; the q current is logged at 2660 Hz (the drive's log); the load
@@ -19,7 +21,7 @@ import pandas as pd
 from cosim.master import run_config
 
 HERE = Path(__file__).resolve().parent
-TRUTH = {"d_lim": 0.0005}
+TRUTH = {"d_lim": 0.0005, "J_r": 1e-5, "C_h": 2000.0}
 DAQ_HZ, FORCE_NOISE_N, COUNTS = 100.0, 0.5, 2048
 
 

@@ -1,0 +1,113 @@
+"""Fit the impact parameters of the gripper to the paper's 1000 rpm / 1 A figures (Figs. 9 and 13, Sec. 4.3-4.4).
+
+The paper gives four numbers for these trials: the bare finger's force peak (220 N) and steady force (62 N), the
+P3 finger's force peak (160 N) and steady force (40 N), and one observation: the bare force drops to about zero
+after the peak in some trials (a bounce), the P3 force does not. Three parameters are freed, each with the
+figure it mainly moves: the shaft inertia ``J_r`` (an estimate, 3e-6 to 3e-5 kg.m2; it carries the impact
+energy) -> bare peak; the coating's region boundary ``d_lim`` (measured by the paper, value not printed) -> P3
+peak; the contact damping ``C`` of the hard stop and of the coating's second region (the paper sets
+C_hs = C_h = 2000 N.s/m "to achieve simulation stability") -> the rebound, hence the steady forces. The four
+numbers are fitted in the least-squares sense; the bounce, and every other speed, current and Table 1 cell,
+stay out of the fit: they check it.
+
+Each figure is the median over trials whose contact falls at ten phases of the 100 Hz outer loop (the free travel
+shifted by a tenth of the 10 ms period each), since the peak, the rebound and the steady force depend on where
+in the loop's period the contact falls. Every trial is a full co-simulation of the shipped configs
+(examples/gripper_impact.toml, examples/gripper_impact_p3.toml: FOC at 26.6 kHz, outer loop at 100 Hz). The
+residuals are relative; scipy's trust-region least squares minimises their squares in log parameters.
+
+Why not `cosim calibrate`: it replays a measured input (the logged current) into an open-loop model and fits
+traces. The paper prints no trace for Figs. 9 and 13, only these numbers, and the peak happens under the 100 Hz
+velocity loop: replaying a fixed current with another inertia changes the approach speed itself.
+
+Run (about 10 min on 2 cores): PYTHONPATH=. python docs/models/gripper_impact_fit.py
+Prints the fitted values and the figures at the start and at the fit; docs/models/gripper.md records them.
+"""
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from cosim.config import load_config
+from cosim.master.engine import engine_for
+from cosim.master.summary import summarize
+
+ROOT = Path(__file__).resolve().parents[2]
+CONFIGS = {"bare": ROOT / "examples" / "gripper_impact.toml", "P3": ROOT / "examples" / "gripper_impact_p3.toml"}
+GAP0 = {"bare": 0.006, "P3": 0.0085}  # free travel 6 mm before the (coated) finger touches
+PERIOD_TRAVEL = 0.0335 * 0.01  # jaw travel in one outer-loop period at 1000 rpm, m
+PHASES = 10
+TARGETS = {"bare_peak": 220.0, "bare_steady": 62.0, "P3_peak": 160.0, "P3_steady": 40.0}
+START = {"J_r": 1e-5, "C": 2000.0, "d_lim": 0.0015}  # estimate, paper, estimate
+# The solver starts from a hand scan (docs/models/gripper.md, "Impact fit"): from START the P3 figures jump as the
+# peak crosses the region boundary, and finite differences there lead the trust region astray.
+INITIAL = {"J_r": 1.2e-5, "C": 300.0, "d_lim": 6e-4}
+BOUNDS = {"J_r": (3e-6, 3e-5), "C": (50.0, 2000.0), "d_lim": (1e-4, 2.4e-3)}
+NAMES = tuple(START)
+
+
+def overrides(coating, params, phase):
+    """``--set`` items of one trial: the fitted parameters and the free travel of contact phase ``phase``."""
+    p = "fmus.plant.parameters"
+    gap = GAP0[coating] + (phase - PHASES // 2) * PERIOD_TRAVEL / PHASES
+    items = [f"{p}.J_r={params['J_r']!r}", f"{p}.C_h={params['C']!r}", f"{p}.gap0={gap!r}",
+             'record.signals=["plant.F_g"]']
+    if coating == "bare":  # the bare finger's hard stop is C_hs = C_h (paper); the coating keeps C_p = 10 N.s/m
+        items.append(f"{p}.C_p={params['C']!r}")
+    else:
+        items.append(f"{p}.d_lim={params['d_lim']!r}")
+    return items
+
+
+def trials(coating, params):
+    """Summary keys (peak, minimum after the peak, steady force) of the trials at every contact phase."""
+    out = []
+    for k in range(PHASES):
+        config = load_config(CONFIGS[coating], overrides(coating, params, k))
+        out.append(summarize(engine_for(config).run(progress=False), config))
+    return out
+
+
+def figures(params):
+    """The fitted figures (medians over the phases) and the checks, for one parameter set."""
+    bare, p3 = trials("bare", params), trials("P3", params)
+
+    def med(rows, key):  # a trial whose trigger never fired has no steady force
+        return float(np.nanmedian([np.nan if r[key] is None else r[key] for r in rows]))
+
+    def bounced(r):
+        return r["steady_force_N"] is not None and r["min_force_after_peak_N"] < 0.25 * r["steady_force_N"]
+
+    return {"bare_peak": med(bare, "peak_force_N"), "P3_peak": med(p3, "peak_force_N"),
+            "P3_steady": med(p3, "steady_force_N"), "bare_steady": med(bare, "steady_force_N"),
+            "bare_bounces": sum(bounced(r) for r in bare), "P3_bounces": sum(bounced(r) for r in p3),
+            "bare_steady_each": [r["steady_force_N"] and round(r["steady_force_N"], 1) for r in bare],
+            "P3_steady_each": [r["steady_force_N"] and round(r["steady_force_N"], 1) for r in p3]}
+
+
+def main():
+    def unpack(z):
+        return {n: float(np.exp(v)) for n, v in zip(NAMES, z)}
+
+    def residuals(z):
+        f = figures(unpack(z))
+        r = np.array([(f[k] - v) / v for k, v in TARGETS.items()])
+        print(json.dumps({**{n: float(f"{v:.4g}") for n, v in unpack(z).items()}, "residuals": r.round(4).tolist()}),
+              flush=True)
+        return r
+
+    z0 = np.log([INITIAL[n] for n in NAMES])
+    lo, hi = (np.log([BOUNDS[n][i] for n in NAMES]) for i in (0, 1))
+    fit = least_squares(residuals, z0, bounds=(lo, hi), diff_step=0.002, max_nfev=12)
+    best = unpack(fit.x)
+    print("start:", json.dumps(figures(START)))
+    print("fitted:", json.dumps({n: float(f"{v:.4g}") for n, v in best.items()}))
+    print("at the fit:", json.dumps(figures(best)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
