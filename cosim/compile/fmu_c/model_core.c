@@ -234,10 +234,14 @@ int model_event_pass(Model *s, EventFlags *flags) { return event_pass_with(s, co
  * fire once: their held condition is set by the first pass). */
 int model_terminal(Model *s) {
     EventFlags flags;
+    double x_pre[N_X + 1], m_pre[N_M + 1];
     int pass;
     for (pass = 0; pass < MAX_TERMINAL_PASSES; pass++) {
+        memcpy(x_pre, s->x, sizeof x_pre);
+        memcpy(m_pre, s->m, sizeof m_pre);
         if (event_pass_with(s, cosim_terminal, &flags)) return CORE_ERROR;
-        if (!flags.discrete_changed && !flags.states_changed) return CORE_OK;
+        /* settled when nothing changed bit for bit (a NaN state, after a failed run, is settled too) */
+        if (!memcmp(x_pre, s->x, sizeof x_pre) && !memcmp(m_pre, s->m, sizeof m_pre)) return CORE_OK;
     }
     logf_(s, 1, "t = %.17g: the terminal() passes did not settle%s", s->t, "");
     return CORE_ERROR;
