@@ -117,6 +117,8 @@ class Engine:
         ME step bound (s): the fastest clock's period / substeps, or ``solver.max_step``.
     recorder : cosim.master.recorder.Recorder
     loop : PythonLoop or CompiledLoop
+    fmu_pool : cosim.master.plant.FmuPool or None
+        Keeps the FMUs loaded between runs when set (many short runs of one engine); None: each run loads them.
     """
 
     def __init__(self, config, loop=PythonLoop, note="", compile_s=0.0):
@@ -145,6 +147,7 @@ class Engine:
         self.note = note
         self.compile_s = compile_s
         self.loop = loop(self)
+        self.fmu_pool = None
 
     def _progress_bar(self):
         """A tqdm bar on stderr counting simulated seconds."""
@@ -181,7 +184,7 @@ class Engine:
         cfg, loop = self.config, self.loop
         progress = self._start(progress)
         try:
-            plant = PlantSystem(cfg, self.layout, self.buf)
+            plant = PlantSystem(cfg, self.layout, self.buf, pool=self.fmu_pool)
         except SimulationTerminated as stop:  # an FMU asked to stop during its initialisation: nothing recorded
             return self._result(_stopped(stop, cfg.run.start))
         bar = None
