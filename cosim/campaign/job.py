@@ -6,14 +6,13 @@ FMU parameters that make it that coating (``parameters``); a coating of the grid
 parameters and is refused. Each variability source has a distribution and the physical reason it varies.
 """
 
-import hashlib
 import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from cosim.tomldoc import number, read_toml, sections
 
-__all__ = ["COATINGS", "SOURCES", "Source", "Coating", "CampaignJob", "load_campaign", "job_hash", "job_changes"]
+__all__ = ["COATINGS", "SOURCES", "Source", "Coating", "CampaignJob", "load_campaign", "job_changes"]
 
 COATINGS = ("bare", "P1", "P2", "P3")  # the paper's contact conditions (Sec. 4.4)
 
@@ -130,11 +129,6 @@ class CampaignJob:
     def source(self, name):
         """The Source called ``name``, or None when the job does not vary it."""
         return next((s for s in self.sources if s.name == name), None)
-
-
-def job_hash(job):
-    """SHA-256 of :meth:`CampaignJob.canonical` (hex)."""
-    return hashlib.sha256(json.dumps(job.canonical(), sort_keys=True).encode()).hexdigest()
 
 
 def job_changes(old, new, prefix=""):

@@ -155,7 +155,9 @@ def write_report(trials, job, out, run_info):
     job : cosim.campaign.job.CampaignJob
     out : pathlib.Path
     run_info : dict
-        What :func:`cosim.campaign.execute.run_trials` returned (timings, workers).
+        What :func:`cosim.campaign.execute.run_trials` returned (timings, workers); summary.json adds
+        ``trial_s`` (wall time a trial, on its worker), ``overhead_share`` (the part of it outside the engine's
+        loop) and the machine's load average.
 
     Returns
     -------
@@ -168,15 +170,15 @@ def write_report(trials, job, out, run_info):
     paper = paper_iqrs()
     (out / "table1.md").write_text(_markdown(table, paper, job), encoding="utf-8")
     _boxplots(trials, job, out / "boxplots.png")
-    ran = max(run_info.get("ran", 0), 1)
+    ran = run_info["ran"]
     summary = {
         "job": str(job.path), "overrides": list(job.overrides), "trials": int(len(trials)),
         "cells": int(len(table)), "no_steady_force": int(trials["steady_force_N"].isna().sum()),
         "bounced_share": float(trials["bounced"].mean()) if len(trials) else None,
         "p3_iqr_below_bare": _comparison(table, paper, "P3", "bare"),
         "run": {**run_info,
-                "wall_per_trial_s": run_info["wall_s"] * max(run_info["workers"], 1) / ran if run_info.get("ran") else None,
-                "overhead_share": (1.0 - run_info["loop_s"] / run_info["task_s"]) if run_info.get("task_s") else None,
+                "trial_s": run_info["trials_s"] / ran if run_info["ran"] else None,
+                "overhead_share": 1.0 - run_info["loop_s"] / run_info["trials_s"] if run_info["trials_s"] else None,
                 "load_average_1min": float(os.getloadavg()[0])},
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
