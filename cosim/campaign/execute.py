@@ -191,7 +191,6 @@ def run_trials(job, out, workers=None, scheduler="", progress=True, command=""):
         return info
     t0 = time.perf_counter()
     with open_client(scheduler, max_workers=workers) as client:
-        info["workers"] = len(client.scheduler_info().get("workers", {}))
         futures = {client.submit(run_batch, job, b, key, pure=False): b for b in todo}
         bar = tqdm(total=n_all, initial=info["resumed"], desc="trials", unit="trial", file=sys.stderr,
                    disable=not progress, smoothing=0.1)
@@ -208,6 +207,7 @@ def run_trials(job, out, workers=None, scheduler="", progress=True, command=""):
             client.cancel(list(futures))
         finally:
             bar.close()
+        info["workers"] = len(client.scheduler_info().get("workers", {}))  # at the end: a remote one may grow
     info["wall_s"] = time.perf_counter() - t0
     return info
 
