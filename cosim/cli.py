@@ -182,7 +182,7 @@ def _add_campaign(sub):
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override any job key, e.g. --set campaign.trials=10 (repeatable)")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, help="workers of the local Dask cluster (default: one a core)")
+    where.add_argument("--workers", type=int, metavar="N", help="workers of the local Dask cluster (default: one a core)")
     where.add_argument("--scheduler", default="", metavar="ADDRESS",
                        help="address of a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
     p.add_argument("--trial", type=int, metavar="K",

@@ -47,6 +47,8 @@ def run_campaign(path, out=None, overrides=(), workers=None, scheduler="", progr
         Invalid job; ``out`` not a cosim output or holding another job (the changed keys are named);
         the scheduler does not answer.
     """
+    if workers is not None and not (isinstance(workers, int) and workers >= 1):
+        raise ConfigError(f"--workers: expected a whole number >= 1; got {workers!r}")
     job = load_campaign(path, overrides)
     out = Path(out) if out is not None else Path("out") / Path(path).stem
     info = run_trials(job, out, workers=workers, scheduler=scheduler, progress=progress,
