@@ -123,6 +123,8 @@ class TrialRunner:
         steady = math.nan
         noise_mean = 0.0
         window = s.get("steady_window_s")
+        if window is not None and window[1] < s["t_switch_s"] + job.hold_s - 1e-6:
+            window = None  # the run stopped before the end of tightening: no steady force (margin_s too short)
         if window is not None:
             end = window[1]
             n = int(round(job.steady_s * job.load_cell_rate))
