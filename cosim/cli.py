@@ -163,7 +163,7 @@ def _cmd_campaign(args):
               f"{out}/parts; the same command resumes", file=sys.stderr)
         return 130
     print(f"{summary['trials']} trials ({run['resumed']} resumed, {run['ran']} run in {run['wall_s']:.1f} s on "
-          f"{run['workers']} workers); {summary['p3_iqr_below_bare']}")
+          f"{run['workers']} worker{'s' if run['workers'] != 1 else ''}); {summary['p3_iqr_below_bare']}")
     print(f"wrote {out}/trials.parquet, table1.csv, table1.md, boxplots.png, summary.json")
     return 0
 

@@ -162,7 +162,7 @@ def _number_list(problems, table, key, where):
     return tuple(out)
 
 
-def _coatings(data, tables, camp, base, problems):
+def _coatings(tables, camp, base, problems):
     names = camp.get("coatings")
     if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
         problems.add(("campaign", "coatings"), f"must be a non-empty list of coating names; got {names!r}")
@@ -258,7 +258,7 @@ def load_campaign(path, overrides=()):
     job = dict(
         seed=seed,
         trials=number(problems, camp, "trials", w, positive=True, integer=True),
-        coatings=_coatings(data, tables, camp, path.parent, problems),
+        coatings=_coatings(tables, camp, path.parent, problems),
         speeds_rpm=_number_list(problems, camp, "speeds_rpm", w),
         currents_A=_number_list(problems, camp, "currents_A", w),
         hold_s=number(problems, camp, "hold_s", w, default=5.0, positive=True),
