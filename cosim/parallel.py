@@ -52,8 +52,11 @@ def open_client(scheduler="", max_workers=None, timeout_s=5.0):
     workers = max(1, min(max_workers or os.cpu_count() or 1, os.cpu_count() or 1))
     # CRITICAL: a worker's heartbeat racing the close logs a harmless CommClosedError traceback at ERROR
     # (dask/distributed#7105); a task's own error still reaches the caller through future.result()
+    # the scheduler always serves a small HTTP page (health, JSON): on loopback, on a free port (not 8787, which a
+    # second cluster would find taken), without the dashboard
+    quiet_http = {"dashboard": False, "dashboard_address": f"{LOOPBACK}:0"}
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host=LOOPBACK,
-                      dashboard_address=None, worker_dashboard_address=None,
+                      dashboard_address=None, worker_dashboard_address=None, scheduler_kwargs=quiet_http,
                       silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
         yield client
 

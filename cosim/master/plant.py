@@ -497,7 +497,14 @@ class PlantSystem:
                          f"within {64 * EVENT_TOL:g} s of the solver's root")
 
     def close(self):
-        """Free every instance."""
+        """Free every instance, also when freeing one fails (each removes its unpacked files whatever happens);
+        the first failure is raised after."""
+        failed = None
         for inst in self.instances.values():
-            inst.close()
+            try:
+                inst.close()
+            except Exception as exc:  # a failed instance may fail again when freed: free the others first
+                failed = failed or exc
         self.instances = {}
+        if failed is not None:
+            raise failed
