@@ -144,8 +144,8 @@ def output_folder(out, command, force=False):
     _writable(out.parent, out)
     with _lock(out):
         replace = _check_target(out, force)
-        if replace:
-            _writable(out, out)  # the old output's files must be removable
+        if out.exists():
+            _writable(out, out)  # an immutable or read-only folder cannot be replaced either
         staging = _sibling(out, "partial")
         try:
             _write_marker(staging, command)

@@ -14,7 +14,7 @@ from tqdm import tqdm
 
 from cosim.errors import ConfigError
 
-__all__ = ["open_client", "map_on_dask"]
+__all__ = ["open_client", "check_scheduler", "map_on_dask"]
 
 LOOPBACK = "127.0.0.1"
 
@@ -45,7 +45,7 @@ def open_client(scheduler="", max_workers=None, timeout_s=5.0):
     from distributed import Client, LocalCluster
 
     if scheduler:
-        _check_scheduler(scheduler, timeout_s)
+        check_scheduler(scheduler, timeout_s)
         with Client(scheduler, timeout=timeout_s) as client:
             yield client
         return
@@ -61,9 +61,24 @@ def open_client(scheduler="", max_workers=None, timeout_s=5.0):
         yield client
 
 
-def _check_scheduler(address, timeout_s):
-    """Ask ``address`` for its identity before a Client is made: a Client given a wrong address waits its whole
-    timeout, and one given a port of another service fails deep inside its reader (even a MemoryError)."""
+def check_scheduler(address, timeout_s=5.0):
+    """Ask the Dask scheduler at ``address`` for its identity: a ConfigError naming the address when none answers.
+
+    Done before a Client is made: a Client given a wrong address waits its whole timeout, and one given a port of
+    another service fails deep inside its reader (even with a MemoryError).
+
+    Parameters
+    ----------
+    address : str
+        ``tcp://host:port``.
+    timeout_s : float, default 5.0
+        How long to wait for the answer (s).
+
+    Raises
+    ------
+    ConfigError
+        No Dask scheduler answered at ``address`` within ``timeout_s``, or the address is malformed.
+    """
     import asyncio
 
     from distributed.comm import connect

@@ -335,7 +335,11 @@ def test_the_local_dask_cluster_listens_on_loopback_only_without_a_dashboard():
         assert map_on_dask(abs, [-1, 2, -3], scheduler=client.scheduler.address, progress=False) == [1, 2, 3]
 
 
-def test_a_bad_scheduler_address_is_a_config_error_within_seconds():
+def test_a_bad_scheduler_address_is_a_config_error_within_seconds(tmp_path, capsys):
+    from diagnose_truth import make_case
+    from diagnose_truth import write_job as write_diagnose_job
+    from test_calibrate import write_job
+
     from cosim.parallel import map_on_dask
 
     with socket.socket() as s:  # a port nothing listens on
@@ -346,3 +350,17 @@ def test_a_bad_scheduler_address_is_a_config_error_within_seconds():
         with pytest.raises(ConfigError, match="no Dask scheduler answered at"):
             map_on_dask(abs, [1, 2], scheduler=address, progress=False)
         assert time.perf_counter() - t0 < 8
+    # the commands: exit 2 within seconds, before any fit, nothing written
+    address = f"tcp://127.0.0.1:{port}"
+    t, i, y, _ = make_case("none", np.random.default_rng(5), noise=0.3, levels=(0.0, 0.5, 1.0, 0.5, 0.0))
+    (tmp_path / "d").mkdir()
+    (tmp_path / "c").mkdir()
+    diagnose_job = write_diagnose_job(tmp_path / "d", pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), ())
+    calibrate_job = write_job(tmp_path / "c")
+    for argv in (["calibrate", str(calibrate_job), "--set", f"multistart.scheduler={address}"],
+                 ["diagnose", str(diagnose_job), "--set", f"parallel.scheduler={address}"]):
+        t0 = time.perf_counter()
+        assert main([*argv, "--out", str(tmp_path / "res"), "--no-progress"]) == 2
+        assert time.perf_counter() - t0 < 15
+        assert f"no Dask scheduler answered at '{address}'" in capsys.readouterr().err
+        assert not (tmp_path / "res").exists()

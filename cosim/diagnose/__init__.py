@@ -34,8 +34,11 @@ def diagnose(path, out="out/diagnosis", overrides=(), progress=True, build=True,
     """
     from cosim.diagnose.report import write_diagnosis
     from cosim.outputs import output_folder
+    from cosim.parallel import check_scheduler
 
     job = load_diagnose_job(path, overrides)
+    if job.scheduler:  # the candidates' fits need it only after the baseline's: say now that it does not answer
+        check_scheduler(job.scheduler)
     with output_folder(out, "diagnose", force=force) as staging:
         result = _relocated(run_diagnosis(job, progress=progress, build=build, out=staging), staging, out)
         write_diagnosis(result, staging, source=job.source)
