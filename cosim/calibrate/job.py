@@ -128,10 +128,11 @@ def run_job(path, out="out/calibration", overrides=(), progress=True, force=Fals
     (:func:`cosim.outputs.output_folder`)."""
     from cosim.calibrate.multistart import fit_multistart
     from cosim.calibrate.report import write_results
+    from cosim.master.run import interrupt_on_signals
     from cosim.outputs import output_folder
 
     job = load_job(path, overrides)
-    with output_folder(out, "calibrate", force=force) as staging:
+    with output_folder(out, "calibrate", force=force) as staging, interrupt_on_signals():
         result = fit_multistart(job, progress=progress)
         summary = write_results(job, result, staging)
     return summary

@@ -33,13 +33,14 @@ def diagnose(path, out="out/diagnosis", overrides=(), progress=True, build=True,
         Replace a previous cosim output at ``out``.
     """
     from cosim.diagnose.report import write_diagnosis
+    from cosim.master.run import interrupt_on_signals
     from cosim.outputs import output_folder
     from cosim.parallel import check_scheduler
 
     job = load_diagnose_job(path, overrides)
     if job.scheduler:  # the candidates' fits need it only after the baseline's: say now that it does not answer
         check_scheduler(job.scheduler)
-    with output_folder(out, "diagnose", force=force) as staging:
+    with output_folder(out, "diagnose", force=force) as staging, interrupt_on_signals():
         result = _relocated(run_diagnosis(job, progress=progress, build=build, out=staging), staging, out)
         write_diagnosis(result, staging, source=job.source)
     return result

@@ -93,6 +93,7 @@ FUNCTIONS = ("SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "Set
 FF = ("t0", "h_max", "event_t", "next_time_event", "event_tol", "chatter_window", "max_events", "max_passes")
 (_T0, _HMAX, _EVT, _TNEXT, _TOL, _WINDOW, _MAXEV, _MAXPASS) = range(len(FF))
 DONE, MORE, ERROR = 0, 1, 2
+_DBL_MAX = 1.7976931348623157e308
 KINDS = ("state", "time", "step", "input")  # event kinds of the event log, as the Python engine's
 (_STATE, _TIME, _STEP, _INPUT) = range(len(KINDS))
 
@@ -107,14 +108,15 @@ def _fail(st, f, fn, status):
 
 @numba.njit(cache=True, _nrt=False)
 def _nonfinite(buf, W):
-    """True when a value of the signal buffer, a state or a derivative (rows 0 and 2 of W) is NaN or infinite:
-    ``v - v`` is 0 for every finite v, NaN otherwise; one sum, then one comparison."""
-    s = 0.0
+    """True when a value of the signal buffer or a state (row 0 of W) is NaN or infinite (``abs(v) <= DBL_MAX`` is
+    false for those only; or-ed without branches, about 50 ns for the gripper's 31 values). A bad derivative makes
+    the state bad in the same RK4 step (every stage enters the update), so the derivatives need no check."""
+    bad = 0
     for i in range(buf.shape[0]):
-        s += buf[i] - buf[i]
+        bad |= not (abs(buf[i]) <= _DBL_MAX)
     for i in range(W.shape[1]):
-        s += (W[0, i] - W[0, i]) + (W[2, i] - W[2, i])
-    return s != s
+        bad |= not (abs(W[0, i]) <= _DBL_MAX)
+    return bad != 0
 
 
 @numba.njit(cache=True, _nrt=False)

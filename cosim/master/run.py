@@ -11,7 +11,7 @@ from cosim.master.output import write_results
 from cosim.master.summary import summarize
 from cosim.outputs import output_folder
 
-__all__ = ["run", "run_config"]
+__all__ = ["run", "run_config", "interrupt_on_signals"]
 
 
 def run(config, progress=None):
@@ -66,7 +66,7 @@ def run_config(path, out=None, overrides=(), csv=False, progress=None, force=Fal
 
     config = load_config(path, overrides)
     out = Path(out) if out is not None else Path("out") / config.name
-    with output_folder(out, "run", force=force) as staging, _signals_interrupt():
+    with output_folder(out, "run", force=force) as staging, interrupt_on_signals():
         result = engine_for(config).run(progress=progress, faults="keep")
         summary = summarize(result, config)
         files = [out / f.relative_to(staging) for f in write_results(result, config, staging, csv=csv,
@@ -77,9 +77,11 @@ def run_config(path, out=None, overrides=(), csv=False, progress=None, force=Fal
 
 
 @contextlib.contextmanager
-def _signals_interrupt():
-    """SIGTERM and SIGHUP stop the run as Ctrl-C does (what was recorded is kept) instead of killing the process;
-    only in the main thread (signal handlers cannot be set elsewhere)."""
+def interrupt_on_signals():
+    """Within the block, SIGTERM and SIGHUP raise :class:`~cosim.master.engine.Interrupt` (a KeyboardInterrupt)
+    instead of killing the process: a run stops as on Ctrl-C and keeps what was recorded, and every command's
+    ``finally`` clauses run (staging and unpacked FMU folders removed). Only in the main thread (signal handlers
+    cannot be set elsewhere); elsewhere the block runs as it is."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
