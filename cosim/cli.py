@@ -20,7 +20,9 @@ def _cmd_build(args):
         return 0
     if args.model is None:
         raise CosimError(f"{args.file}: name the model to build with --model Pkg.Model")
-    path = build_fmu(args.file, args.model, out_dir=args.out or "fmus")
+    from cosim.compile.build import mark_fmu_folder
+
+    path = build_fmu(args.file, args.model, out_dir=mark_fmu_folder(args.out or "fmus"))
     print(f"built {path}")
     return 0
 
@@ -37,7 +39,8 @@ def _add_build(sub):
     )
     p.add_argument("file", nargs="?", help="Modelica source file (.mo)")
     p.add_argument("--model", help="full name of the model to build, e.g. Gripper.GripperPlant")
-    p.add_argument("--out", help="output directory (default: fmus/, or the one models.toml names)")
+    p.add_argument("--out", help="output directory (default: fmus/, or the one models.toml names); new, or one "
+                                 "holding only FMUs and cosim's build files; only the FMUs built are replaced")
     p.add_argument("--models", default="modelica/models.toml", help="model list used when no FILE is given")
     p.add_argument("--force", action="store_true", help="rebuild even when up to date")
     p.set_defaults(func=_cmd_build)
@@ -50,20 +53,27 @@ def _add_haptic(sub):
 
 
 def _cmd_run(args):
+    from cosim.errors import RunStopped
     from cosim.master import run_config
 
-    result, summary, files = run_config(args.config, out=args.out, overrides=args.set, csv=args.csv,
-                                        progress=False if args.no_progress else None)
+    try:
+        result, summary, files = run_config(args.config, out=args.out, overrides=args.set, csv=args.csv,
+                                            progress=False if args.no_progress else None, force=args.force)
+    except RunStopped as stop:
+        for f in stop.files:
+            print(f"wrote {f}")
+        print(f"cosim run: {stop}; kept what was recorded before (summary.json \"stopped\")", file=sys.stderr)
+        return 3
     for f in files:
         print(f"wrote {f}")
     compiled = f"; kernels compiled or loaded in {result.compile_s:.2g} s" if result.engine == "compiled" else ""
     note = f"; {result.engine_note}" if result.engine_note else ""
     print(f"simulated {result.sim_s:.6g} s in {result.wall_s:.3g} s wall ({result.engine} engine{compiled}{note})")
+    s = result.stopped
     if result.interrupted:
-        print("cosim run: interrupted; kept what was recorded", file=sys.stderr)
-        return 130
-    if result.stopped is not None:
-        s = result.stopped
+        print(f"cosim run: {s['reason']}; kept what was recorded", file=sys.stderr)
+        return 143 if s["cause"] == "SIGTERM" else 129 if s["cause"] == "SIGHUP" else 130
+    if s is not None:
         print(f"cosim run: stopped at t={s['time']:.9g} s: {s['by']} asked to terminate"
               f"{': ' + s['reason'] if s['reason'] else ''}; kept what was recorded")
     return 0
@@ -80,6 +90,7 @@ def _add_run(sub):
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override any config key, e.g. --set fmus.plant.parameters.eta_g=0.7 (repeatable)")
     p.add_argument("--csv", action="store_true", help="also write OUT/results.csv")
+    p.add_argument("--force", action="store_true", help="replace OUT when it holds a previous cosim output")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_run)
 
@@ -88,7 +99,7 @@ def _cmd_calibrate(args):
     from cosim.calibrate.job import run_job
 
     out = args.out or f"out/{Path(args.job).stem}"
-    summary = run_job(args.job, out=out, overrides=args.set, progress=not args.no_progress)
+    summary = run_job(args.job, out=out, overrides=args.set, progress=not args.no_progress, force=args.force)
     for name, p in summary["parameters"].items():
         print(f"{name} = {p['value']:.6g} +- {p['std_error']:.3g} (1 s.e., start {p['start']:.6g})")
     print(f"cost {summary['cost_before']:.6g} -> {summary['cost_after']:.6g} in {summary['iterations']} "
@@ -109,6 +120,7 @@ def _add_calibrate(sub):
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override any job key, e.g. --set data.path=measured.csv (repeatable)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--force", action="store_true", help="replace OUT when it holds a previous cosim output")
     p.set_defaults(func=_cmd_calibrate)
 
 
@@ -117,7 +129,7 @@ def _cmd_diagnose(args):
 
     out = args.out or f"out/{Path(args.job).stem}"
     result = diagnose(args.job, out=out, overrides=args.set, progress=not args.no_progress,
-                      build=not args.no_build)
+                      build=not args.no_build, force=args.force)
     print(result.verdict)
     unit = f" {result.units[0]}" if result.units[0] else ""
     print(f"{result.signals[0]}, measured vs replayed model: RMSE {result.rmse_before:.4g} -> "
@@ -142,6 +154,7 @@ def _add_diagnose(sub):
                    help="override any job key, e.g. --set data.path=measured.csv (repeatable)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-build", action="store_true", help="do not build the FMUs nor re-run them through the master")
+    p.add_argument("--force", action="store_true", help="replace OUT when it holds a previous cosim output")
     p.set_defaults(func=_cmd_diagnose)
 
 

@@ -144,8 +144,8 @@ def output_folder(out, command, force=False):
     _writable(out.parent, out)
     with _lock(out):
         replace = _check_target(out, force)
-        if replace:
-            _writable(out, out)  # the old output's files must be removable
+        if out.exists():
+            _writable(out, out)  # an immutable or read-only folder cannot be replaced either
         staging = _sibling(out, "partial")
         try:
             _write_marker(staging, command)
@@ -176,15 +176,19 @@ def _commit(staging, out, replace):
         shutil.rmtree(old, ignore_errors=True)
 
 
-def mark_output(folder, command):
+def mark_output(folder, command, adopt=()):
     """Make ``folder`` a cosim output written in place (an FMU folder, a resumable campaign).
 
     Parameters
     ----------
     folder : str or Path
-        Created when missing. An existing folder must be a cosim output or empty.
+        Created when missing. An existing folder must be a cosim output, empty, or hold only files matching
+        ``adopt``.
     command : str
         The command writing it, written into the marker when the folder has none.
+    adopt : sequence of str, optional
+        Glob patterns of the files a folder written before markers existed holds (``cosim build``: ``*.fmu`` and
+        its build stamp): such a folder is taken as a cosim output and marked.
 
     Returns
     -------
@@ -198,7 +202,8 @@ def mark_output(folder, command):
     """
     folder = Path(folder)
     _make_parent(folder)
-    if not is_output(folder):
+    adopted = folder.is_dir() and all(any(p.match(pattern) for pattern in adopt) for p in folder.iterdir())
+    if not is_output(folder) and not adopted:
         _check_target(folder, force=False)
         try:
             folder.mkdir(exist_ok=True)

@@ -14,7 +14,7 @@ from tqdm import tqdm
 
 from cosim.errors import ConfigError
 
-__all__ = ["open_client", "map_on_dask"]
+__all__ = ["open_client", "check_scheduler", "map_on_dask"]
 
 LOOPBACK = "127.0.0.1"
 
@@ -45,22 +45,40 @@ def open_client(scheduler="", max_workers=None, timeout_s=5.0):
     from distributed import Client, LocalCluster
 
     if scheduler:
-        _check_scheduler(scheduler, timeout_s)
+        check_scheduler(scheduler, timeout_s)
         with Client(scheduler, timeout=timeout_s) as client:
             yield client
         return
     workers = max(1, min(max_workers or os.cpu_count() or 1, os.cpu_count() or 1))
     # CRITICAL: a worker's heartbeat racing the close logs a harmless CommClosedError traceback at ERROR
     # (dask/distributed#7105); a task's own error still reaches the caller through future.result()
+    # the scheduler always serves a small HTTP page (health, JSON): on loopback, on a free port (not 8787, which a
+    # second cluster would find taken), without the dashboard
+    quiet_http = {"dashboard": False, "dashboard_address": f"{LOOPBACK}:0"}
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host=LOOPBACK,
-                      dashboard_address=None, worker_dashboard_address=None,
+                      dashboard_address=None, worker_dashboard_address=None, scheduler_kwargs=quiet_http,
                       silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
         yield client
 
 
-def _check_scheduler(address, timeout_s):
-    """Ask ``address`` for its identity before a Client is made: a Client given a wrong address waits its whole
-    timeout, and one given a port of another service fails deep inside its reader (even a MemoryError)."""
+def check_scheduler(address, timeout_s=5.0):
+    """Ask the Dask scheduler at ``address`` for its identity: a ConfigError naming the address when none answers.
+
+    Done before a Client is made: a Client given a wrong address waits its whole timeout, and one given a port of
+    another service fails deep inside its reader (even with a MemoryError).
+
+    Parameters
+    ----------
+    address : str
+        ``tcp://host:port``.
+    timeout_s : float, default 5.0
+        How long to wait for the answer (s).
+
+    Raises
+    ------
+    ConfigError
+        No Dask scheduler answered at ``address`` within ``timeout_s``, or the address is malformed.
+    """
     import asyncio
 
     from distributed.comm import connect

@@ -529,10 +529,17 @@ class PlantSystem:
                          f"within {64 * EVENT_TOL:g} s of the solver's root")
 
     def close(self):
-        """Free every instance (back to the pool, when given one)."""
+        """Free every instance (back to the pool, when given one), also when freeing one fails (each removes its
+        unpacked files whatever happens); the first failure is raised after."""
+        failed = None
         for name, inst in self.instances.items():
-            if self._pool is not None:
-                self._pool.give(inst, self.config.fmus[name])
-            else:
-                inst.close()
+            try:
+                if self._pool is not None:
+                    self._pool.give(inst, self.config.fmus[name])
+                else:
+                    inst.close()
+            except Exception as exc:  # a failed instance may fail again when freed: free the others first
+                failed = failed or exc
         self.instances = {}
+        if failed is not None:
+            raise failed
