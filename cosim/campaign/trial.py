@@ -86,6 +86,7 @@ class TrialRunner:
         self.engine = engine_for(self.base)
         self.engine.fmu_pool = FmuPool()  # the FMU stays loaded from one trial to the next
         self.loop_s = 0.0  # wall time inside the engine's loop, summed over the trials run
+        self.kernel_s = 0.0  # wall time compiling or loading the loop's kernel (the first run), summed
 
     def run(self, spec):
         """Run one trial.
@@ -111,6 +112,7 @@ class TrialRunner:
         outer.p[:] = outer.pack()
         result = eng.run(progress=False)
         self.loop_s += result.wall_s
+        self.kernel_s += result.compile_s - eng.compile_s
         return self._row(spec, values, noise, result)
 
     def _row(self, spec, values, noise, result):
