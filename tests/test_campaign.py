@@ -202,3 +202,34 @@ def test_scheduler_that_does_not_answer_is_a_clear_error_within_seconds(job_path
         run_campaign(job_path, out=tmp_path / "x", overrides=GRID, scheduler=f"tcp://127.0.0.1:{port}",
                      progress=False)
     assert time.monotonic() - t0 < 15
+
+
+def test_a_trial_draws_the_same_values_whatever_the_grid_around_it(tmp_path):
+    from cosim.campaign.draws import draw, trial_list
+
+    full = load_campaign(EXAMPLES / "campaign_table1.toml")
+    small = load_campaign(EXAMPLES / "campaign_table1.toml", GRID)
+    assert len(trial_list(full)) == 4 * 3 * 5 * 100  # the paper's 6,000 impacts
+    by_identity = {(s.coating, s.speed_rpm, s.current_A, s.trial): s for s in trial_list(full)}
+    for s in trial_list(small):
+        twin = by_identity[(s.coating, s.speed_rpm, s.current_A, s.trial)]
+        assert s.seed == twin.seed and draw(small, s)[0] == draw(full, twin)[0]
+    values = [draw(full, s)[0] for s in trial_list(full)[:200]]
+    assert len({v["free_travel"] for v in values}) == 200  # every trial its own draw
+    # the shipped uniform sources stay inside the bounds the job declares
+    for name in ("free_travel", "play_position", "encoder_phase", "controller_phase"):
+        src = full.source(name)
+        assert all(src.a <= v[name] <= src.b for v in values), name
+    # without a source, its value is 0 and the other sources' values do not move
+    text = (EXAMPLES / "campaign_table1.toml").read_text(encoding="utf-8")
+    cut = re.sub(r"\[sources\.gear_efficiency\]\n(?:.+\n)+?reason = .*\n", "", text)
+    assert "gear_efficiency]" not in cut
+    lean_path = tmp_path / "campaign_no_gear.toml"
+    lean_path.write_text(cut.replace('config = "gripper_impact', f'config = "{EXAMPLES}/gripper_impact'),
+                         encoding="utf-8")
+    lean = load_campaign(lean_path)
+    spec = trial_list(full)[0]
+    a, b = draw(full, spec)[0], draw(lean, spec)[0]
+    assert b["gear_efficiency"] == 0.0 and a["gear_efficiency"] != 0.0
+    assert {k: v for k, v in a.items() if k != "gear_efficiency"} == {
+        k: v for k, v in b.items() if k != "gear_efficiency"}
