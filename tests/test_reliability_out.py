@@ -229,14 +229,15 @@ def test_sigterm_stops_the_run_and_keeps_the_rows(master_dir, tmp_path, capsys):
     assert summary["interrupted"] is True and summary["stopped"]["cause"] == "SIGTERM"
 
 
-def test_an_fmu_error_keeps_the_rows_and_leaves_no_unpacked_fmu(tmp_path, hybrid_fmu, capsys):
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_an_fmu_error_keeps_the_rows_and_leaves_no_unpacked_fmu(tmp_path, hybrid_fmu, capsys, engine):
     # Hybrid.Overheat: a Modelica assert fails when T passes its limit; the FMU returns an error status
     name = f"relout{os.getpid()}"
     cfg = tmp_path / "overheat.toml"
     cfg.write_text(f"""
 [run]
 stop = 2.0
-engine = "python"
+engine = "{engine}"
 
 [fmus.{name}]
 path = "{hybrid_fmu("Overheat")}"
@@ -248,7 +249,9 @@ signals = ["{name}.T"]
     assert main(["run", str(cfg), "--out", str(tmp_path / "res"), "--no-progress"]) == 3
     assert "temperature above limit" in capsys.readouterr().err
     summary = json.loads((tmp_path / "res" / "summary.json").read_text())
-    assert summary["stopped"]["by"] == name and summary["stopped"]["cause"] == "error" and summary["rows"] > 10
+    assert summary["stopped"]["by"] == name and summary["stopped"]["cause"] == "error"
+    # T = t reaches 0.5 at t = 0.5 s: the rows of 0 .. 0.49 s are kept (and of 0.5 s when T was still below there)
+    assert 0.49 - 1e-9 <= summary["stopped"]["time"] <= 0.5 + 1e-9 and summary["rows"] in (50, 51)
     assert not [p for p in os.listdir(tempfile.gettempdir()) if p.startswith(f"cosim-{name}-")]
 
 
