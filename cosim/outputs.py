@@ -139,7 +139,7 @@ def output_folder(out, command, force=False):
         ``out`` exists and is not a previous cosim output (nor an empty folder), or is one and ``force`` is
         false; its location is not writable; another cosim command is writing it. All before the block runs.
     """
-    out = Path(out)
+    out = Path(os.path.abspath(out))  # "." or "x/..": the parent is where the staging folder goes
     _make_parent(out)
     _writable(out.parent, out)
     with _lock(out):
@@ -200,7 +200,7 @@ def mark_output(folder, command, adopt=()):
     ConfigError
         ``folder`` exists, is not a cosim output and is not empty, or it is not writable.
     """
-    folder = Path(folder)
+    folder = Path(os.path.abspath(folder))
     _make_parent(folder)
     adopted = folder.is_dir() and all(any(p.match(pattern) for pattern in adopt) for p in folder.iterdir())
     if not is_output(folder) and not adopted:

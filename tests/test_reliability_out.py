@@ -99,7 +99,8 @@ def _kept(folder):
 
 # -- item 2: --out never costs a user a file ----------------------------------------------------------------------
 
-def test_run_into_a_users_folder_is_refused_and_a_previous_output_needs_force(master_dir, tmp_path, capsys):  # noqa: F811
+def test_run_into_a_users_folder_is_refused_and_a_previous_output_needs_force(master_dir,  # noqa: F811
+                                                                             tmp_path, capsys):
     cfg = osc_config(master_dir, stop=0.2)
     mine = _users_folder(tmp_path)
     for extra in ([], ["--force"]):
@@ -278,8 +279,8 @@ def _overflow_reference(k, h, stop):
 
 
 @pytest.mark.parametrize("engine", ["compiled", "python"])
-def test_a_state_overflowing_stops_the_run_naming_the_fmu_the_state_and_the_time(master_dir, tmp_path, engine,  # noqa: F811
-                                                                                  capsys):
+def test_a_state_overflowing_stops_the_run_naming_the_fmu_the_state_and_the_time(master_dir,  # noqa: F811
+                                                                                  tmp_path, engine, capsys):
     # k = -1e6: x grows as cosh(1000 t); RK4 at 1 ms steps overflows a double near t = 0.7 s
     cfg = osc_config(master_dir, stop=1.0, amp=0.0)
     out = tmp_path / "res"
