@@ -131,7 +131,7 @@ def read_model_list(models_toml):
 
 def mark_fmu_folder(out_dir):
     """Check and mark the folder ``cosim build`` writes FMUs into: new, empty, a previous cosim output, or a folder
-    holding only FMUs and the build stamp (built before output folders were marked); see
+    holding only FMUs, the build stamp and a `.gitkeep` (built before output folders were marked); see
     :func:`cosim.outputs.mark_output`. Only the FMUs a build writes are replaced, each atomically.
 
     Parameters
@@ -144,7 +144,7 @@ def mark_fmu_folder(out_dir):
     """
     from cosim.outputs import MARKER, mark_output
 
-    return mark_output(out_dir, "build", adopt=("*.fmu", ".*.fmu.partial", _STATE_FILE, MARKER))
+    return mark_output(out_dir, "build", adopt=("*.fmu", ".*.fmu.partial", _STATE_FILE, MARKER, ".gitkeep"))
 
 
 def build_all(models_toml="modelica/models.toml", out_dir=None, force=False):
