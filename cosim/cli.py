@@ -22,7 +22,8 @@ def _cmd_build(args):
         raise CosimError(f"{args.file}: name the model to build with --model Pkg.Model")
     from cosim.compile.build import mark_fmu_folder
 
-    path = build_fmu(args.file, args.model, out_dir=mark_fmu_folder(args.out or "fmus"))
+    path = build_fmu(args.file, args.model, out_dir=mark_fmu_folder(args.out or "fmus", check_only=True))
+    mark_fmu_folder(path.parent)
     print(f"built {path}")
     return 0
 
