@@ -49,7 +49,8 @@ def _check_target(out, force, option="--force"):
         return True
     if any(out.iterdir()):
         raise ConfigError(f"--out {out}: an existing folder that is not a cosim output (no {MARKER} file in it); "
-                          f"cosim does not write into it, to keep your files; choose a new or empty folder")
+                          f"cosim does not write into it, to keep your files; choose a new or empty folder (an "
+                          f"output of a cosim from before {MARKER} existed: delete or move it yourself)")
     return False
 
 
