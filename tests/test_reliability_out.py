@@ -158,6 +158,18 @@ def test_two_commands_cannot_write_one_out_at_once(master_dir, tmp_path, capsys)
     assert (out / "a.txt").read_text() == "first" and not (out / "results.parquet").exists()
 
 
+def test_a_failed_command_leaves_the_previous_output_as_it_was(tmp_path):
+    out = tmp_path / "res"
+    with output_folder(out, "run") as staging:
+        (staging / "a.txt").write_text("first")
+    with pytest.raises(RuntimeError, match="the fit diverged"):
+        with output_folder(out, "run", force=True) as staging:
+            (staging / "a.txt").write_text("second")
+            raise RuntimeError("the fit diverged")
+    assert (out / "a.txt").read_text() == "first"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
+
+
 def test_calibrate_keeps_a_users_folder_and_replaces_its_own_output_only_with_force(tmp_path, capsys):
     from test_calibrate import write_job
 
