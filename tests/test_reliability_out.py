@@ -170,7 +170,7 @@ def test_a_failed_command_leaves_the_previous_output_as_it_was(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
 
 
-def test_calibrate_keeps_a_users_folder_and_replaces_its_own_output_only_with_force(tmp_path, capsys):
+def test_calibrate_keeps_a_users_folder_and_its_own_output_without_force(tmp_path, capsys):
     from test_calibrate import write_job
 
     job = write_job(tmp_path)
@@ -179,10 +179,10 @@ def test_calibrate_keeps_a_users_folder_and_replaces_its_own_output_only_with_fo
     assert "not a cosim output" in capsys.readouterr().err and _kept(mine)
     out = tmp_path / "fit"
     assert main(["calibrate", str(job), "--out", str(out), "--no-progress"]) == 0
-    first = json.loads((out / "calibration.json").read_text())
-    assert main(["calibrate", str(job), "--out", str(out), "--no-progress"]) == 2
-    assert main(["calibrate", str(job), "--out", str(out), "--no-progress", "--force"]) == 0
-    assert json.loads((out / "calibration.json").read_text()) == first and (out / MARKER).is_file()
+    first = (out / "calibration.json").read_text()
+    assert json.loads(first)["cost_after"] < json.loads(first)["cost_before"] and (out / MARKER).is_file()
+    assert main(["calibrate", str(job), "--out", str(out), "--no-progress"]) == 2  # refused before the fit
+    assert "pass --force" in capsys.readouterr().err and (out / "calibration.json").read_text() == first
 
 
 @pytest.mark.slow
