@@ -23,8 +23,9 @@ def _cmd_build(args):
         raise CosimError(f"{args.file}: name the model to build with --model Pkg.Model")
     from cosim.compile.build import mark_fmu_folder
 
-    path = build_fmu(args.file, args.model, out_dir=mark_fmu_folder(args.out or "fmus"),
+    path = build_fmu(args.file, args.model, out_dir=mark_fmu_folder(args.out or "fmus", check_only=True),
                      fmi_version=args.fmi_version or 3, source=args.source)
+    mark_fmu_folder(path.parent)
     print(f"built {path}")
     return 0
 

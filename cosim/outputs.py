@@ -16,7 +16,7 @@ from pathlib import Path
 
 from cosim.errors import ConfigError
 
-__all__ = ["MARKER", "output_folder", "mark_output", "is_output"]
+__all__ = ["MARKER", "output_folder", "check_output", "mark_output", "is_output"]
 
 MARKER = ".cosim-output"
 
@@ -49,7 +49,8 @@ def _check_target(out, force, option="--force"):
         return True
     if any(out.iterdir()):
         raise ConfigError(f"--out {out}: an existing folder that is not a cosim output (no {MARKER} file in it); "
-                          f"cosim does not write into it, to keep your files; choose a new or empty folder")
+                          f"cosim does not write into it, to keep your files; choose a new or empty folder (an "
+                          f"output of a cosim from before {MARKER} existed: delete or move it yourself)")
     return False
 
 
@@ -139,7 +140,7 @@ def output_folder(out, command, force=False):
         ``out`` exists and is not a previous cosim output (nor an empty folder), or is one and ``force`` is
         false; its location is not writable; another cosim command is writing it. All before the block runs.
     """
-    out = Path(out)
+    out = Path(os.path.abspath(out))  # "." or "x/..": the parent is where the staging folder goes
     _make_parent(out)
     _writable(out.parent, out)
     with _lock(out):
@@ -176,6 +177,39 @@ def _commit(staging, out, replace):
         shutil.rmtree(old, ignore_errors=True)
 
 
+def check_output(folder, adopt=()):
+    """Refuse a ``folder`` a command writing in place could spoil; creates nothing.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Must be missing, empty, a cosim output, or hold only files matching ``adopt``; writable (or, when
+        missing, its nearest existing parent).
+    adopt : sequence of str, optional
+        Glob patterns of the files a folder written before markers existed holds (``cosim build``: ``*.fmu`` and
+        its build stamp): such a folder is taken as a cosim output.
+
+    Returns
+    -------
+    Path
+        ``folder``, absolute.
+
+    Raises
+    ------
+    ConfigError
+        ``folder`` exists and holds something else, is a file, or cannot be written.
+    """
+    folder = Path(os.path.abspath(folder))
+    adopted = folder.is_dir() and all(any(p.match(pattern) for pattern in adopt) for p in folder.iterdir())
+    if not is_output(folder) and not adopted:
+        _check_target(folder, force=False)
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    _writable(existing, folder)
+    return folder
+
+
 def mark_output(folder, command, adopt=()):
     """Make ``folder`` a cosim output written in place (an FMU folder, a resumable campaign).
 
@@ -183,33 +217,27 @@ def mark_output(folder, command, adopt=()):
     ----------
     folder : str or Path
         Created when missing. An existing folder must be a cosim output, empty, or hold only files matching
-        ``adopt``.
+        ``adopt`` (see :func:`check_output`).
     command : str
         The command writing it, written into the marker when the folder has none.
     adopt : sequence of str, optional
-        Glob patterns of the files a folder written before markers existed holds (``cosim build``: ``*.fmu`` and
-        its build stamp): such a folder is taken as a cosim output and marked.
+        As for :func:`check_output`; such a folder is marked.
 
     Returns
     -------
     Path
-        ``folder``.
+        ``folder``, absolute.
 
     Raises
     ------
     ConfigError
         ``folder`` exists, is not a cosim output and is not empty, or it is not writable.
     """
-    folder = Path(folder)
-    _make_parent(folder)
-    adopted = folder.is_dir() and all(any(p.match(pattern) for pattern in adopt) for p in folder.iterdir())
-    if not is_output(folder) and not adopted:
-        _check_target(folder, force=False)
-        try:
-            folder.mkdir(exist_ok=True)
-        except OSError as exc:
-            raise ConfigError(f"--out {folder}: cannot create it ({exc.strerror})") from None
-    _writable(folder, folder)
+    folder = check_output(folder, adopt)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out {folder}: cannot create it ({exc.strerror})") from None
     if not is_output(folder):
         _write_marker(folder, command)
     return folder

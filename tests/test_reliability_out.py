@@ -99,7 +99,8 @@ def _kept(folder):
 
 # -- item 2: --out never costs a user a file ----------------------------------------------------------------------
 
-def test_run_into_a_users_folder_is_refused_and_a_previous_output_needs_force(master_dir, tmp_path, capsys):  # noqa: F811
+def test_run_into_a_users_folder_is_refused_and_a_previous_output_needs_force(master_dir,  # noqa: F811
+                                                                             tmp_path, capsys):
     cfg = osc_config(master_dir, stop=0.2)
     mine = _users_folder(tmp_path)
     for extra in ([], ["--force"]):
@@ -157,7 +158,19 @@ def test_two_commands_cannot_write_one_out_at_once(master_dir, tmp_path, capsys)
     assert (out / "a.txt").read_text() == "first" and not (out / "results.parquet").exists()
 
 
-def test_calibrate_keeps_a_users_folder_and_replaces_its_own_output_only_with_force(tmp_path, capsys):
+def test_a_failed_command_leaves_the_previous_output_as_it_was(tmp_path):
+    out = tmp_path / "res"
+    with output_folder(out, "run") as staging:
+        (staging / "a.txt").write_text("first")
+    with pytest.raises(RuntimeError, match="the fit diverged"):
+        with output_folder(out, "run", force=True) as staging:
+            (staging / "a.txt").write_text("second")
+            raise RuntimeError("the fit diverged")
+    assert (out / "a.txt").read_text() == "first"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
+
+
+def test_calibrate_keeps_a_users_folder_and_its_own_output_without_force(tmp_path, capsys):
     from test_calibrate import write_job
 
     job = write_job(tmp_path)
@@ -166,10 +179,10 @@ def test_calibrate_keeps_a_users_folder_and_replaces_its_own_output_only_with_fo
     assert "not a cosim output" in capsys.readouterr().err and _kept(mine)
     out = tmp_path / "fit"
     assert main(["calibrate", str(job), "--out", str(out), "--no-progress"]) == 0
-    first = json.loads((out / "calibration.json").read_text())
-    assert main(["calibrate", str(job), "--out", str(out), "--no-progress"]) == 2
-    assert main(["calibrate", str(job), "--out", str(out), "--no-progress", "--force"]) == 0
-    assert json.loads((out / "calibration.json").read_text()) == first and (out / MARKER).is_file()
+    first = (out / "calibration.json").read_text()
+    assert json.loads(first)["cost_after"] < json.loads(first)["cost_before"] and (out / MARKER).is_file()
+    assert main(["calibrate", str(job), "--out", str(out), "--no-progress"]) == 2  # refused before the fit
+    assert "pass --force" in capsys.readouterr().err and (out / "calibration.json").read_text() == first
 
 
 @pytest.mark.slow
@@ -229,14 +242,15 @@ def test_sigterm_stops_the_run_and_keeps_the_rows(master_dir, tmp_path, capsys):
     assert summary["interrupted"] is True and summary["stopped"]["cause"] == "SIGTERM"
 
 
-def test_an_fmu_error_keeps_the_rows_and_leaves_no_unpacked_fmu(tmp_path, hybrid_fmu, capsys):
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_an_fmu_error_keeps_the_rows_and_leaves_no_unpacked_fmu(tmp_path, hybrid_fmu, capsys, engine):
     # Hybrid.Overheat: a Modelica assert fails when T passes its limit; the FMU returns an error status
     name = f"relout{os.getpid()}"
     cfg = tmp_path / "overheat.toml"
     cfg.write_text(f"""
 [run]
 stop = 2.0
-engine = "python"
+engine = "{engine}"
 
 [fmus.{name}]
 path = "{hybrid_fmu("Overheat")}"
@@ -248,7 +262,9 @@ signals = ["{name}.T"]
     assert main(["run", str(cfg), "--out", str(tmp_path / "res"), "--no-progress"]) == 3
     assert "temperature above limit" in capsys.readouterr().err
     summary = json.loads((tmp_path / "res" / "summary.json").read_text())
-    assert summary["stopped"]["by"] == name and summary["stopped"]["cause"] == "error" and summary["rows"] > 10
+    assert summary["stopped"]["by"] == name and summary["stopped"]["cause"] == "error"
+    # T = t reaches 0.5 at t = 0.5 s: the rows of 0 .. 0.49 s are kept (and of 0.5 s when T was still below there)
+    assert 0.49 - 1e-9 <= summary["stopped"]["time"] <= 0.5 + 1e-9 and summary["rows"] in (50, 51)
     assert not [p for p in os.listdir(tempfile.gettempdir()) if p.startswith(f"cosim-{name}-")]
 
 
@@ -275,8 +291,8 @@ def _overflow_reference(k, h, stop):
 
 
 @pytest.mark.parametrize("engine", ["compiled", "python"])
-def test_a_state_overflowing_stops_the_run_naming_the_fmu_the_state_and_the_time(master_dir, tmp_path, engine,  # noqa: F811
-                                                                                  capsys):
+def test_a_state_overflowing_stops_the_run_naming_the_fmu_the_state_and_the_time(master_dir,  # noqa: F811
+                                                                                  tmp_path, engine, capsys):
     # k = -1e6: x grows as cosh(1000 t); RK4 at 1 ms steps overflows a double near t = 0.7 s
     cfg = osc_config(master_dir, stop=1.0, amp=0.0)
     out = tmp_path / "res"

@@ -151,22 +151,30 @@ def read_model_list(models_toml):
     return entries
 
 
-def mark_fmu_folder(out_dir):
-    """Check and mark the folder ``cosim build`` writes FMUs into: new, empty, a previous cosim output, or a folder
-    holding only FMUs and the build stamp (built before output folders were marked); see
-    :func:`cosim.outputs.mark_output`. Only the FMUs a build writes are replaced, each atomically.
+FMU_FOLDER_FILES = ("*.fmu", ".*.fmu.partial", _STATE_FILE, ".cosim-output", ".gitkeep")
+"""What a folder of FMUs from before output folders were marked holds (:func:`cosim.outputs.check_output`)."""
+
+
+def mark_fmu_folder(out_dir, check_only=False):
+    """Check (``check_only``: before a build) or mark (after it) the folder ``cosim build`` writes FMUs into: new,
+    empty, a previous cosim output, or a folder holding only FMUs, the build stamp and a ``.gitkeep``. Only the
+    FMUs a build writes are replaced, each atomically.
 
     Parameters
     ----------
     out_dir : str or Path
+    check_only : bool, default False
+        Only refuse a folder that is not an FMU folder; create and mark nothing (a failed build leaves no folder).
 
     Returns
     -------
     Path
     """
-    from cosim.outputs import MARKER, mark_output
+    from cosim.outputs import check_output, mark_output
 
-    return mark_output(out_dir, "build", adopt=("*.fmu", ".*.fmu.partial", _STATE_FILE, MARKER))
+    if check_only:
+        return check_output(out_dir, FMU_FOLDER_FILES)
+    return mark_output(out_dir, "build", FMU_FOLDER_FILES)
 
 
 def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi_version=None, source=None):
@@ -185,7 +193,7 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi
         Ship the C sources in every FMU; None: each entry's ``c_sources`` (default false).
     """
     models_toml = Path(models_toml)
-    out_dir = mark_fmu_folder(out_dir if out_dir else models_toml.resolve().parent.parent / "fmus")
+    out_dir = mark_fmu_folder(out_dir if out_dir else models_toml.resolve().parent.parent / "fmus", check_only=True)
     state_path = out_dir / _STATE_FILE
     state = json.loads(state_path.read_text()) if state_path.is_file() else {}
     for entry in read_model_list(models_toml):
@@ -200,6 +208,6 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi
         build_fmu(entry["source"], entry["model"], out_dir=out_dir, name=entry["name"],
                   description=entry.get("description", ""), fmi_version=version, source=with_source, **solver)
         state[entry["name"]] = digest
-        out_dir.mkdir(parents=True, exist_ok=True)
+        mark_fmu_folder(out_dir)
         state_path.write_text(json.dumps(state, indent=1, sort_keys=True))
         yield f"{entry['name']}: built {fmu}"

@@ -76,7 +76,8 @@ import numba
 
 from cosim.fmi import native
 
-__all__ = ["run_chunk", "FMU_COLS", "CTL_COLS", "ST", "FF", "FUNCTIONS", "KINDS", "DONE", "MORE", "ERROR"]
+__all__ = ["run_chunk", "nonfinite", "FMU_COLS", "CTL_COLS", "ST", "FF", "FUNCTIONS", "KINDS", "DONE", "MORE",
+           "ERROR"]
 
 FMU_COLS = ("component", "SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "SetReal", "DoStep",
             "CompletedIntegratorStep", "version", "x_off", "n_states", "scratch", "GetEventIndicators",
@@ -107,7 +108,7 @@ def _fail(st, f, fn, status):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _nonfinite(buf, W):
+def nonfinite(buf, W):
     """True when a value of the signal buffer or a state (row 0 of W) is NaN or infinite (``abs(v) <= DBL_MAX`` is
     false for those only; or-ed without branches, about 50 ns for the gripper's 31 values). A bad derivative makes
     the state bad in the same RK4 step (every stage enters the update), so the derivatives need no check."""
@@ -582,7 +583,7 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
             if _io(fmu, port, pgrp, 1, buf_addr, True, st):
                 code = ERROR
                 break
-        if _nonfinite(buf, W):  # Python names the value (cosim.master.finite)
+        if nonfinite(buf, W):  # Python names the value (cosim.master.finite)
             _fail(st, 0, _FN_NONFINITE, 0)
             code = ERROR
             break

@@ -245,11 +245,13 @@ class Engine:
         names = {id(c): n for n, c in self.controllers.items()}
         tb = exc.__traceback__
         while tb is not None:
-            owner = tb.tb_frame.f_locals.get("self")
+            local = tb.tb_frame.f_locals
+            owner = local.get("self")
             if id(owner) in names:
                 by = names[id(owner)]
-            elif isinstance(owner, FmuInstance) and by == "master":
-                by = owner.name
+            elif by == "master":  # an FMU's method, or the compiled loop naming the FMU whose call failed
+                inst = owner if isinstance(owner, FmuInstance) else local.get("inst")
+                by = inst.name if isinstance(inst, FmuInstance) else by
             tb = tb.tb_next
         where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ is not None else None
         at = f" ({where.filename}:{where.lineno})" if where is not None and by in names.values() else ""

