@@ -157,6 +157,8 @@ def make_parser():
     from cosim import __version__
 
     parser.add_argument("--version", action="version", version=f"cosim {__version__}")
+    parser.add_argument("--debug", action="store_true",
+                        help="on an error, show the Python traceback too (for a bug report)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in _COMMANDS:
         add(sub)
@@ -164,7 +166,17 @@ def make_parser():
 
 
 def main(argv=None):
-    """Run the CLI; returns the exit status (0 success, 2 bad input or a failed step, 130 interrupted)."""
+    """Run the CLI; returns the exit status (0 success, 2 bad input or a failed step, 130 interrupted).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: the process's). ``--debug`` before the command shows the traceback of an error.
+
+    Returns
+    -------
+    int
+    """
     parser = make_parser()
     args = parser.parse_args(argv)
     if args.command is None:
@@ -173,6 +185,8 @@ def main(argv=None):
     try:
         return args.func(args)
     except CosimError as err:
+        if args.debug:
+            raise
         print(f"cosim {args.command}: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

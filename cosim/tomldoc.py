@@ -10,7 +10,7 @@ from pathlib import Path
 
 from cosim.errors import ConfigError
 
-__all__ = ["read_toml", "sections", "bounded_parameters", "number", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
+__all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -18,6 +18,9 @@ __all__ = ["read_toml", "sections", "bounded_parameters", "number", "Problems", 
 # ----------------------------------------------------------------------------------------------
 _HEADER = re.compile(r"^\s*(\[\[?)\s*([^\]]+?)\s*\]\]?\s*(#.*)?$")
 _KEYLINE = re.compile(r"""^\s*((?:[A-Za-z0-9_\-]+|"[^"]*"|'[^']*')(?:\s*\.\s*(?:[A-Za-z0-9_\-]+|"[^"]*"|'[^']*'))*)\s*=""")
+
+
+_DOTTED = re.compile(r"""^(?:[A-Za-z0-9_\-]+|"[^"]*"|'[^']*')(?:\s*\.\s*(?:[A-Za-z0-9_\-]+|"[^"]*"|'[^']*'))*$""")
 
 
 def _split_dotted(s):
@@ -135,8 +138,9 @@ def parse_overrides(items):
     for item in items or ():
         key, sep, value = item.partition("=")
         key = key.strip()
-        if not sep or not key:
-            raise ConfigError(f"--set {item!r}: expected key=value, e.g. --set run.stop=2.0")
+        if not sep or not _DOTTED.match(key):
+            raise ConfigError(f"--set {item!r}: expected key=value with a dotted key such as run.stop, e.g. "
+                              f"--set run.stop=2.0; got the key {key!r}")
         try:
             v = tomllib.loads(f"v = {value.strip()}")["v"]
         except tomllib.TOMLDecodeError:
@@ -149,28 +153,63 @@ def parse_overrides(items):
 
 
 def apply_override(data, path, value):
+    """Set ``path`` (a tuple of str and list indices) of the document ``data`` to ``value``, creating tables.
+
+    Raises
+    ------
+    ConfigError
+        The path goes through a value (a string, a number) or past the end of a list.
+    """
     node = data
-    for i, p in enumerate(path[:-1]):
+    for i, p in enumerate(path):
+        last = i == len(path) - 1
+        here = format_key(path[:i])
         if isinstance(node, list):
             if not isinstance(p, int) or p >= len(node):
-                raise ConfigError(f"--set {format_key(path)}: {format_key(path[: i + 1])} is not an element of the list")
-            node = node[p]
+                raise ConfigError(f"--set {format_key(path)}: {here} is a list of {len(node)} elements; expected an "
+                                  f"index 0 to {len(node) - 1}, got {p!r}")
+        elif isinstance(node, dict):
+            p = str(p)
+            if not last and node.get(p) is None:
+                node[p] = {}
         else:
-            if isinstance(p, int):
-                p = str(p)
-            nxt = node.get(p)
-            if nxt is None:
-                nxt = node[p] = {}
-            elif not isinstance(nxt, (dict, list)):
-                raise ConfigError(f"--set {format_key(path)}: {format_key(path[: i + 1])} is a value, not a table")
-            node = nxt
-    last = path[-1]
-    if isinstance(node, list):
-        if not isinstance(last, int) or last >= len(node):
-            raise ConfigError(f"--set {format_key(path)}: no such list element")
-        node[last] = value
-    else:
-        node[str(last)] = value
+            raise ConfigError(f"--set {format_key(path)}: {here} is a value ({node!r}), not a table or a list")
+        if last:
+            node[p] = value
+        else:
+            node = node[p]
+
+
+def read_text(path, what="file"):
+    """The text of ``path`` decoded as UTF-8 (TOML and Modelica are UTF-8 by their specifications).
+
+    Parameters
+    ----------
+    path : path-like
+    what : str
+        What the file is, for the messages.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ConfigError
+        The file cannot be read, or is not UTF-8 (the message gives the line and column of the first bad byte).
+    """
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as err:
+        raise ConfigError(f"{path}: cannot read the {what}: {err.strerror or err}") from err
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        line = raw.count(b"\n", 0, err.start) + 1
+        column = err.start - (raw.rfind(b"\n", 0, err.start) + 1) + 1
+        raise ConfigError(f"{path}:{line}:{column}: the {what} must be UTF-8 text; got byte "
+                          f"0x{raw[err.start]:02x}, which is not valid UTF-8 there (save the file as UTF-8)") from err
 
 
 def read_toml(path, overrides=(), what="config"):
@@ -199,7 +238,7 @@ def read_toml(path, overrides=(), what="config"):
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: {what} file does not exist")
-    text = path.read_text(encoding="utf-8")
+    text = read_text(path, what)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
