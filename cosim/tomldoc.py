@@ -10,7 +10,7 @@ from pathlib import Path
 
 from cosim.errors import ConfigError
 
-__all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
+__all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -270,6 +270,57 @@ def number(problems, table, key, where, default=None, positive=False, integer=Fa
     return int(value) if integer else float(value)
 
 
+def string(problems, table, key, where, default=None):
+    """``table[key]`` as a non-empty string (``default`` when absent; required when the default is None); a
+    problem is recorded at ``where + (key,)`` when it is missing or not a string, and ``default`` returned."""
+    value = table.get(key, default)
+    if value is None:
+        problems.add(where + (key,), "is required (a string)")
+    elif not isinstance(value, str) or (not value and default is None):
+        problems.add(where + (key,), f"must be a {'non-empty ' if default is None else ''}string; got {value!r}")
+        return default
+    return value
+
+
+def values(problems, table, key, where):
+    """``table[key]``, a table of ``name = number`` (fixed parameter values), as a dict of floats (empty when
+    absent); a problem is recorded for the table or for each value that is not a finite number."""
+    given = table.get(key, {})
+    if not isinstance(given, dict):
+        problems.add(where + (key,), f"must be a table of name = number, e.g. {{eta_g = 0.7}}; got {given!r}")
+        return {}
+    out = {}
+    for name, value in given.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            problems.add(where + (key, name), f"must be a finite number; got {value!r}")
+        else:
+            out[name] = float(value)
+    return out
+
+
+def signal_tables(problems, table, key, where, default_noise):
+    """``table[key]``, a list of ``{output, column, noise}`` tables (measured signals), as a list of
+    ``(output, column, noise)``; a problem is recorded for each malformed entry, and when the list is empty."""
+    given = table.get(key, [])
+    if not isinstance(given, list):
+        problems.add(where + (key,), f"must be a list of tables [{{output = \"F_g\", noise = 0.5}}]; got {given!r}")
+        return []
+    signals = []
+    for k, s in enumerate(given):
+        here = where + (key, k)
+        if not isinstance(s, dict) or not isinstance(s.get("output"), str):
+            problems.add(here, f"must be a table {{output = \"F_g\", column = \"F_g\", noise = 0.5}}; got {s!r}")
+            continue
+        for extra in sorted(set(s) - {"output", "column", "noise"}):
+            problems.add(here + (extra,), "unknown key; allowed: output, column, noise")
+        column = string(problems, s, "column", here, default=s["output"])
+        noise = number(problems, s, "noise", here, default=default_noise, positive=True)
+        signals.append((s["output"], column, noise))
+    if not given:
+        problems.add(where + (key,), "name at least one measured output: [{output = \"F_g\", noise = 0.5}]")
+    return signals
+
+
 def sections(data, problems, schema, free_form=("parameters",)):
     """The tables of a job document by section name; unknown sections and keys are problems.
 
@@ -300,6 +351,9 @@ def sections(data, problems, schema, free_form=("parameters",)):
 def bounded_parameters(data, problems, required=True):
     """``[parameters.NAME] start, min, max`` tables as ``{name: (start, min, max)}``, checked (start in bounds)."""
     tables = data.get("parameters", {})
+    if not isinstance(tables, dict):
+        problems.add(("parameters",), f"must be tables [parameters.NAME] with start, min, max; got {tables!r}")
+        return {}
     if required and not tables:
         problems.add(("parameters",), "name at least one parameter to fit: [parameters.eta_g] start, min, max")
     free = {}
