@@ -180,7 +180,7 @@ def apply_override(data, path, value):
             node = node[p]
 
 
-def read_text(path, what="file"):
+def read_text(path, what="file", error=ConfigError):
     """The text of ``path`` decoded as UTF-8 (TOML and Modelica are UTF-8 by their specifications).
 
     Parameters
@@ -188,6 +188,8 @@ def read_text(path, what="file"):
     path : path-like
     what : str
         What the file is, for the messages.
+    error : type
+        The CosimError subclass raised (ConfigError for configs and jobs, ModelicaError for sources).
 
     Returns
     -------
@@ -196,19 +198,20 @@ def read_text(path, what="file"):
     Raises
     ------
     ConfigError
-        The file cannot be read, or is not UTF-8 (the message gives the line and column of the first bad byte).
+        (or ``error``) The file cannot be read, or is not UTF-8 (the message gives the line and column of the
+        first bad byte).
     """
     path = Path(path)
     try:
         raw = path.read_bytes()
     except OSError as err:
-        raise ConfigError(f"{path}: cannot read the {what}: {err.strerror or err}") from err
+        raise error(f"{path}: cannot read the {what}: {err.strerror or err}") from err
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as err:
         line = raw.count(b"\n", 0, err.start) + 1
         column = err.start - (raw.rfind(b"\n", 0, err.start) + 1) + 1
-        raise ConfigError(f"{path}:{line}:{column}: the {what} must be UTF-8 text; got byte "
+        raise error(f"{path}:{line}:{column}: the {what} must be UTF-8 text; got byte "
                           f"0x{raw[err.start]:02x}, which is not valid UTF-8 there (save the file as UTF-8)") from err
 
 

@@ -11,7 +11,7 @@ from cosim.compile.export import export_fmu
 from cosim.compile.frontend import load_flat_model
 from cosim.compile.lower import lower_system
 from cosim.compile.translate import translate
-from cosim.errors import ConfigError
+from cosim.errors import BuildError, ConfigError
 
 __all__ = ["lower", "build_fmu", "build_all", "read_model_list"]
 
@@ -59,6 +59,8 @@ def build_fmu(path, model, out_dir="fmus", name=None, description=""):
     Path
         The written FMU. Nothing is written when any step fails.
     """
+    if Path(out_dir).exists() and not Path(out_dir).is_dir():
+        raise BuildError(f"{out_dir}: the output folder is an existing file; give --out a folder")
     lowered = lower(path, model)
     name = name or model.rsplit(".", 1)[-1]
     return export_fmu(lowered, Path(out_dir) / f"{name}.fmu", description=description)
