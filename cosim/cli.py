@@ -89,8 +89,10 @@ def _cmd_calibrate(args):
 
     out = args.out or f"out/{Path(args.job).stem}"
     summary = run_job(args.job, out=out, overrides=args.set, progress=not args.no_progress)
+    from cosim.calibrate.report import standard_error
+
     for name, p in summary["parameters"].items():
-        print(f"{name} = {p['value']:.6g} +- {p['std_error']:.3g} (1 s.e., start {p['start']:.6g})")
+        print(f"{name} = {p['value']:.6g} {standard_error(p['std_error'])}, start {p['start']:.6g}")
     print(f"cost {summary['cost_before']:.6g} -> {summary['cost_after']:.6g} in {summary['iterations']} "
           f"iterations ({summary['return_status']}); wrote {out}/calibration.json, parameters.toml, fit.png")
     return 0
