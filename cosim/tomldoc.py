@@ -166,8 +166,9 @@ def apply_override(data, path, value):
         here = format_key(path[:i])
         if isinstance(node, list):
             if not isinstance(p, int) or p >= len(node):
-                raise ConfigError(f"--set {format_key(path)}: {here} is a list of {len(node)} elements; expected an "
-                                  f"index 0 to {len(node) - 1}, got {p!r}")
+                expected = f"an index 0 to {len(node) - 1}" if node else "no index (it is empty)"
+                raise ConfigError(f"--set {format_key(path)}: {here} is a list of {len(node)} elements; expected "
+                                  f"{expected}, got {p!r}")
         elif isinstance(node, dict):
             p = str(p)
             if not last and node.get(p) is None:
