@@ -327,3 +327,15 @@ def test_shipped_examples_still_load(gripper_dir):  # noqa: F811
     assert [load_job(job).model for job in sorted(EXAMPLES.glob("calibrate_*.toml"))] == \
         ["Gripper.GripperCurrentDriven"] * 2
     assert load_diagnose_job(DIAGNOSE).effects[0] == "backdrive_efficiency"
+
+
+def test_build_newton_block_solving_for_a_derivative(tmp_path, capsys):
+    """a.tau = tau_c tanh(der(a.phi) / w_s) with the unconnected flow a.tau = 0: the Newton block's unknown is
+    der(a.phi), no variable of the model; its start guess is 0 (it raised StopIteration). Closed form: der = 0."""
+    from cosim.compile import lower
+
+    source = str(EXAMPLES.parent / "tests" / "models" / "compiler" / "CompilerTests.mo")
+    assert main(["build", source, "--model", "CompilerTests.TanhFriction", "--out", str(tmp_path)]) == 0
+    assert "built" in capsys.readouterr().out and (tmp_path / "TanhFriction.fmu").is_file()
+    model = lower(source, "CompilerTests.TanhFriction")
+    assert model.derivatives(np.array([0.3]), np.zeros(0)).tolist() == [0.0]
