@@ -108,8 +108,10 @@ def _cmd_calibrate(args):
 
     out = args.out or f"out/{Path(args.job).stem}"
     summary = run_job(args.job, out=out, overrides=args.set, progress=not args.no_progress, force=args.force)
+    from cosim.calibrate.report import standard_error
+
     for name, p in summary["parameters"].items():
-        print(f"{name} = {p['value']:.6g} +- {p['std_error']:.3g} (1 s.e., start {p['start']:.6g})")
+        print(f"{name} = {p['value']:.6g} {standard_error(p['std_error'])}, start {p['start']:.6g}")
     print(f"cost {summary['cost_before']:.6g} -> {summary['cost_after']:.6g} in {summary['iterations']} "
           f"iterations ({summary['return_status']}); wrote {out}/calibration.json, parameters.toml, fit.png")
     return 0
@@ -224,6 +226,8 @@ def make_parser():
     from cosim import __version__
 
     parser.add_argument("--version", action="version", version=f"cosim {__version__}")
+    parser.add_argument("--debug", action="store_true",
+                        help="on an error, show the Python traceback too (for a bug report)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in _COMMANDS:
         add(sub)
@@ -231,7 +235,17 @@ def make_parser():
 
 
 def main(argv=None):
-    """Run the CLI; returns the exit status (0 success, 2 bad input or a failed step, 130 interrupted)."""
+    """Run the CLI; returns the exit status (0 success, 2 bad input or a failed step, 130 interrupted).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: the process's). ``--debug`` before the command shows the traceback of an error.
+
+    Returns
+    -------
+    int
+    """
     parser = make_parser()
     args = parser.parse_args(argv)
     if args.command is None:
@@ -240,6 +254,8 @@ def main(argv=None):
     try:
         return args.func(args)
     except CosimError as err:
+        if args.debug:
+            raise
         print(f"cosim {args.command}: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

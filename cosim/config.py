@@ -26,11 +26,13 @@ from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
 from cosim.fmi.instance import value_dtype
-from cosim.tomldoc import parse_overrides, read_toml
+from cosim.errors import ConfigError
+from cosim.tomldoc import format_key, parse_overrides, read_text, read_toml
 
 __all__ = [
     "load_config",
     "parse_overrides",
+    "record_columns",
     "Config",
     "RunSpec",
     "SolverSpec",
@@ -62,6 +64,9 @@ class RunSpec:
         The per-instant loop: "compiled" (numba; falls back to "python" where a controller needs it).
     progress : bool or "auto"
         Show a progress bar ("auto": when the run is long and the terminal is interactive).
+    max_steps : float
+        The most steps a run may take (controller and record instants plus integrator steps, estimated before
+        the run): a bound against a rate or ``substeps`` typed a thousand times too large.
     """
 
     start: float = 0.0
@@ -69,6 +74,7 @@ class RunSpec:
     seed: int = 0
     engine: str = "compiled"  # "compiled" (falls back to "python" where controllers need it) or "python"
     progress: object = "auto"
+    max_steps: float = 1e9
 
 
 @dataclass(frozen=True)
@@ -367,7 +373,9 @@ def _run(data, problems):
     if progress not in (True, False, "auto"):
         problems.add(("run", "progress"), f"must be true, false or \"auto\"; got {progress!r}")
         progress = s.defaults["progress"]
-    return RunSpec(float(start), None if stop is None else float(stop), int(seed), engine, progress)
+    max_steps = s.number("max_steps", positive=True)
+    return RunSpec(float(start), None if stop is None else float(stop), int(seed), engine, progress,
+                   float(max_steps))
 
 
 def _solver(data, problems):
@@ -386,10 +394,16 @@ def _parameters_file(table, base_dir, problems, path):
     name = table.get("parameters_file")
     if name is None:
         return {}
-    file = base_dir / str(name)
+    if not isinstance(name, str):
+        problems.add(path + ("parameters_file",), f"must be a file name (a string); got {name!r}")
+        return {}
+    file = base_dir / name
     try:
-        values = tomllib.loads(file.read_text(encoding="utf-8")).get("parameters", {})
-    except (OSError, tomllib.TOMLDecodeError) as err:
+        values = tomllib.loads(read_text(file, "parameters file")).get("parameters", {})
+    except ConfigError as err:
+        problems.add(path + ("parameters_file",), str(err))
+        return {}
+    except tomllib.TOMLDecodeError as err:
         problems.add(path + ("parameters_file",), f"cannot read a [parameters] table from {file}: {err}")
         return {}
     if not isinstance(values, dict):
@@ -510,8 +524,10 @@ def _controller(name, t, fmus_t, base_dir, problems):
     if rate is not None and all(pn in cls.parameters for pn in params):
         try:
             cls(rate=rate, jit=False, **params)
-        except (TypeError, ValueError) as err:
-            problems.add(p + ("parameters",), str(err))
+        except Exception as err:  # the user's constructor may raise anything: name the controller and the values
+            given = ", ".join(f"{k}={v!r}" for k, v in params.items()) or "no parameters"
+            problems.add(p + ("parameters",), f"{cls.__name__}(rate={rate!r}, {given}) raised "
+                                              f"{type(err).__name__}: {err}")
     return ControllerSpec(name, cpath, rate, dict(params), bool(jit), cls)
 
 
@@ -689,7 +705,31 @@ def _record(data, instances, problems):
     return RecordSpec(float(rate), tuple(good))
 
 
-def _plot(data, problems):
+def record_columns(signals, fmu_names):
+    """The recorded columns' names: a variable recorded from one FMU only is named by itself (``F_g``),
+    otherwise ``instance.variable``; a controller signal always ``instance.variable``.
+
+    Parameters
+    ----------
+    signals : sequence of tuple
+        ``(instance, variable)`` pairs, as ``RecordSpec.signals``.
+    fmu_names : collection of str
+        The FMU instances (the other instances are controllers).
+
+    Returns
+    -------
+    dict of str to tuple
+        Column name -> ``(instance, variable)``, in the order of ``signals``.
+    """
+    counts = {}
+    for inst, var in signals:
+        if inst in fmu_names:
+            counts[var] = counts.get(var, 0) + 1
+    return {(var if inst in fmu_names and counts[var] == 1 else f"{inst}.{var}"): (inst, var)
+            for inst, var in signals}
+
+
+def _plot(data, record, fmu_names, problems):
     s = _Section(_table(data, "plot", problems, ()), ("plot",), PlotSpec, problems)
     pfile = s.table.get("file", s.defaults["file"])
     if not isinstance(pfile, str) or not pfile.endswith(".png") or "/" in pfile:
@@ -699,6 +739,12 @@ def _plot(data, problems):
     if not isinstance(panels, list) or not all(isinstance(x, list) and all(isinstance(y, str) for y in x) for x in panels):
         problems.add(("plot", "panels"), "must be a list of lists of recorded column names")
         panels = []
+    columns = record_columns(record.signals, fmu_names)
+    for i, panel in enumerate(panels):
+        for j, name in enumerate(panel):
+            if name not in columns:
+                problems.add(("plot", "panels", i, j), f"{name!r} is not a recorded column{_close(name, columns)} "
+                                                       f"(recorded: {', '.join(columns) or 'none'})")
     return PlotSpec(pfile, tuple(tuple(x) for x in panels))
 
 
@@ -759,6 +805,43 @@ def _summary(data, instances, record, problems):
     return SummarySpec(kind, name, columns, plugin), record
 
 
+def _available_memory():
+    """Bytes of memory available to a new allocation (psutil: free plus reclaimable cache)."""
+    import psutil
+
+    return psutil.virtual_memory().available
+
+
+def _bounds(run, solver, fmus, ctrls, record, problems):
+    """The run's size estimated before anything is allocated: the steps it takes against ``run.max_steps``, the
+    memory its recording needs against the memory available. Each problem names the key to change."""
+    span = run.stop - run.start
+    if span * record.rate < 1:
+        problems.add(("record", "rate"), f"must be >= 1 / (run.stop - run.start) = {1 / span:.6g} Hz, or only the "
+                                         f"start instant is recorded; got {record.rate:g}")
+    rates = {("controllers", n, "rate"): c.rate for n, c in ctrls.items()}
+    rates[("record", "rate")] = record.rate
+    instants = sum(span * r + 1 for r in rates.values())
+    fastest = max(rates, key=rates.get)
+    h = solver.max_step if solver.max_step > 0 else 1.0 / rates[fastest] / solver.substeps
+    integrator = span / h if any(f.kind == "ME" for f in fmus.values()) else 0.0
+    if instants + integrator > run.max_steps:
+        key = fastest if instants >= integrator else ("solver", "max_step" if solver.max_step > 0 else "substeps")
+        change = "raise" if key[-1] == "max_step" else "lower"
+        problems.add(key, f"the run would take about {instants + integrator:.3g} steps ({instants:.3g} controller "
+                          f"and record instants, {integrator:.3g} integrator steps over {span:g} s), more than "
+                          f"run.max_steps = {run.max_steps:.3g}: {change} {format_key(key)}, shorten run.stop, or "
+                          "raise run.max_steps")
+    rows = span * record.rate + 1
+    need = 3 * rows * (len(record.signals) + 1) * 8  # float64 rows, copied once to a table and once to the file
+    available = _available_memory()
+    if need > available:
+        problems.add(("record", "rate"), f"recording {rows:.3g} rows of {len(record.signals) + 1} columns "
+                                         f"({record.rate:g} Hz over {span:g} s) needs about {need / 2**30:.3g} GiB "
+                                         f"at its peak; {available / 2**30:.3g} GiB of memory is available: lower "
+                                         "record.rate, record fewer signals, or shorten run.stop")
+
+
 # ----------------------------------------------------------------------------------------------
 # load
 # ----------------------------------------------------------------------------------------------
@@ -795,8 +878,10 @@ def load_config(path, overrides=()):
     instances = _Instances(fmus, ctrls, set(fmus_t) | set(ctrl_t))
     connections = _connections(data, instances, problems)
     record = _record(data, instances, problems)
-    plot = _plot(data, problems)
     summary, record = _summary(data, instances, record, problems)
+    plot = _plot(data, record, set(fmus_t), problems)
+    if not problems.items:
+        _bounds(run, solver, fmus, ctrls, record, problems)
     problems.raise_if_any()
     return Config(path=path, run=run, solver=solver, fmus=fmus, controllers=ctrls, connections=connections,
                   record=record, plot=plot, summary=summary, raw=data, overrides=tuple(overrides or ()))

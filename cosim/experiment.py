@@ -116,7 +116,14 @@ def check_measurements(frame, channels, where="data", sparse=(), abscissa="time"
     if missing:
         raise ConfigError(
             f"{where}: missing column(s) {', '.join(missing)}; the file has {', '.join(map(str, frame.columns))}")
-    frame = frame[[abscissa, *dict.fromkeys(channels)]].astype(float)
+    frame = frame[[abscissa, *dict.fromkeys(channels)]]
+    for column in frame.columns:
+        numbers = pd.to_numeric(frame[column], errors="coerce")
+        text = np.flatnonzero(numbers.isna().to_numpy() & frame[column].notna().to_numpy())
+        if text.size:
+            raise ConfigError(f"{where}: column {column!r} must hold numbers; got {frame[column].iloc[text[0]]!r} "
+                              f"at data row {text[0]} (row 0: the first under the header)")
+    frame = frame.astype(float)
     for column in frame.columns:
         values = frame[column].to_numpy()
         if column in sparse:

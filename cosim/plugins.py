@@ -8,12 +8,17 @@ derives from the base class the caller expects.
 import difflib
 import importlib
 import importlib.util
+import re
 import sys
+import traceback
 from pathlib import Path
 
 from controllers.base import Controller
 
 __all__ = ["load_class", "load_controller_class"]
+
+_CLASS = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_MODULE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 
 
 def load_class(spec, base_class, base_dir=None, kind="plugin"):
@@ -37,11 +42,12 @@ def load_class(spec, base_class, base_dir=None, kind="plugin"):
     Raises
     ------
     ImportError
-        The module or class cannot be found, or the class does not derive from ``base_class``.
+        ``spec`` is malformed, the module cannot be found or fails while it is imported (syntax error, an
+        exception: the message gives its file:line), or the class is missing or does not derive from ``base_class``.
     """
-    if ":" not in spec:
-        raise ImportError(f"{kind} class {spec!r} must be written 'module:Class' or 'file.py:Class'")
     mod_name, _, cls_name = spec.rpartition(":")
+    if not (_CLASS.match(cls_name) and (mod_name.endswith(".py") or _MODULE.match(mod_name))):
+        raise ImportError(f"{kind} class must be written 'package.module:Class' or 'file.py:Class'; got {spec!r}")
     if mod_name.endswith(".py"):
         module = _load_file(mod_name, base_dir, kind)
     else:
@@ -49,6 +55,8 @@ def load_class(spec, base_class, base_dir=None, kind="plugin"):
             module = importlib.import_module(mod_name)
         except ModuleNotFoundError as err:
             raise ImportError(f"{kind} module {mod_name!r} not found: {err}") from err
+        except Exception as err:  # the user's module failed while it ran: say where
+            raise ImportError(_import_failure(kind, mod_name, err)) from err
     cls = getattr(module, cls_name, None)
     if cls is None:
         names = [n for n, v in vars(module).items() if isinstance(v, type) and issubclass(v, base_class)]
@@ -73,8 +81,21 @@ def _load_file(mod_name, base_dir, kind):
         s = importlib.util.spec_from_file_location(key, path)
         module = importlib.util.module_from_spec(s)
         sys.modules[key] = module
-        s.loader.exec_module(module)
+        try:
+            s.loader.exec_module(module)
+        except Exception as err:  # the user's file failed while it ran: say where
+            del sys.modules[key]
+            raise ImportError(_import_failure(kind, str(path), err)) from err
     return module
+
+
+def _import_failure(kind, name, err):
+    """What went wrong importing the user's module ``name``, at the file:line where it went wrong."""
+    if isinstance(err, SyntaxError):
+        return f"{kind} module {name!r} has a syntax error at {err.filename}:{err.lineno}: {err.msg}"
+    frames = traceback.extract_tb(err.__traceback__)
+    where = next((f"{f.filename}:{f.lineno}" for f in reversed(frames) if "importlib" not in f.filename), name)
+    return f"{kind} module {name!r} raised {type(err).__name__} while it was imported, at {where}: {err}"
 
 
 def load_controller_class(spec, base_dir=None):

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from cosim.errors import ConfigError
 
-__all__ = ["read_toml", "sections", "bounded_parameters", "number", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
+__all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -18,6 +18,9 @@ __all__ = ["read_toml", "sections", "bounded_parameters", "number", "Problems", 
 # ----------------------------------------------------------------------------------------------
 _HEADER = re.compile(r"^\s*(\[\[?)\s*([^\]]+?)\s*\]\]?\s*(#.*)?$")
 _KEYLINE = re.compile(r"""^\s*((?:[A-Za-z0-9_\-]+|"[^"]*"|'[^']*')(?:\s*\.\s*(?:[A-Za-z0-9_\-]+|"[^"]*"|'[^']*'))*)\s*=""")
+
+
+_DOTTED = re.compile(r"""^(?:[A-Za-z0-9_\-]+|"[^"]*"|'[^']*')(?:\s*\.\s*(?:[A-Za-z0-9_\-]+|"[^"]*"|'[^']*'))*$""")
 
 
 def _split_dotted(s):
@@ -135,8 +138,9 @@ def parse_overrides(items):
     for item in items or ():
         key, sep, value = item.partition("=")
         key = key.strip()
-        if not sep or not key:
-            raise ConfigError(f"--set {item!r}: expected key=value, e.g. --set run.stop=2.0")
+        if not sep or not _DOTTED.match(key):
+            raise ConfigError(f"--set {item!r}: expected key=value with a dotted key such as run.stop, e.g. "
+                              f"--set run.stop=2.0; got the key {key!r}")
         try:
             v = tomllib.loads(f"v = {value.strip()}")["v"]
         except tomllib.TOMLDecodeError:
@@ -149,28 +153,67 @@ def parse_overrides(items):
 
 
 def apply_override(data, path, value):
+    """Set ``path`` (a tuple of str and list indices) of the document ``data`` to ``value``, creating tables.
+
+    Raises
+    ------
+    ConfigError
+        The path goes through a value (a string, a number) or past the end of a list.
+    """
     node = data
-    for i, p in enumerate(path[:-1]):
+    for i, p in enumerate(path):
+        last = i == len(path) - 1
+        here = format_key(path[:i])
         if isinstance(node, list):
             if not isinstance(p, int) or p >= len(node):
-                raise ConfigError(f"--set {format_key(path)}: {format_key(path[: i + 1])} is not an element of the list")
-            node = node[p]
+                expected = f"an index 0 to {len(node) - 1}" if node else "no index (it is empty)"
+                raise ConfigError(f"--set {format_key(path)}: {here} is a list of {len(node)} elements; expected "
+                                  f"{expected}, got {p!r}")
+        elif isinstance(node, dict):
+            p = str(p)
+            if not last and node.get(p) is None:
+                node[p] = {}
         else:
-            if isinstance(p, int):
-                p = str(p)
-            nxt = node.get(p)
-            if nxt is None:
-                nxt = node[p] = {}
-            elif not isinstance(nxt, (dict, list)):
-                raise ConfigError(f"--set {format_key(path)}: {format_key(path[: i + 1])} is a value, not a table")
-            node = nxt
-    last = path[-1]
-    if isinstance(node, list):
-        if not isinstance(last, int) or last >= len(node):
-            raise ConfigError(f"--set {format_key(path)}: no such list element")
-        node[last] = value
-    else:
-        node[str(last)] = value
+            raise ConfigError(f"--set {format_key(path)}: {here} is a value ({node!r}), not a table or a list")
+        if last:
+            node[p] = value
+        else:
+            node = node[p]
+
+
+def read_text(path, what="file", error=ConfigError):
+    """The text of ``path`` decoded as UTF-8 (TOML and Modelica are UTF-8 by their specifications).
+
+    Parameters
+    ----------
+    path : path-like
+    what : str
+        What the file is, for the messages.
+    error : type
+        The CosimError subclass raised (ConfigError for configs and jobs, ModelicaError for sources).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ConfigError
+        (or ``error``) The file cannot be read, or is not UTF-8 (the message gives the line and column of the
+        first bad byte).
+    """
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as err:
+        raise error(f"{path}: cannot read the {what}: {err.strerror or err}") from err
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        line = raw.count(b"\n", 0, err.start) + 1
+        column = err.start - (raw.rfind(b"\n", 0, err.start) + 1) + 1
+        raise error(f"{path}:{line}:{column}: the {what} must be UTF-8 text; got byte "
+                          f"0x{raw[err.start]:02x}, which is not valid UTF-8 there (save the file as UTF-8)") from err
 
 
 def read_toml(path, overrides=(), what="config"):
@@ -199,7 +242,7 @@ def read_toml(path, overrides=(), what="config"):
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: {what} file does not exist")
-    text = path.read_text(encoding="utf-8")
+    text = read_text(path, what)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
@@ -229,6 +272,57 @@ def number(problems, table, key, where, default=None, positive=False, integer=Fa
     if positive and value <= 0:
         problems.add(where + (key,), f"must be > 0; got {value!r}")
     return int(value) if integer else float(value)
+
+
+def string(problems, table, key, where, default=None):
+    """``table[key]`` as a non-empty string (``default`` when absent; required when the default is None); a
+    problem is recorded at ``where + (key,)`` when it is missing or not a string, and ``default`` returned."""
+    value = table.get(key, default)
+    if value is None:
+        problems.add(where + (key,), "is required (a string)")
+    elif not isinstance(value, str) or (not value and default is None):
+        problems.add(where + (key,), f"must be a {'non-empty ' if default is None else ''}string; got {value!r}")
+        return default
+    return value
+
+
+def values(problems, table, key, where):
+    """``table[key]``, a table of ``name = number`` (fixed parameter values), as a dict of floats (empty when
+    absent); a problem is recorded for the table or for each value that is not a finite number."""
+    given = table.get(key, {})
+    if not isinstance(given, dict):
+        problems.add(where + (key,), f"must be a table of name = number, e.g. {{eta_g = 0.7}}; got {given!r}")
+        return {}
+    out = {}
+    for name, value in given.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            problems.add(where + (key, name), f"must be a finite number; got {value!r}")
+        else:
+            out[name] = float(value)
+    return out
+
+
+def signal_tables(problems, table, key, where, default_noise):
+    """``table[key]``, a list of ``{output, column, noise}`` tables (measured signals), as a list of
+    ``(output, column, noise)``; a problem is recorded for each malformed entry, and when the list is empty."""
+    given = table.get(key, [])
+    if not isinstance(given, list):
+        problems.add(where + (key,), f"must be a list of tables [{{output = \"F_g\", noise = 0.5}}]; got {given!r}")
+        return []
+    signals = []
+    for k, s in enumerate(given):
+        here = where + (key, k)
+        if not isinstance(s, dict) or not isinstance(s.get("output"), str):
+            problems.add(here, f"must be a table {{output = \"F_g\", column = \"F_g\", noise = 0.5}}; got {s!r}")
+            continue
+        for extra in sorted(set(s) - {"output", "column", "noise"}):
+            problems.add(here + (extra,), "unknown key; allowed: output, column, noise")
+        column = string(problems, s, "column", here, default=s["output"])
+        noise = number(problems, s, "noise", here, default=default_noise, positive=True)
+        signals.append((s["output"], column, noise))
+    if not given:
+        problems.add(where + (key,), "name at least one measured output: [{output = \"F_g\", noise = 0.5}]")
+    return signals
 
 
 def sections(data, problems, schema, free_form=("parameters",)):
@@ -261,6 +355,9 @@ def sections(data, problems, schema, free_form=("parameters",)):
 def bounded_parameters(data, problems, required=True):
     """``[parameters.NAME] start, min, max`` tables as ``{name: (start, min, max)}``, checked (start in bounds)."""
     tables = data.get("parameters", {})
+    if not isinstance(tables, dict):
+        problems.add(("parameters",), f"must be tables [parameters.NAME] with start, min, max; got {tables!r}")
+        return {}
     if required and not tables:
         problems.add(("parameters",), "name at least one parameter to fit: [parameters.eta_g] start, min, max")
     free = {}

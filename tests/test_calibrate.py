@@ -105,7 +105,7 @@ def test_job_writes_results_and_parameter_set(tmp_path):
     summary = run_job(job, out=tmp_path / "out", progress=False)
     written = json.loads((tmp_path / "out" / "calibration.json").read_text())
     assert written == json.loads(json.dumps(summary))
-    assert set(written["parameters"]["k"]) == {"value", "std_error", "start"}
+    assert set(written["parameters"]["k"]) == {"value", "std_error", "identifiable", "start"}
     assert abs(written["parameters"]["k"]["value"] - K_TRUE) < 2 * written["parameters"]["k"]["std_error"]
     assert written["cost_after"] < written["cost_before"]
     assert len(written["correlation"]["matrix"]) == 2 and written["iterations"] > 0

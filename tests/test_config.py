@@ -135,7 +135,8 @@ def test_shipped_configs_validate(gripper_dir):
 
 
 def test_summary_kind_none_keeps_the_keys_of_the_controllers_summaries(gripper_dir):
-    overrides = gripper_overrides(gripper_dir) + ["summary.kind=none", "record.signals=[\"plant.F_g\"]"]
+    overrides = gripper_overrides(gripper_dir) + ["plot.panels=[[\"F_g\"]]", "summary.kind=none",
+                                                  "record.signals=[\"plant.F_g\"]"]
     cfg = load_config(EXAMPLES / "gripper_impact.toml", overrides)
     assert cfg.summary.plugin is None and cfg.record.signals == (("plant", "F_g"),)
     cfg = load_config(EXAMPLES / "gripper_impact.toml", overrides[:-2] + ["record.signals=[\"plant.F_g\"]"])

@@ -12,14 +12,44 @@ __all__ = ["Calibrator", "gauss_newton_uncertainty"]
 
 
 def gauss_newton_uncertainty(jac, cost, fitted, scale=1.0):
-    """Standard errors and correlation matrix from the Jacobian of the weighted residuals at the optimum:
-    covariance s^2 (J^T J)^-1 with s^2 = 2 cost / (fitted residuals - parameters); ``scale`` converts the
-    optimiser's scaled parameters back to physical ones."""
-    s2 = 2.0 * cost / max(fitted - jac.shape[1], 1)
-    scale = np.broadcast_to(np.asarray(scale, dtype=float), (jac.shape[1],))
-    cov = s2 * np.linalg.pinv(jac.T @ jac) * np.outer(scale, scale)
-    std = np.sqrt(np.clip(np.diag(cov), 0, None))
-    correlation = cov / np.outer(std, std) if np.all(std > 0) else np.full_like(cov, np.nan)
+    """Standard errors and correlation matrix from the Jacobian of the weighted residuals at the optimum.
+
+    The covariance is s^2 (J^T J)^-1 with s^2 = 2 cost / (fitted residuals - parameters), on the directions J
+    determines. A parameter with a component along a direction J does not determine (a singular value below
+    max(J.shape) * eps * the largest: the parameter has no effect on the fitted samples, alone or with others)
+    is not identifiable: its standard error is inf and its correlations NaN. A pseudo-inverse would give it a
+    standard error of exactly 0 instead, i.e. claim it is known perfectly.
+
+    Parameters
+    ----------
+    jac : ndarray, shape (m, n)
+        Jacobian of the weighted residuals with respect to the (scaled) parameters.
+    cost : float
+        0.5 * sum of squared weighted residuals at the optimum.
+    fitted : int
+        Number of fitted residuals.
+    scale : float or ndarray of shape (n,)
+        Converts the optimiser's scaled parameters back to physical ones.
+
+    Returns
+    -------
+    std : ndarray, shape (n,)
+        Standard errors (inf: not identifiable).
+    correlation : ndarray, shape (n, n)
+    """
+    n = jac.shape[1]
+    s2 = 2.0 * cost / max(fitted - n, 1)
+    scale = np.broadcast_to(np.asarray(scale, dtype=float), (n,))
+    _, sv, vt = np.linalg.svd(jac, full_matrices=True)
+    singular = np.zeros(n)
+    singular[:sv.size] = sv
+    determined = singular > (singular.max() * max(jac.shape) * np.finfo(float).eps)
+    identifiable = ~np.any(np.abs(vt[~determined]) > 1e-9, axis=0)
+    basis = vt[determined]
+    cov = s2 * (basis.T / singular[determined] ** 2) @ basis * np.outer(scale, scale)
+    std = np.where(identifiable, np.sqrt(np.clip(np.diag(cov), 0, None)), np.inf)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        correlation = np.where(np.outer(identifiable, identifiable), cov / np.outer(std, std), np.nan)
     return std, correlation
 
 

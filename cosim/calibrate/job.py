@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from cosim.calibrate.problem import METHODS
-from cosim.tomldoc import bounded_parameters, number, read_toml, sections
+from cosim.tomldoc import bounded_parameters, number, read_toml, sections, signal_tables, string, values
 
 __all__ = ["CalibrationJob", "load_job", "run_job"]
 
@@ -56,28 +56,31 @@ class CalibrationJob:
 
 
 def load_job(path, overrides=()):
-    """Read and validate a calibration job; every problem is reported at once with file:line and key."""
+    """Read and validate a calibration job; every problem is reported at once with file:line and key.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML job.
+    overrides : sequence of str, optional
+        ``--set key=value`` overrides, applied before validation.
+
+    Returns
+    -------
+    CalibrationJob
+
+    Raises
+    ------
+    ConfigError
+        Every problem of the job, each with file:line (or ``--set key``) and key.
+    """
     path = Path(path)
     data, problems = read_toml(path, overrides, what="job")
     tables = sections(data, problems, _SCHEMA)
     base = path.parent
     model_t, data_t, fit_t, ms_t = (tables[s] for s in ("model", "data", "fit", "multistart"))
-    fmu = None
-    if "fmu" in model_t:
-        fmu = base / str(model_t["fmu"])
-        if "source" in model_t or "name" in model_t:
-            problems.add(("model", "fmu"), "give either fmu or source + name, not both")
-        elif not fmu.is_file():
-            problems.add(("model", "fmu"), f"no such FMU: {fmu} (build it with `cosim build`)")
-    else:
-        for key in ("source", "name"):
-            if not isinstance(model_t.get(key), str):
-                problems.add(("model", key), "is required (a string), or give fmu = \"x.fmu\"")
-    source = base / model_t.get("source", "")
-    if isinstance(model_t.get("source"), str) and not source.is_file():
-        problems.add(("model", "source"), f"no such Modelica file: {source}")
-    if not isinstance(data_t.get("path"), str):
-        problems.add(("data", "path"), "is required: a CSV or Parquet file with `time` and the measured channels")
+    source, name, fmu = _model(model_t, base, problems)
+    data_path = string(problems, data_t, "path", ("data",))
     inputs = data_t.get("inputs", {})
     if not isinstance(inputs, dict) or not all(isinstance(v, str) for v in inputs.values()):
         problems.add(("data", "inputs"), "must map model inputs to data columns, e.g. {i_ref = \"i_ref\"}")
@@ -85,39 +88,56 @@ def load_job(path, overrides=()):
     start = number(problems, data_t, "start", ("data",), default=-math.inf) if "start" in data_t else -math.inf
     stop = number(problems, data_t, "stop", ("data",), default=math.inf) if "stop" in data_t else math.inf
     decimate = number(problems, data_t, "decimate", ("data",), default=1, positive=True, integer=True)
-    signals = []
-    for k, s in enumerate(fit_t.get("signals", [])):
-        where = ("fit", "signals", k)
-        if not isinstance(s, dict) or not isinstance(s.get("output"), str):
-            problems.add(where, "must be a table {output = \"F_g\", column = \"F_g\", noise = 0.5}")
-            continue
-        for key in sorted(set(s) - {"output", "column", "noise"}):
-            problems.add(where + (key,), "unknown key; allowed: output, column, noise")
-        noise = number(problems, s, "noise", where, default=1.0, positive=True)
-        signals.append((s["output"], s.get("column", s["output"]), noise))
-    if not signals:
-        problems.add(("fit", "signals"), "name at least one output to fit: [{output = \"F_g\", noise = 0.5}]")
-    segments = fit_t.get("segments", [[-math.inf, math.inf]])
-    if not (isinstance(segments, list) and all(isinstance(s, list) and len(s) == 2 and s[0] < s[1]
-                                               for s in segments)):
-        problems.add(("fit", "segments"), "must be a list of [start, stop] time windows in s")
-        segments = [[-math.inf, math.inf]]
+    signals = signal_tables(problems, fit_t, "signals", ("fit",), default_noise=1.0)
+    segments = _segments(fit_t, problems)
     steady_s = number(problems, fit_t, "steady_s", ("fit",), positive=True) if "steady_s" in fit_t else 0.0
     method = fit_t.get("method", "rk4")
-    if method not in METHODS:
+    if not isinstance(method, str) or method not in METHODS:
         problems.add(("fit", "method"), f"must be one of {', '.join(METHODS)}; got {method!r}")
     substeps = number(problems, fit_t, "substeps", ("fit",), default=1, positive=True, integer=True)
     max_iter = number(problems, fit_t, "max_iter", ("fit",), default=200, positive=True, integer=True)
     free = bounded_parameters(data, problems)
     count = number(problems, ms_t, "count", ("multistart",), default=1, positive=True, integer=True)
     seed = number(problems, ms_t, "seed", ("multistart",), default=0, integer=True)
-    scheduler = ms_t.get("scheduler", "")
+    scheduler = string(problems, ms_t, "scheduler", ("multistart",), default="")
+    fixed = values(problems, model_t, "parameters", ("model",))
     problems.raise_if_any()
     return CalibrationJob(
-        path=path, source=source, model=model_t.get("name", str(fmu)), fmu=fmu, fixed=dict(model_t.get("parameters", {})),
-        data_path=base / data_t["path"], inputs=dict(inputs), window=(start, stop), decimate=decimate,
-        signals=tuple(signals), segments=tuple(tuple(s) for s in segments), steady_s=steady_s, method=method, substeps=substeps,
-        max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler)
+        path=path, source=source, model=name, fmu=fmu, fixed=fixed, data_path=base / data_path, inputs=dict(inputs),
+        window=(start, stop), decimate=decimate, signals=tuple(signals), segments=segments, steady_s=steady_s,
+        method=method, substeps=substeps, max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler)
+
+
+def _model(model_t, base, problems):
+    """``[model]``: (Modelica source, model name, None) or (None, the FMU's path as the name, FMU path)."""
+    if "fmu" in model_t:
+        fmu = string(problems, model_t, "fmu", ("model",))
+        if "source" in model_t or "name" in model_t:
+            problems.add(("model", "fmu"), "give either fmu or source + name, not both")
+        elif fmu is not None and not (base / fmu).is_file():
+            problems.add(("model", "fmu"), f"no such FMU: {base / fmu} (build it with `cosim build`)")
+        return base, str(base / (fmu or "")), base / (fmu or "")
+    source = string(problems, model_t, "source", ("model",))
+    name = string(problems, model_t, "name", ("model",))
+    if source is not None and not (base / source).is_file():
+        problems.add(("model", "source"), f"no such Modelica file: {base / source}")
+    return base / (source or ""), name, None
+
+
+def _segments(fit_t, problems):
+    """``fit.segments``: a list of ``[start, stop]`` time windows (s), start < stop; default the whole record."""
+    segments = fit_t.get("segments", [[-math.inf, math.inf]])
+    if not (isinstance(segments, list) and segments
+            and all(isinstance(s, list) and len(s) == 2 and all(_is_time(t) for t in s) and s[0] < s[1]
+                    for s in segments)):
+        problems.add(("fit", "segments"), f"must be a list of [start, stop] time windows in s, start < stop; "
+                                          f"got {segments!r}")
+        return ((-math.inf, math.inf),)
+    return tuple((float(a), float(b)) for a, b in segments)
+
+
+def _is_time(t):
+    return isinstance(t, (int, float)) and not isinstance(t, bool) and not math.isnan(t)
 
 
 def run_job(path, out="out/calibration", overrides=(), progress=True, force=False):

@@ -2,6 +2,7 @@
 calibrated set, loadable by a run config) and a plot of measured vs simulated before and after."""
 
 import json
+import math
 from datetime import datetime, timezone
 
 import matplotlib
@@ -10,7 +11,29 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-__all__ = ["write_results"]
+__all__ = ["write_results", "standard_error"]
+
+
+def _finite(x):
+    """``x``, or None (JSON null) when it is inf or NaN (a parameter the data do not determine)."""
+    return x if math.isfinite(x) else None
+
+
+def standard_error(std):
+    """``std`` as a report says it: "+- 0.012 (1 s.e.)", or that the data do not determine the parameter.
+
+    Parameters
+    ----------
+    std : float or None
+        The standard error (inf or None: not identifiable).
+
+    Returns
+    -------
+    str
+    """
+    if std is None or not math.isfinite(std):
+        return "not identifiable: the fitted samples do not determine it (no s.e.)"
+    return f"+- {std:.3g} (1 s.e.)"
 
 
 def write_results(job, result, out):
@@ -24,9 +47,10 @@ def write_results(job, result, out):
         "substeps": job.substeps,
         "derivatives": ("finite differences through the FMU (the model has no CasADi form)" if job.fmu else
                         "exact (CasADi automatic differentiation of the lowered Modelica equations)"),
-        "parameters": {n: {"value": result["parameters"][n], "std_error": result["std_errors"][n],
-                           "start": result["start"][n]} for n in names},
-        "correlation": {"names": names, "matrix": result["correlation"]},
+        "parameters": {n: {"value": result["parameters"][n], "std_error": _finite(result["std_errors"][n]),
+                           "identifiable": math.isfinite(result["std_errors"][n]), "start": result["start"][n]}
+                       for n in names},
+        "correlation": {"names": names, "matrix": [[_finite(c) for c in row] for row in result["correlation"]]},
         "cost_before": result["cost_before"],
         "cost_after": result["cost_after"],
         "cost_definition": "0.5 * sum over fitted samples of ((simulated - measured) / noise)^2",
@@ -41,7 +65,7 @@ def write_results(job, result, out):
     lines = [f"# Calibrated by `cosim calibrate {job.path.name}` ({stamp}), model {job.model}",
              "# Load into a run config: [fmus.plant] parameters_file = \"<this file>\" (or --set ...parameters.NAME=V).",
              "[parameters]"]
-    lines += [f"{n} = {result['parameters'][n]!r}  # +- {result['std_errors'][n]:.3g} (1 s.e.)" for n in names]
+    lines += [f"{n} = {result['parameters'][n]!r}  # {standard_error(result['std_errors'][n])}" for n in names]
     (out / "parameters.toml").write_text("\n".join(lines) + "\n")
     _plot(job, result, out / "fit.png")
     return summary

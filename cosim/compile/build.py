@@ -7,11 +7,12 @@ import tomllib
 from pathlib import Path
 
 from cosim import __version__
+from cosim.compile.divisions import check_divisions
 from cosim.compile.export import DEFAULT_CS_STEP, METHODS, export_fmu
 from cosim.compile.frontend import load_flat_model
 from cosim.compile.lower import lower_system
 from cosim.compile.translate import translate
-from cosim.errors import ConfigError
+from cosim.errors import BuildError, ConfigError
 
 __all__ = ["lower", "build_fmu", "build_all", "mark_fmu_folder", "read_model_list"]
 
@@ -68,8 +69,18 @@ def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_versio
     -------
     Path
         The written FMU. Nothing is written when any step fails.
+
+    Raises
+    ------
+    ModelicaError
+        The source cannot be compiled, or divides by zero at its parameter values (:func:`check_divisions`).
+    BuildError
+        ``out_dir`` is an existing file, or the FMU cannot be compiled or packed.
     """
+    if Path(out_dir).exists() and not Path(out_dir).is_dir():
+        raise BuildError(f"{out_dir}: the output folder is an existing file; give --out a folder")
     lowered = lower(path, model)
+    check_divisions(lowered, path)
     name = name or model.rsplit(".", 1)[-1]
     return export_fmu(lowered, Path(out_dir) / f"{name}.fmu", description=description, cs_step=cs_step,
                       cs_method=cs_method, fmi_version=fmi_version, source=source)

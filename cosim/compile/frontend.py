@@ -12,6 +12,7 @@ from cosim.compile.der_expressions import rewrite_der_expressions
 from cosim.compile.source_text import locate_rumoca_error
 from cosim.errors import ModelicaError, StructureError
 from cosim.modelica_text import check_redeclares
+from cosim.tomldoc import read_text
 
 __all__ = ["FlatModel", "load_flat_model"]
 
@@ -93,6 +94,7 @@ def load_flat_model(path, model):
     if not path.is_file():
         raise ModelicaError(f"no such Modelica file: {path}")
     for mo in sorted(path.parent.glob("*.mo")):
+        read_text(mo, "Modelica source", error=ModelicaError)  # rumoca fails on non-UTF-8 with no location
         found = _first_diagnostic(rumoca.validate(str(mo)), str(mo))
         if found:
             message, file, line = found

@@ -105,8 +105,14 @@ def inline(tr, index, args):
     function = tr.storage["functions"][index]
     if function.get("external"):
         tr.unsupported(f"the external function {function['name']}", function)
+    if index in tr.inlining:
+        chain = " -> ".join(tr.storage["functions"][k]["name"] for k in tr.inlining[tr.inlining.index(index):])
+        tr.unsupported(f"the recursive function {function['name']} ({chain} -> {function['name']}: functions are "
+                       "inlined, and a recursive one never ends)", function)
+    tr.inlining.append(index)
     frame = _Frame(tr, function, args)
     frame.run(function["statements"], {})
+    tr.inlining.pop()
     outputs = []
     for k, output in enumerate(function["outputs"]):
         if frame.current.get(k) is None:

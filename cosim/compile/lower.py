@@ -370,7 +370,7 @@ def _event_part(system, params, active, outputs, observed, symbols, functions, d
 
 
 def _start(var):
-    if var.start is None or not var.start.is_constant():
+    if var is None or var.start is None or not var.start.is_constant():
         return 0.0
     return float(ca.evalf(var.start))
 
@@ -401,4 +401,5 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, system, M=None):
 
 
 def _var_named(system, name):
-    return next(v for v in system.variables if v.name == name)
+    """The variable ``name`` of ``system``; None for an unknown that is no variable (``der(x)`` in a block)."""
+    return next((v for v in system.variables if v.name == name), None)

@@ -143,6 +143,7 @@ class _Translator:
         self.syms = []
         self.der_syms = {}
         self.memo = {}  # (node, context serial) -> expression; None is the model's own context
+        self.inlining = []  # the functions being inlined, outermost first: a recursive call is refused
         self.relations = []  # events.Relation: rumoca's (in its order), then relations on time it leaves out
         self.pre_syms = {}  # variable name -> symbol of pre(variable)
         self.variables_by_index = []

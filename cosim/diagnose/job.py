@@ -25,7 +25,7 @@ from pathlib import Path
 from cosim.diagnose.effects import EFFECTS, applicable, variant_text
 from cosim.errors import ConfigError
 from cosim.experiment import align_experiment
-from cosim.tomldoc import bounded_parameters, number, read_toml, sections
+from cosim.tomldoc import bounded_parameters, number, read_text, read_toml, sections, signal_tables, string, values
 
 __all__ = ["DiagnoseJob", "load_diagnose_job", "load_experiment", "load_records"]
 
@@ -145,21 +145,23 @@ def load_diagnose_job(path, overrides=()):
     data, problems = read_toml(path, overrides, what="job")
     t = sections(data, problems, _SCHEMA)
     base = path.parent
-    for key in ("source", "name"):
-        if not isinstance(t["model"].get(key), str):
-            problems.add(("model", key), "is required (a string)")
-    source = base / t["model"].get("source", "")
+    source = base / (string(problems, t["model"], "source", ("model",)) or "")
+    model = string(problems, t["model"], "name", ("model",)) or ""
     source_text = ""
-    if isinstance(t["model"].get("source"), str):
+    if source != base:
         if not source.is_file():
             problems.add(("model", "source"), f"no such Modelica file: {source}")
         else:
-            source_text = source.read_text(encoding="utf-8")
+            try:
+                source_text = read_text(source, "Modelica source")
+            except ConfigError as err:
+                problems.add(("model", "source"), str(err))
     free = bounded_parameters(data, problems, required=False)
     records = _records(t["data"], base, free, problems)
     e = t["experiment"]
-    kind = e.get("kind", "staircase")
+    kind = string(problems, e, "kind", ("experiment",), default="staircase")
     inputs = t["data"].get("inputs", {})
+    signals = signal_tables(problems, t["compare"], "signals", ("compare",), default_noise=1e-9)
     if kind == "frequency":
         if "inputs" in t["data"]:
             problems.add(("data", "inputs"), "a frequency response has no input time series; name the excited "
@@ -167,7 +169,7 @@ def load_diagnose_job(path, overrides=()):
         if not isinstance(e.get("input"), str):
             problems.add(("experiment", "input"), "is required for a frequency response: the excited model input, "
                                                   "e.g. \"tau\"")
-        if len(t["compare"].get("signals", [])) > 1:
+        if len(signals) > 1:
             problems.add(("compare", "signals"), "a frequency response compares one output (its magnitude and "
                                                  "phase)")
         if len(records) > 1:
@@ -189,22 +191,9 @@ def load_diagnose_job(path, overrides=()):
     steady_s = number(problems, e, "steady_s", ("experiment",), default=0.0) if "steady_s" in e else 0.0
     min_hold_s = number(problems, e, "min_hold_s", ("experiment",), positive=True) \
         if "min_hold_s" in e else max(steady_s or 0.0, 0.05)
-    signals = []
-    for k, s in enumerate(t["compare"].get("signals", [])):
-        where = ("compare", "signals", k)
-        if not isinstance(s, dict) or not isinstance(s.get("output"), str):
-            problems.add(where, "must be a table {output = \"F_g\", column = \"F_g\", noise = 0.5}")
-            continue
-        for key in sorted(set(s) - {"output", "column", "noise"}):
-            problems.add(where + (key,), "unknown key; allowed: output, column, noise")
-        noise = number(problems, s, "noise", where, default=1e-9, positive=True)
-        signals.append((s["output"], s.get("column", s["output"]), noise))
-    if not signals:
-        problems.add(("compare", "signals"), "name at least one measured output: [{output = \"F_g\", noise = 0.5}]")
     rtol = number(problems, t["compare"], "rtol", ("compare",), default=1e-6, positive=True)
     max_nfev = number(problems, t["compare"], "max_nfev", ("compare",), default=40, positive=True, integer=True)
     effects = t["candidates"].get("effects")
-    model = t["model"].get("name", "")
     if effects is None:
         try:
             effects = applicable(source_text, model) if source_text else []
@@ -228,14 +217,19 @@ def load_diagnose_job(path, overrides=()):
     min_bic = number(problems, dec, "min_delta_bic", ("decision",), default=10.0, positive=True)
     gap_sigmas = number(problems, dec, "gap_sigmas", ("decision",), default=3.0, positive=True)
     workers = number(problems, t["parallel"], "workers", ("parallel",), default=2, integer=True)
+    if workers is not None and workers < 0:
+        problems.add(("parallel", "workers"), f"must be >= 0 (0: in this process); got {workers}")
+    scheduler = string(problems, t["parallel"], "scheduler", ("parallel",), default="")
+    experiment_input = string(problems, e, "input", ("experiment",), default="")
+    fixed = values(problems, t["model"], "parameters", ("model",))
     problems.raise_if_any()
     return DiagnoseJob(
-        path=path, source=source, model=model, fixed=dict(t["model"].get("parameters", {})),
+        path=path, source=source, model=model, fixed=fixed,
         records=tuple(records), inputs=dict(inputs), window=(start, stop), decimate=decimate, kind=kind,
         duration=duration, steady_s=steady_s, min_hold_s=min_hold_s, signals=tuple(signals), rtol=rtol,
         max_nfev=max_nfev, free=free, effects=tuple(effects), min_gap_removed=min_gap, min_delta_bic=min_bic,
-        gap_sigmas=gap_sigmas, workers=workers, scheduler=str(t["parallel"].get("scheduler", "")),
-        input=str(e.get("input", "")), sample_rate=sample_rate, bands_per_decade=per_decade)
+        gap_sigmas=gap_sigmas, workers=workers, scheduler=scheduler,
+        input=experiment_input, sample_rate=sample_rate, bands_per_decade=per_decade)
 
 
 def _records(d, base, free, problems):

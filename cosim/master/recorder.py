@@ -7,6 +7,7 @@ place. After the run :meth:`Recorder.data` is what was recorded, also when the r
 
 import numpy as np
 
+from cosim.config import record_columns
 from cosim.fmi import value_dtype
 
 __all__ = ["Recorder"]
@@ -42,24 +43,17 @@ class Recorder:
     """
 
     def __init__(self, config, layout, buf):
-        counts = {}
-        for inst, var in config.record.signals:
-            if inst in config.fmus:
-                counts[var] = counts.get(var, 0) + 1
-        self.signals = {}
+        self.signals = record_columns(config.record.signals, config.fmus)
         self.units = {"time": "s"}
         self.dtypes = {"time": np.dtype(np.float64)}
-        for inst, var in config.record.signals:
+        for name, (inst, var) in self.signals.items():
             if inst in config.fmus:
-                name = var if counts[var] == 1 else f"{inst}.{var}"
                 info = config.fmus[inst].info
                 unit = info.variables[var].unit
                 dtype = value_dtype(info.fmi_version, info.variables[var].type)
             else:
-                name = f"{inst}.{var}"
                 unit = config.controllers[inst].cls.units.get(var, "")
                 dtype = np.dtype(np.float64)
-            self.signals[name] = (inst, var)
             self.units[name] = unit
             self.dtypes[name] = dtype
         self.index = np.array([layout.index[s] for s in self.signals.values()], dtype=np.int64)

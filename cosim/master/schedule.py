@@ -10,7 +10,11 @@ import math
 from dataclasses import dataclass
 from fractions import Fraction
 
+from cosim.errors import ConfigError
+
 __all__ = ["exact_rate", "TimeBase", "Clock"]
+
+_TICKS_MAX = 2**62  # tick counts, periods and k * den stay below int64's range in the compiled loop
 
 
 def exact_rate(rate):
@@ -66,6 +70,11 @@ class TimeBase:
     base : Fraction
         Ticks per second.
     clocks : dict of str to Clock
+
+    Raises
+    ------
+    ConfigError
+        The rates need a time base or periods beyond the 64-bit tick counter.
     """
 
     def __init__(self, rates, start=0.0):
@@ -84,6 +93,12 @@ class TimeBase:
             period = base / r
             assert period.denominator == 1
             self.clocks[name] = Clock(name, r, int(period))
+        longest = max((c.period for c in self.clocks.values()), default=1)
+        if max(self._num, self._den, longest) > _TICKS_MAX:
+            given = ", ".join(f"{n} {float(r):.6g} Hz" for n, r in exact.items())
+            raise ConfigError(f"the rates ({given}) have no common time base a 64-bit tick counter holds (it "
+                              f"needs {float(base):.3g} ticks per s and periods of up to {longest:.3g} ticks): "
+                              "use rates whose ratios are simpler, none slower than the run is long")
 
     def time(self, k):
         """Time in s of tick ``k`` (an int): ``t0 + k / base``, correctly rounded."""
@@ -93,6 +108,9 @@ class TimeBase:
         """Whole ticks in ``duration`` s (rounded down, with a tolerance of 1e-9 tick for decimal input)."""
         x = Fraction(repr(float(duration))) * self.base
         k = math.floor(x + Fraction(1, 10**9))
+        if k * self._den > _TICKS_MAX:
+            raise ConfigError(f"a run of {float(duration):.6g} s is {k:.3g} ticks of the time base "
+                              f"({float(self.base):.6g} per s), more than a 64-bit tick counter holds: shorten it")
         return int(k)
 
     def instants(self, name, k_stop):

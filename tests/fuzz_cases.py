@@ -1,0 +1,131 @@
+"""Mutated job and config files for the fuzz test (tests/test_fuzz.py) and its long run (benchmarks/fuzz.py).
+
+A case is a shipped example's TOML text with a few mutations a user could make: a value replaced by a value of
+any type (numbers out of range, strings, lists, tables), a line deleted or duplicated, a key renamed, and
+``--set`` overrides on existing, extended or made-up key paths with any value or any text. :func:`check` loads the
+case with the real loader and returns the class of the project's error it raised (or "ok"); any other exception
+escapes, which is the failure the fuzz looks for.
+"""
+
+import re
+import tomllib
+from pathlib import Path
+
+from hypothesis import strategies as st
+
+from cosim.calibrate.job import load_job
+from cosim.config import load_config
+from cosim.diagnose.job import load_diagnose_job
+from cosim.errors import CosimError
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# loader -> the shipped examples it reads (the diagnosis: the haptic job, whose Modelica effect checks take
+# 0.4 s where the gripper's take 3 s, uncached)
+EXAMPLES = {
+    "run": ["gripper_static.toml", "gripper_impact_split.toml"],
+    "calibrate": ["calibrate_static.toml", "calibrate_contact.toml"],
+    "diagnose": ["diagnose_haptic.toml"],
+}
+LOADERS = {"run": load_config, "calibrate": load_job, "diagnose": load_diagnose_job}
+
+_WORDS = ["plant", "foc", "outer", "F_g", "rate", "x", "0", "signals", "parameters", "class", "path", "kind"]
+_STRINGS = st.sampled_from(["", "plant.F_g", "plant.nope", "controllers.foc:FOC", ":FOC", ".foc:FOC", "foc:",
+                            "nope.py:X", "../fmus/GripperPlant.fmu", "data/static_paper.csv", "rk4", "none",
+                            "static", "frequency", "x.y.z", "ME", "CS", "auto"]) | st.text(max_size=12)
+_NUMBERS = (st.integers(min_value=-2**63, max_value=2**63 - 1)
+            | st.floats(allow_nan=True, allow_infinity=True)
+            | st.sampled_from([0, -1, 1e15, 1e-300, 1e308, 26600, 1e9, 0.5]))
+_SCALARS = _NUMBERS | st.booleans() | _STRINGS
+VALUES = st.recursive(_SCALARS, lambda inner: st.lists(inner, max_size=3)
+                      | st.dictionaries(st.sampled_from(_WORDS), inner, max_size=3), max_leaves=6)
+
+
+def toml_value(v):
+    """``v`` as a TOML literal (inline tables and arrays for containers)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return "nan" if v != v else ("inf" if v == float("inf") else "-inf" if v == -float("inf") else repr(v))
+    if isinstance(v, str):
+        return '"' + "".join(c if c.isprintable() and c not in '"\\' else f"\\u{ord(c):04x}" for c in v) + '"'
+    if isinstance(v, list):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    return "{" + ", ".join(f"{k} = {toml_value(x)}" for k, x in v.items()) + "}"
+
+
+def key_paths(node, prefix=()):
+    """Every key path of a parsed document (list elements by index)."""
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for k, v in items:
+        yield prefix + (k,)
+        yield from key_paths(v, prefix + (k,))
+
+
+def dotted(path):
+    return ".".join(str(p) for p in path)
+
+
+@st.composite
+def cases(draw, loader):
+    """(example name, mutated text, --set overrides) for ``loader`` ("run", "calibrate" or "diagnose")."""
+    name = draw(st.sampled_from(EXAMPLES[loader]))
+    text = (ROOT / "examples" / name).read_text(encoding="utf-8")
+    lines = text.splitlines()
+    keyed = [i for i, line in enumerate(lines) if re.match(r"^\s*[A-Za-z_][\w.]*\s*=", line)]
+    for _ in range(draw(st.integers(0, 2))):
+        i = draw(st.sampled_from(keyed))
+        kind = draw(st.sampled_from(["value", "delete", "duplicate", "rename"]))
+        if "=" not in lines[i]:  # deleted by an earlier mutation
+            continue
+        key = lines[i].split("=", 1)[0]
+        if kind == "value":
+            lines[i] = f"{key}= {toml_value(draw(VALUES))}"
+        elif kind == "delete":
+            lines[i] = ""
+        elif kind == "duplicate":
+            lines.insert(i, lines[i])
+        else:
+            lines[i] = f"{draw(st.sampled_from(_WORDS))} ={lines[i].split('=', 1)[1]}"
+    paths = list(key_paths(tomllib.loads(text)))
+    overrides = []
+    for _ in range(draw(st.integers(0, 2))):
+        kind = draw(st.sampled_from(["existing", "extended", "made-up", "text"]))
+        if kind == "text":
+            overrides.append(draw(st.text(max_size=20)))
+            continue
+        path = draw(st.sampled_from(paths)) if kind != "made-up" else ()
+        if kind != "existing":
+            path += tuple(draw(st.lists(st.sampled_from(_WORDS), min_size=1, max_size=3)))
+        overrides.append(f"{dotted(path)}={toml_value(draw(VALUES))}")
+    return name, "\n".join(lines) + "\n", overrides
+
+
+def workspace(tmp, fmus):
+    """A folder laid out as the project (examples/, with links to ``fmus`` (GripperPlant, PMSM and Drivetrain
+    FMUs), modelica/ and examples/data/), where a mutated example resolves its relative paths as the shipped one."""
+    tmp = Path(tmp)
+    (tmp / "examples").mkdir(exist_ok=True)
+    for link, target in ((tmp / "fmus", Path(fmus)), (tmp / "modelica", ROOT / "modelica"),
+                         (tmp / "examples" / "data", ROOT / "examples" / "data")):
+        if not link.exists():
+            link.symlink_to(target, target_is_directory=True)
+    return tmp / "examples"
+
+
+def check(loader, folder, case):
+    """Load ``case`` from ``folder`` with the real loader: "ok" or the name of the CosimError it raised. Any
+    other exception propagates."""
+    name, text, overrides = case
+    path = Path(folder) / name
+    path.write_text(text, encoding="utf-8")
+    try:
+        LOADERS[loader](path, overrides)
+    except CosimError as err:
+        return type(err).__name__
+    return "ok"
+
+
+__all__ = ["EXAMPLES", "LOADERS", "VALUES", "cases", "check", "workspace", "toml_value"]
