@@ -20,7 +20,9 @@ def _cmd_build(args):
         return 0
     if args.model is None:
         raise CosimError(f"{args.file}: name the model to build with --model Pkg.Model")
-    path = build_fmu(args.file, args.model, out_dir=args.out or "fmus")
+    from cosim.compile.build import mark_fmu_folder
+
+    path = build_fmu(args.file, args.model, out_dir=mark_fmu_folder(args.out or "fmus"))
     print(f"built {path}")
     return 0
 
@@ -37,7 +39,8 @@ def _add_build(sub):
     )
     p.add_argument("file", nargs="?", help="Modelica source file (.mo)")
     p.add_argument("--model", help="full name of the model to build, e.g. Gripper.GripperPlant")
-    p.add_argument("--out", help="output directory (default: fmus/, or the one models.toml names)")
+    p.add_argument("--out", help="output directory (default: fmus/, or the one models.toml names); new, or one "
+                                 "holding only FMUs and cosim's build files; only the FMUs built are replaced")
     p.add_argument("--models", default="modelica/models.toml", help="model list used when no FILE is given")
     p.add_argument("--force", action="store_true", help="rebuild even when up to date")
     p.set_defaults(func=_cmd_build)
@@ -50,20 +53,27 @@ def _add_haptic(sub):
 
 
 def _cmd_run(args):
+    from cosim.errors import RunStopped
     from cosim.master import run_config
 
-    result, summary, files = run_config(args.config, out=args.out, overrides=args.set, csv=args.csv,
-                                        progress=False if args.no_progress else None)
+    try:
+        result, summary, files = run_config(args.config, out=args.out, overrides=args.set, csv=args.csv,
+                                            progress=False if args.no_progress else None, force=args.force)
+    except RunStopped as stop:
+        for f in stop.files:
+            print(f"wrote {f}")
+        print(f"cosim run: {stop}; kept what was recorded before (summary.json \"stopped\")", file=sys.stderr)
+        return 3
     for f in files:
         print(f"wrote {f}")
     compiled = f"; kernels compiled or loaded in {result.compile_s:.2g} s" if result.engine == "compiled" else ""
     note = f"; {result.engine_note}" if result.engine_note else ""
     print(f"simulated {result.sim_s:.6g} s in {result.wall_s:.3g} s wall ({result.engine} engine{compiled}{note})")
+    s = result.stopped
     if result.interrupted:
-        print("cosim run: interrupted; kept what was recorded", file=sys.stderr)
-        return 130
-    if result.stopped is not None:
-        s = result.stopped
+        print(f"cosim run: {s['reason']}; kept what was recorded", file=sys.stderr)
+        return 143 if s["cause"] == "SIGTERM" else 129 if s["cause"] == "SIGHUP" else 130
+    if s is not None:
         print(f"cosim run: stopped at t={s['time']:.9g} s: {s['by']} asked to terminate"
               f"{': ' + s['reason'] if s['reason'] else ''}; kept what was recorded")
     return 0
@@ -80,6 +90,7 @@ def _add_run(sub):
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override any config key, e.g. --set fmus.plant.parameters.eta_g=0.7 (repeatable)")
     p.add_argument("--csv", action="store_true", help="also write OUT/results.csv")
+    p.add_argument("--force", action="store_true", help="replace OUT when it holds a previous cosim output")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_run)
 
@@ -88,7 +99,7 @@ def _cmd_calibrate(args):
     from cosim.calibrate.job import run_job
 
     out = args.out or f"out/{Path(args.job).stem}"
-    summary = run_job(args.job, out=out, overrides=args.set, progress=not args.no_progress)
+    summary = run_job(args.job, out=out, overrides=args.set, progress=not args.no_progress, force=args.force)
     for name, p in summary["parameters"].items():
         print(f"{name} = {p['value']:.6g} +- {p['std_error']:.3g} (1 s.e., start {p['start']:.6g})")
     print(f"cost {summary['cost_before']:.6g} -> {summary['cost_after']:.6g} in {summary['iterations']} "
@@ -109,6 +120,7 @@ def _add_calibrate(sub):
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override any job key, e.g. --set data.path=measured.csv (repeatable)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--force", action="store_true", help="replace OUT when it holds a previous cosim output")
     p.set_defaults(func=_cmd_calibrate)
 
 
@@ -117,7 +129,7 @@ def _cmd_diagnose(args):
 
     out = args.out or f"out/{Path(args.job).stem}"
     result = diagnose(args.job, out=out, overrides=args.set, progress=not args.no_progress,
-                      build=not args.no_build)
+                      build=not args.no_build, force=args.force)
     print(result.verdict)
     unit = f" {result.units[0]}" if result.units[0] else ""
     print(f"{result.signals[0]}, measured vs replayed model: RMSE {result.rmse_before:.4g} -> "
@@ -142,11 +154,58 @@ def _add_diagnose(sub):
                    help="override any job key, e.g. --set data.path=measured.csv (repeatable)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-build", action="store_true", help="do not build the FMUs nor re-run them through the master")
+    p.add_argument("--force", action="store_true", help="replace OUT when it holds a previous cosim output")
     p.set_defaults(func=_cmd_diagnose)
 
 
+def _cmd_campaign(args):
+    from cosim.campaign import run_campaign, run_one_trial
+
+    if args.trial is not None:
+        row, command = run_one_trial(args.job, args.trial, overrides=args.set)
+        for k, v in row.items():
+            print(f"{k} = {v}")
+        print(f"the same co-simulation alone (without the load cell's noise):\n{command}")
+        return 0
+    out = args.out or f"out/{Path(args.job).stem}"
+    summary = run_campaign(args.job, out=out, overrides=args.set, workers=args.workers, scheduler=args.scheduler,
+                           progress=not args.no_progress)
+    run = summary["run"]
+    if run["interrupted"]:
+        print(f"cosim campaign: interrupted; {run['resumed'] + run['ran']} of {run['trials']} trials kept in "
+              f"{out}/parts; the same command resumes", file=sys.stderr)
+        return 130
+    print(f"{summary['trials']} trials ({run['resumed']} resumed, {run['ran']} run in {run['wall_s']:.1f} s on "
+          f"{run['workers']} worker{'s' if run['workers'] != 1 else ''}); {summary['p3_iqr_below_bare']}")
+    print(f"wrote {out}/trials.parquet, table1.csv, table1.md, boxplots.png, summary.json")
+    return 0
+
+
+def _add_campaign(sub):
+    p = sub.add_parser(
+        "campaign",
+        help="a grid of co-simulated gripper impacts with physical variability (the paper's Table 1), on Dask",
+        description=("Run every trial of a campaign job (coatings x impact speeds x tightening currents x trials), "
+                     "each a full impact co-simulation, in batches on a Dask cluster; finished batches are kept in "
+                     "OUT/parts and the same command resumes. Writes OUT/trials.parquet, OUT/table1.csv, "
+                     "OUT/table1.md, OUT/boxplots.png and OUT/summary.json."),
+    )
+    p.add_argument("job", help="campaign job (.toml)")
+    p.add_argument("--out", help="output folder (default out/<job stem>); a folder of the same job is resumed")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override any job key, e.g. --set campaign.trials=10 (repeatable)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="N", help="workers of the local Dask cluster (default: one a core)")
+    where.add_argument("--scheduler", default="", metavar="ADDRESS",
+                       help="address of a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
+    p.add_argument("--trial", type=int, metavar="K",
+                   help="run trial K (row K of trials.parquet) alone in this process; print it and its cosim run command")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_campaign)
+
+
 # Each command adds its parser here; keep one function per command.
-_COMMANDS = [_add_build, _add_haptic, _add_run, _add_calibrate, _add_diagnose]
+_COMMANDS = [_add_build, _add_haptic, _add_run, _add_calibrate, _add_diagnose, _add_campaign]
 
 
 def make_parser():

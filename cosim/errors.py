@@ -15,6 +15,8 @@ __all__ = [
     "EffectSlotError",
     "EventError",
     "SimulationTerminated",
+    "NonFiniteError",
+    "RunStopped",
 ]
 
 
@@ -122,3 +124,44 @@ class SimulationTerminated(CosimError):
         self.time = time
         self.reason = reason
         super().__init__(f"{instance} asked to terminate at t={time:.9g} s{': ' + reason if reason else ''}")
+
+
+class NonFiniteError(CosimError, FloatingPointError):
+    """A state, derivative or output became NaN or infinite: the run stops at the first instant it is seen.
+
+    Parameters
+    ----------
+    instance : str
+        The FMU or controller instance whose value is not finite.
+    variable : str
+        The variable (``der(x)`` for a derivative).
+    time : float
+        The instant (s).
+    value : float
+        The value (nan, inf or -inf).
+    """
+
+    def __init__(self, instance, variable, time, value):
+        self.instance = instance
+        self.variable = variable
+        self.time = time
+        self.value = value
+        super().__init__(f"{instance}.{variable} = {value} at t={time:.9g} s (the first instant a state, "
+                         f"derivative or output is not finite)")
+
+
+class RunStopped(CosimError):
+    """A run stopped early on a fault (an exception, a non-finite value); what was recorded was written.
+
+    Parameters
+    ----------
+    stopped : dict
+        ``RunResult.stopped``: ``by``, ``time``, ``reason``, ``cause``.
+    files : list of pathlib.Path
+        The files written.
+    """
+
+    def __init__(self, stopped, files):
+        self.stopped = stopped
+        self.files = files
+        super().__init__(f"the run stopped early: {stopped['reason']}")

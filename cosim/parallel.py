@@ -1,13 +1,104 @@
 """Parallel map on a Dask cluster (a local one by default, an existing scheduler when given its address), with a
-progress bar: the multi-start calibration and the diagnosis's candidate fits."""
+progress bar: the multi-start calibration and the diagnosis's candidate fits.
 
+A local cluster listens on 127.0.0.1 only (scheduler and workers) and has no dashboard: its HTTP server has no
+login, so it must not answer on the machine's network address.
+"""
+
+import contextlib
 import logging
 import os
 import sys
 
 from tqdm import tqdm
 
-__all__ = ["map_on_dask"]
+from cosim.errors import ConfigError
+
+__all__ = ["open_client", "check_scheduler", "map_on_dask"]
+
+LOOPBACK = "127.0.0.1"
+
+
+@contextlib.contextmanager
+def open_client(scheduler="", max_workers=None, timeout_s=5.0):
+    """A Dask client: on a local cluster bound to 127.0.0.1, or on the scheduler at ``scheduler``.
+
+    Parameters
+    ----------
+    scheduler : str, default ""
+        Address of an existing Dask scheduler (``tcp://host:port``); empty: a local cluster of processes, one
+        worker a core (at most ``max_workers``), one thread each, no dashboard, closed on exit.
+    max_workers : int, optional
+        Most workers of the local cluster.
+    timeout_s : float, default 5.0
+        How long to wait for the scheduler at ``scheduler`` to answer (s).
+
+    Yields
+    ------
+    distributed.Client
+
+    Raises
+    ------
+    ConfigError
+        The scheduler at ``scheduler`` does not answer within ``timeout_s``, or the address is malformed.
+    """
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        check_scheduler(scheduler, timeout_s)
+        with Client(scheduler, timeout=timeout_s) as client:
+            yield client
+        return
+    workers = max(1, min(max_workers or os.cpu_count() or 1, os.cpu_count() or 1))
+    # CRITICAL: a worker's heartbeat racing the close logs a harmless CommClosedError traceback at ERROR
+    # (dask/distributed#7105); a task's own error still reaches the caller through future.result()
+    # the scheduler always serves a small HTTP page (health, JSON): on loopback, on a free port (not 8787, which a
+    # second cluster would find taken), without the dashboard
+    quiet_http = {"dashboard": False, "dashboard_address": f"{LOOPBACK}:0"}
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host=LOOPBACK,
+                      dashboard_address=None, worker_dashboard_address=None, scheduler_kwargs=quiet_http,
+                      silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
+        yield client
+
+
+def check_scheduler(address, timeout_s=5.0):
+    """Ask the Dask scheduler at ``address`` for its identity: a ConfigError naming the address when none answers.
+
+    Done before a Client is made: a Client given a wrong address waits its whole timeout, and one given a port of
+    another service fails deep inside its reader (even with a MemoryError).
+
+    Parameters
+    ----------
+    address : str
+        ``tcp://host:port``.
+    timeout_s : float, default 5.0
+        How long to wait for the answer (s).
+
+    Raises
+    ------
+    ConfigError
+        No Dask scheduler answered at ``address`` within ``timeout_s``, or the address is malformed.
+    """
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def identity():
+        comm = await connect(address, timeout=timeout_s)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        reply = asyncio.run(asyncio.wait_for(identity(), timeout_s))
+    except Exception as exc:  # any failure of the probe means: not a scheduler we can use
+        reply = f"{type(exc).__name__}: {exc}"
+    if not (isinstance(reply, dict) and reply.get("type") == "Scheduler"):
+        raise ConfigError(f"scheduler: no Dask scheduler answered at {address!r} within {timeout_s:g} s "
+                          f"(got {str(reply)[:200]}); expected the address of a running scheduler, "
+                          f"e.g. tcp://127.0.0.1:8786, or an empty scheduler for a local cluster")
 
 
 def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", progress=True):
@@ -19,8 +110,8 @@ def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", pr
         Takes one item; it and the items must pickle (they cross processes).
     items : sequence
     scheduler : str, default ""
-        Address of an existing Dask scheduler; empty: a local cluster of processes (one per item, at most
-        ``max_workers`` and the number of cores), closed afterwards.
+        Address of an existing Dask scheduler; empty: a local cluster of processes on 127.0.0.1 (one per item,
+        at most ``max_workers`` and the number of cores), closed afterwards.
     max_workers : int, optional
         Most workers of the local cluster.
     desc : str, default "fits"
@@ -33,29 +124,15 @@ def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", pr
     list
         ``function(item)`` for each item, in item order; a task's error is raised here.
     """
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import as_completed
 
-    cluster = None
-    if scheduler:
-        client = Client(scheduler)
-    else:
-        workers = max(1, min(len(items), max_workers or len(items), os.cpu_count() or 1))
-        # CRITICAL: a worker's heartbeat racing the close logs a harmless CommClosedError traceback at ERROR
-        # (dask/distributed#7105); a task's own error still reaches the caller through future.result()
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                               silence_logs=logging.CRITICAL)
-        client = Client(cluster)
-    try:
+    workers = max(1, min(len(items), max_workers or len(items)))
+    with open_client(scheduler, max_workers=workers) as client:
         futures = [client.submit(function, item, pure=False) for item in items]
         index = {f.key: k for k, f in enumerate(futures)}
         results = [None] * len(futures)
-        bar = tqdm(total=len(futures), desc=desc, unit="fit", file=sys.stderr, disable=not progress)
-        for future in as_completed(futures):
-            results[index[future.key]] = future.result()
-            bar.update()
-        bar.close()
+        with tqdm(total=len(futures), desc=desc, unit="fit", file=sys.stderr, disable=not progress) as bar:
+            for future in as_completed(futures):
+                results[index[future.key]] = future.result()
+                bar.update()
         return results
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()

@@ -14,8 +14,6 @@ Job schema (paths relative to the job file)::
 """
 
 import math
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -122,22 +120,19 @@ def load_job(path, overrides=()):
         max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler)
 
 
-def run_job(path, out="out/calibration", overrides=(), progress=True):
-    """Run a calibration job and write its results to ``out``; returns the result dict of calibration.json."""
+def run_job(path, out="out/calibration", overrides=(), progress=True, force=False):
+    """Run a calibration job and write its results to ``out``; returns the result dict of calibration.json.
+
+    ``out`` must be new, empty, or a previous cosim output (replaced only with ``force``); it is checked before
+    the fit, the results are written beside it and moved into place at the end
+    (:func:`cosim.outputs.output_folder`)."""
     from cosim.calibrate.multistart import fit_multistart
     from cosim.calibrate.report import write_results
+    from cosim.master.run import interrupt_on_signals
+    from cosim.outputs import output_folder
 
     job = load_job(path, overrides)
-    result = fit_multistart(job, progress=progress)
-    out = Path(out)
-    staging = Path(tempfile.mkdtemp(prefix=".calibration-", dir=out.parent if out.parent.exists() else None))
-    try:
+    with output_folder(out, "calibrate", force=force) as staging, interrupt_on_signals():
+        result = fit_multistart(job, progress=progress)
         summary = write_results(job, result, staging)
-        if out.exists():
-            shutil.rmtree(out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        staging.rename(out)
-    finally:
-        if staging.exists():
-            shutil.rmtree(staging)
     return summary

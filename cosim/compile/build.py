@@ -13,7 +13,7 @@ from cosim.compile.lower import lower_system
 from cosim.compile.translate import translate
 from cosim.errors import ConfigError
 
-__all__ = ["lower", "build_fmu", "build_all", "read_model_list"]
+__all__ = ["lower", "build_fmu", "build_all", "mark_fmu_folder", "read_model_list"]
 
 _STATE_FILE = ".build-state.json"
 _ENTRY_KEYS = {"name", "model", "source", "description"}
@@ -129,6 +129,24 @@ def read_model_list(models_toml):
     return entries
 
 
+def mark_fmu_folder(out_dir):
+    """Check and mark the folder ``cosim build`` writes FMUs into: new, empty, a previous cosim output, or a folder
+    holding only FMUs and the build stamp (built before output folders were marked); see
+    :func:`cosim.outputs.mark_output`. Only the FMUs a build writes are replaced, each atomically.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+
+    Returns
+    -------
+    Path
+    """
+    from cosim.outputs import MARKER, mark_output
+
+    return mark_output(out_dir, "build", adopt=("*.fmu", ".*.fmu.partial", _STATE_FILE, MARKER))
+
+
 def build_all(models_toml="modelica/models.toml", out_dir=None, force=False):
     """Build every model listed in ``models_toml``; yields one line of report per model.
 
@@ -141,7 +159,7 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False):
         Rebuild even when sources and compiler are unchanged.
     """
     models_toml = Path(models_toml)
-    out_dir = Path(out_dir) if out_dir else models_toml.resolve().parent.parent / "fmus"
+    out_dir = mark_fmu_folder(out_dir if out_dir else models_toml.resolve().parent.parent / "fmus")
     state_path = out_dir / _STATE_FILE
     state = json.loads(state_path.read_text()) if state_path.is_file() else {}
     for entry in read_model_list(models_toml):

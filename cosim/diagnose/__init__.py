@@ -11,7 +11,7 @@ __all__ = ["EFFECTS", "effect_names", "get_effect", "write_variant", "DiagnoseJo
            "Diagnosis", "run_diagnosis", "diagnose"]
 
 
-def diagnose(path, out="out/diagnosis", overrides=(), progress=True, build=True):
+def diagnose(path, out="out/diagnosis", overrides=(), progress=True, build=True, force=False):
     """Run the diagnosis job at ``path`` and write its results to ``out``; returns the :class:`Diagnosis`.
 
     Parameters
@@ -20,25 +20,40 @@ def diagnose(path, out="out/diagnosis", overrides=(), progress=True, build=True)
         Job file (TOML, see :mod:`cosim.diagnose.job`).
     out : str or Path, default "out/diagnosis"
         Output folder: diagnosis.json, report.md, PNGs, the variant's Modelica and diff, fmu/ (the baseline's and
-        the winner's FMUs) and rerun/ (the run configs that replay them through the master).
+        the winner's FMUs) and rerun/ (the run configs that replay them through the master). New, empty, or a
+        previous cosim output (with ``force``); written beside it and moved into place at the end
+        (:func:`cosim.outputs.output_folder`).
     overrides : sequence of str
         ``key=value`` job overrides (``--set``).
     progress : bool, default True
         Progress bar over the candidate fits.
     build : bool, default True
         Build the baseline's and the winner's FMUs into ``out/fmu`` and re-run them through the master.
+    force : bool, default False
+        Replace a previous cosim output at ``out``.
     """
-    from pathlib import Path
-
     from cosim.diagnose.report import write_diagnosis
+    from cosim.master.run import interrupt_on_signals
+    from cosim.outputs import output_folder
+    from cosim.parallel import check_scheduler
 
     job = load_diagnose_job(path, overrides)
-    out = Path(out)
-    import shutil
-
-    for stale in ("fmu", "rerun"):  # the workflow writes these before the report replaces the rest
-        if (out / stale).exists():
-            shutil.rmtree(out / stale)
-    result = run_diagnosis(job, progress=progress, build=build, out=out)
-    write_diagnosis(result, out, source=job.source)
+    if job.scheduler:  # the candidates' fits need it only after the baseline's: say now that it does not answer
+        check_scheduler(job.scheduler)
+    with output_folder(out, "diagnose", force=force) as staging, interrupt_on_signals():
+        result = _relocated(run_diagnosis(job, progress=progress, build=build, out=staging), staging, out)
+        write_diagnosis(result, staging, source=job.source)
     return result
+
+
+def _relocated(result, staging, out):
+    """``result`` with the paths it holds into the staging folder pointing into ``out`` instead."""
+    import dataclasses
+
+    def moved(path):
+        return str(path).replace(str(staging), str(out), 1) if path is not None else None
+
+    rerun = result.rerun
+    if rerun is not None:
+        rerun = dataclasses.replace(rerun, configs={k: moved(v) for k, v in rerun.configs.items()})
+    return dataclasses.replace(result, fmu=moved(result.fmu), rerun=rerun)

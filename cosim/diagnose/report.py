@@ -1,8 +1,6 @@
 """Diagnosis outputs: ``diagnosis.json``, ``report.md``, the PNG figures, the winner's Modelica variant and diff."""
 
 import json
-import shutil
-import tempfile
 from pathlib import Path
 
 import matplotlib
@@ -197,28 +195,16 @@ def _report(diagnosis, figures):
 
 def write_diagnosis(diagnosis, out, source=None):
     """Write ``diagnosis.json``, ``report.md``, PNGs and (when an effect is named) ``modelica/<Pkg>/<file>`` and
-    ``variant.diff`` into ``out`` (replaced atomically; ``out/fmu`` and ``out/rerun``, written by the workflow, are
-    kept)."""
+    ``variant.diff`` into ``out`` (created if missing; :func:`cosim.diagnose.diagnose` gives a staging folder it
+    moves into place, so that no file of the user's is replaced)."""
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=".diagnosis-", dir=out.parent))
-    try:
-        figures = plot_diagnosis(diagnosis, staging)
-        (staging / "diagnosis.json").write_text(json.dumps(diagnosis.to_json(), indent=2) + "\n",
-                                                encoding="utf-8")
-        (staging / "report.md").write_text(_report(diagnosis, figures), encoding="utf-8")
-        if diagnosis.variant_source and source is not None:
-            target = staging / "modelica" / Path(source).parent.name / Path(source).name
-            target.parent.mkdir(parents=True)
-            target.write_text(diagnosis.variant_source, encoding="utf-8")
-            (staging / "variant.diff").write_text(diagnosis.variant_diff, encoding="utf-8")
-        for kept in ("fmu", "rerun"):
-            if (out / kept).is_dir():
-                shutil.move(str(out / kept), staging / kept)
-        if out.exists():
-            shutil.rmtree(out)
-        staging.rename(out)
-    finally:
-        if staging.exists():
-            shutil.rmtree(staging)
+    out.mkdir(parents=True, exist_ok=True)
+    figures = plot_diagnosis(diagnosis, out)
+    (out / "diagnosis.json").write_text(json.dumps(diagnosis.to_json(), indent=2) + "\n", encoding="utf-8")
+    (out / "report.md").write_text(_report(diagnosis, figures), encoding="utf-8")
+    if diagnosis.variant_source and source is not None:
+        target = out / "modelica" / Path(source).parent.name / Path(source).name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_text(diagnosis.variant_source, encoding="utf-8")
+        (out / "variant.diff").write_text(diagnosis.variant_diff, encoding="utf-8")
     return out

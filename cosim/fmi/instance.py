@@ -327,21 +327,29 @@ class FmuInstance:
         if st > 1:
             check("GetEventIndicators", st, self._last_message())
 
+    def free_instance(self):
+        """Terminate and free the instance but keep the FMU unpacked and its library loaded: :meth:`setup` then
+        makes a new instance without loading the FMU again (runs repeated in one process, a campaign's trials)."""
+        fmu = self._fmu
+        if fmu is not None and self.component is not None:
+            if self._initialised and not self._terminated:
+                self._terminated = True
+                try:
+                    fmu.terminate()
+                except Exception:  # terminating a failed instance may fail again; freeing still matters
+                    pass
+            # the raw call: fmpy's freeInstance also unloads the library
+            (fmu.fmi3FreeInstance if self.version == 3 else fmu.fmi2FreeInstance)(fmu.component)
+            self.component = None
+        self._initialised = self._terminated = False
+        self.next_event_time = math.inf
+
     def close(self):
         """Terminate and free the instance, unload the library and delete the unpacked files."""
-        fmu = self._fmu
         try:
-            if fmu is not None and self.component is not None:
-                if self._initialised and not self._terminated:
-                    self._terminated = True
-                    try:
-                        fmu.terminate()
-                    except Exception:  # terminating a failed instance may fail again; freeing still matters
-                        pass
-                fmu.freeInstance()
-                self.component = None
-            if fmu is not None:
-                fmu.freeLibrary()
+            self.free_instance()
+            if self._fmu is not None:
+                self._fmu.freeLibrary()
                 self._fmu = None
         finally:
             shutil.rmtree(self._tmp, ignore_errors=True)

@@ -40,7 +40,8 @@ Tables (all int64 unless said):
     (:mod:`cosim.master.plant`), ``FmuInstance.MAX_EVENT_PASSES``.
 ``st`` (N_ST,)
     run state kept between chunks: k, synced tick, first-chunk flag, error FMU, error function (index
-    in FUNCTIONS; ``terminate``, ``unsettled``, ``chatter`` are event outcomes), error status, number of
+    in FUNCTIONS; ``terminate``, ``unsettled``, ``chatter`` are event outcomes, ``nonfinite`` a NaN or infinite
+    value, state or derivative at the instant ``k``), error status, number of
     events in a row within CHATTER_WINDOW of each other, number of events in the log.
 ``rec`` (n_rows, n_col) float64, ``times`` (n_rows,) float64, ``rows`` (1,)
     the recorder's arrays (:class:`cosim.master.recorder.Recorder`): rows are written at ``rows[0]``.
@@ -87,11 +88,12 @@ ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "ev_count", "n_
 FUNCTIONS = ("SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "SetReal", "DoStep",
              "CompletedIntegratorStep", "DoStep:terminate", "GetEventIndicators", "EnterEventMode",
              "UpdateDiscreteStates", "EnterContinuousTimeMode", "GetContinuousStates", "terminate", "unsettled",
-             "chatter")
-(_FN_GZ, _FN_EEM, _FN_UDS, _FN_ECT, _FN_GX, _FN_TERM, _FN_UNSETTLED, _FN_CHATTER) = range(8, 16)
+             "chatter", "nonfinite")
+(_FN_GZ, _FN_EEM, _FN_UDS, _FN_ECT, _FN_GX, _FN_TERM, _FN_UNSETTLED, _FN_CHATTER, _FN_NONFINITE) = range(8, 17)
 FF = ("t0", "h_max", "event_t", "next_time_event", "event_tol", "chatter_window", "max_events", "max_passes")
 (_T0, _HMAX, _EVT, _TNEXT, _TOL, _WINDOW, _MAXEV, _MAXPASS) = range(len(FF))
 DONE, MORE, ERROR = 0, 1, 2
+_DBL_MAX = 1.7976931348623157e308
 KINDS = ("state", "time", "step", "input")  # event kinds of the event log, as the Python engine's
 (_STATE, _TIME, _STEP, _INPUT) = range(len(KINDS))
 
@@ -102,6 +104,19 @@ def _fail(st, f, fn, status):
     st[_EFN] = fn
     st[_ES] = status
     return True
+
+
+@numba.njit(cache=True, _nrt=False)
+def _nonfinite(buf, W):
+    """True when a value of the signal buffer or a state (row 0 of W) is NaN or infinite (``abs(v) <= DBL_MAX`` is
+    false for those only; or-ed without branches, about 50 ns for the gripper's 31 values). A bad derivative makes
+    the state bad in the same RK4 step (every stage enters the update), so the derivatives need no check."""
+    bad = 0
+    for i in range(buf.shape[0]):
+        bad |= not (abs(buf[i]) <= _DBL_MAX)
+    for i in range(W.shape[1]):
+        bad |= not (abs(W[0, i]) <= _DBL_MAX)
+    return bad != 0
 
 
 @numba.njit(cache=True, _nrt=False)
@@ -567,6 +582,10 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
             if _io(fmu, port, pgrp, 1, buf_addr, True, st):
                 code = ERROR
                 break
+        if _nonfinite(buf, W):  # Python names the value (cosim.master.finite)
+            _fail(st, 0, _FN_NONFINITE, 0)
+            code = ERROR
+            break
         # 5. record
         if k % rec_p == 0:
             times[row] = t

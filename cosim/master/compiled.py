@@ -22,6 +22,7 @@ from cosim.errors import EventError, FmiCallError, SimulationTerminated
 from cosim.fmi import FmuInstance, check
 from cosim.jit import compile_kernel, kernel_problem, native_kernel
 from cosim.master.ckernel import CTL_COLS, DONE, ERROR, FF, FMU_COLS, FUNCTIONS, KINDS, ST, run_chunk
+from cosim.master.finite import nonfinite_error
 from cosim.master.plant import CHATTER_WINDOW, EVENT_TOL, MAX_EVENTS_AT_ONE_TIME
 
 __all__ = ["CompiledLoop", "compiled_problem"]
@@ -128,6 +129,8 @@ class CompiledLoop:
             An FMU asked to terminate.
         cosim.errors.EventError
             An FMU's event iteration did not settle, or events chatter at one instant.
+        cosim.errors.NonFiniteError
+            A value, state or derivative is NaN or infinite at an instant.
         """
         code = run_chunk(*self._args, n)
         self._read_log()
@@ -243,6 +246,9 @@ class CompiledLoop:
 
     def _raise(self):
         st = self.st
+        if FUNCTIONS[int(st[_EFN])] == "nonfinite":
+            t = self.engine.tb.time(int(st[_K]))
+            raise nonfinite_error(self.engine.layout, self.engine.buf, self.plant, t)
         inst = list(self.plant.instances.values())[int(st[_EF])]
         fn = FUNCTIONS[int(st[_EFN])]
         status = int(st[_ES])

@@ -15,13 +15,16 @@ summary.json) when the config itself asks for Python (``jit = false``, a control
 ``step`` in Python, an implicit solver).
 """
 
+import signal
 import time as _time
+import traceback
 import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from cosim.errors import ConfigError, EngineFallbackWarning, SimulationTerminated
+from cosim.errors import ConfigError, EngineFallbackWarning, NonFiniteError, SimulationTerminated
+from cosim.fmi import FmuInstance
 from cosim.master.compiled import CompiledLoop, compiled_problem
 from cosim.master.layout import Layout
 from cosim.master.loop import PythonLoop
@@ -29,7 +32,7 @@ from cosim.master.plant import PlantSystem, python_only_reason
 from cosim.master.recorder import Recorder
 from cosim.master.schedule import TimeBase
 
-__all__ = ["RunResult", "Engine", "engine_for"]
+__all__ = ["RunResult", "Engine", "Interrupt", "engine_for"]
 
 CHUNK = 4096  # instants per loop call: between calls the progress bar moves (about 1-5 ms of the compiled loop)
 
@@ -47,7 +50,7 @@ class RunResult:
     calls : dict of str to int
         Number of ``step`` calls per controller.
     interrupted : bool
-        True when the run was stopped by Ctrl-C (``data`` holds what was recorded until then).
+        True when the run was stopped by Ctrl-C or SIGTERM (``data`` holds what was recorded until then).
     wall_s : float
         Wall time of the loop (s), without loading.
     sim_s : float
@@ -66,8 +69,13 @@ class RunResult:
         ``(time, instance, kind)`` of every FMU event the Python engine handled (see
         :class:`~cosim.master.plant.PlantSystem` ``event_log``).
     stopped : dict or None
-        When an FMU asked to terminate: ``{"by": instance, "time": t, "reason": message}`` (``data``
-        holds what was recorded until then); None otherwise.
+        Why the run ended before its stop time: ``{"by": who, "time": t, "reason": message, "cause": cause}``
+        with cause "terminate" (an FMU asked to; ``by`` the instance), "error" (an exception in the loop, kept
+        with ``Engine.run(faults="keep")``; ``by`` the controller or FMU that raised it, else "master"),
+        "non-finite" (a NaN or infinite value; ``by`` the instance), "SIGINT" (Ctrl-C) or "SIGTERM"/"SIGHUP"
+        (``by`` "user", ``time`` the last row's). ``data`` holds what was recorded until then. None otherwise.
+    fault : Exception or None
+        The exception that stopped the run (cause "error" or "non-finite").
     """
 
     data: np.ndarray
@@ -83,6 +91,7 @@ class RunResult:
     compile_s: float = 0.0
     events: list = field(default_factory=list)
     stopped: dict = None
+    fault: Exception = None
 
     def column(self, name):
         """The recorded column ``name`` as a float array."""
@@ -117,6 +126,8 @@ class Engine:
         ME step bound (s): the fastest clock's period / substeps, or ``solver.max_step``.
     recorder : cosim.master.recorder.Recorder
     loop : PythonLoop or CompiledLoop
+    fmu_pool : cosim.master.plant.FmuPool or None
+        Keeps the FMUs loaded between runs when set (many short runs of one engine); None: each run loads them.
     """
 
     def __init__(self, config, loop=PythonLoop, note="", compile_s=0.0):
@@ -145,6 +156,7 @@ class Engine:
         self.note = note
         self.compile_s = compile_s
         self.loop = loop(self)
+        self.fmu_pool = None
 
     def _progress_bar(self):
         """A tqdm bar on stderr counting simulated seconds."""
@@ -166,13 +178,17 @@ class Engine:
             progress = run.progress if run.progress != "auto" else sum(self.k_stop // p + 1 for p in periods) > 200_000
         return progress
 
-    def run(self, progress=None):
-        """Run from start to stop; a partial result if interrupted by Ctrl-C.
+    def run(self, progress=None, faults="raise"):
+        """Run from start to stop; a partial result if interrupted by Ctrl-C (or SIGTERM, see :class:`Interrupt`).
 
         Parameters
         ----------
         progress : bool or None
             Show a tqdm bar on stderr; None: when the run has more than 200,000 instants.
+        faults : {"raise", "keep"}
+            On an exception in the loop (a controller raising, an FMU error, a non-finite value): "raise" it, or
+            "keep" what was recorded: the result's ``stopped`` says why (cause "error" or "non-finite") and
+            ``fault`` holds the exception.
 
         Returns
         -------
@@ -181,12 +197,11 @@ class Engine:
         cfg, loop = self.config, self.loop
         progress = self._start(progress)
         try:
-            plant = PlantSystem(cfg, self.layout, self.buf)
+            plant = PlantSystem(cfg, self.layout, self.buf, pool=self.fmu_pool)
         except SimulationTerminated as stop:  # an FMU asked to stop during its initialisation: nothing recorded
             return self._result(_stopped(stop, cfg.run.start))
         bar = None
-        interrupted = False
-        stopped = None
+        stopped = fault = None
         wall = 0.0
         compile_s = self.compile_s
         try:
@@ -197,17 +212,49 @@ class Engine:
                 while not loop.run(CHUNK):
                     if bar is not None:
                         bar.update(self.tb.time(loop.tick) - cfg.run.start - bar.n)
-            except KeyboardInterrupt:
-                interrupted = True
+            except KeyboardInterrupt as exc:
+                stopped = _interrupted(exc, self._last_row_time())
             except SimulationTerminated as stop:
                 stopped = _stopped(stop, self.tb.time(loop.tick))
+            except Exception as exc:
+                if faults != "keep":
+                    raise
+                fault = exc
+                stopped = self._fault(exc, self.tb.time(loop.tick))
             finally:
                 wall = _time.perf_counter() - wall0
         finally:
             if bar is not None:
                 bar.close()
             plant.close()
-        return self._result(stopped, interrupted, wall, compile_s, plant.event_log)
+        result = self._result(stopped, stopped is not None and stopped["cause"] in _SIGNALS, wall, compile_s,
+                              plant.event_log)
+        result.fault = fault
+        return result
+
+    def _last_row_time(self):
+        rows = int(self.recorder.rows[0])
+        return float(self.recorder.times[rows - 1]) if rows else self.config.run.start
+
+    def _fault(self, exc, t):
+        """``RunResult.stopped`` of an exception from the loop: who raised it (a controller or an FMU found in
+        the traceback), when, and the message with the file:line where it was raised."""
+        if isinstance(exc, NonFiniteError):
+            return {"by": exc.instance, "time": float(exc.time), "reason": str(exc), "cause": "non-finite"}
+        by = "master"
+        names = {id(c): n for n, c in self.controllers.items()}
+        tb = exc.__traceback__
+        while tb is not None:
+            owner = tb.tb_frame.f_locals.get("self")
+            if id(owner) in names:
+                by = names[id(owner)]
+            elif isinstance(owner, FmuInstance) and by == "master":
+                by = owner.name
+            tb = tb.tb_next
+        where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ is not None else None
+        at = f" ({where.filename}:{where.lineno})" if where is not None and by in names.values() else ""
+        return {"by": by, "time": float(t), "reason": f"{by} raised {type(exc).__name__}: {exc}{at} at t={t:.9g} s",
+                "cause": "error"}
 
     def _result(self, stopped, interrupted=False, wall=0.0, compile_s=None, events=()):
         """The RunResult of what the recorder holds."""
@@ -232,7 +279,32 @@ class Engine:
 def _stopped(stop, t_default):
     """``RunResult.stopped`` of a SimulationTerminated (its time NaN: ``t_default``, the loop's instant)."""
     t = stop.time if stop.time == stop.time else t_default
-    return {"by": stop.instance, "time": float(t), "reason": stop.reason}
+    return {"by": stop.instance, "time": float(t), "reason": stop.reason, "cause": "terminate"}
+
+
+class Interrupt(KeyboardInterrupt):
+    """A signal other than SIGINT turned into an interrupt (``cosim run`` does so for SIGTERM): the run stops
+    as on Ctrl-C, keeping what was recorded.
+
+    Parameters
+    ----------
+    signum : int
+        The signal.
+    """
+
+    def __init__(self, signum):
+        self.signum = signum
+        super().__init__(signal.Signals(signum).name)
+
+
+_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
+
+
+def _interrupted(exc, t_last):
+    """``RunResult.stopped`` of an interrupt: by a signal, at the last recorded row's time."""
+    name = signal.Signals(exc.signum).name if isinstance(exc, Interrupt) else "SIGINT"
+    reason = "interrupted (Ctrl-C)" if name == "SIGINT" else f"terminated by {name}"
+    return {"by": "user", "time": t_last, "reason": reason, "cause": name}
 
 
 def engine_for(config):

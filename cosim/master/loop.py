@@ -6,6 +6,7 @@ The work of one sample instant ``k`` is:
 2. route FMU-to-FMU connections that act at instants (to/from Co-Simulation FMUs);
 3. for each controller due at ``k`` (in dependency order): route its inputs, ``step(t_k)``;
 4. route controller outputs to FMU inputs and send them (zero-order hold until the next instant);
+   stop with a NonFiniteError when a value or state is NaN or infinite (:mod:`cosim.master.finite`);
 5. record a row if the recorder is due;
 6. advance the plant to the next instant (ME: RK4 substeps or an implicit solver; CS: doStep).
 
@@ -16,6 +17,7 @@ kernels), ``run(n)`` (at most ``n`` instants; True when the last one is done), `
 instant) and ``call_counts()``.
 """
 
+from cosim.master.finite import all_finite, nonfinite_error
 from cosim.master.kernels import route
 
 __all__ = ["PythonLoop"]
@@ -76,6 +78,8 @@ class PythonLoop:
                 if has_c2f:
                     route(buf, *c2f)
                 plant.push_instant_inputs()
+            if not all_finite(buf, plant.W):
+                self._nonfinite(t)
             if k % rec_p == 0:
                 recorder.record(t)
             if k >= k_stop:
@@ -90,3 +94,9 @@ class PythonLoop:
             k, t = k_next, t_next
             self.tick = k
         return False
+
+    def _nonfinite(self, t):
+        """Raise the NonFiniteError naming the first non-finite value at instant ``t``."""
+        err = nonfinite_error(self.engine.layout, self.engine.buf, self.plant, t)
+        if err is not None:
+            raise err

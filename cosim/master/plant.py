@@ -30,7 +30,7 @@ from cosim.errors import ConfigError, CosimError, EventError
 from cosim.fmi import FmuInstance
 from cosim.master.kernels import rk4_begin, rk4_final, rk4_stage, route
 
-__all__ = ["PlantSystem", "python_only_reason", "EVENT_TOL", "MAX_EVENTS_AT_ONE_TIME", "CHATTER_WINDOW"]
+__all__ = ["PlantSystem", "FmuPool", "python_only_reason", "EVENT_TOL", "MAX_EVENTS_AT_ONE_TIME", "CHATTER_WINDOW"]
 
 EVENT_TOL = 1e-10  # s: width of the bracket a state event is located to
 MAX_EVENTS_AT_ONE_TIME = 100  # events in a row, each within CHATTER_WINDOW of the last, before EventError
@@ -86,6 +86,34 @@ def _ports(inst, names, layout, buf):
     return out
 
 
+class FmuPool:
+    """FMUs kept loaded from one run to the next (an engine running many short runs: a campaign's trials).
+
+    Loading an FMU (unpacking, reading its description, loading its library) costs tens of ms, a tenth of a
+    short run; a :class:`PlantSystem` given a pool takes its FMUs from it and gives them back freed
+    (:meth:`cosim.fmi.FmuInstance.free_instance`) instead of unloading them.
+    """
+
+    def __init__(self):
+        self._free = {}
+
+    def take(self, spec):
+        """A loaded FMU for ``spec`` (a :class:`cosim.config.FmuSpec`), without an instance."""
+        inst = self._free.pop((spec.name, str(spec.path), spec.kind), None)
+        return inst if inst is not None else FmuInstance(spec.path, name=spec.name, kind=spec.kind)
+
+    def give(self, inst, spec):
+        """Free ``inst``'s instance and keep the FMU loaded for the next :meth:`take` of ``spec``."""
+        inst.free_instance()
+        self._free[(spec.name, str(spec.path), spec.kind)] = inst
+
+    def close(self):
+        """Unload every FMU kept."""
+        for inst in self._free.values():
+            inst.close()
+        self._free = {}
+
+
 class PlantSystem:
     """Instances of every FMU of a config, wired into a signal buffer.
 
@@ -96,6 +124,8 @@ class PlantSystem:
         Where each routed/recorded FMU variable lives in the signal buffer.
     buf : numpy.ndarray
         The master's signal buffer.
+    pool : FmuPool, optional
+        Take the FMUs from it and give them back on :meth:`close` (default: load them, unload on close).
 
     Attributes
     ----------
@@ -113,13 +143,15 @@ class PlantSystem:
         the inputs changed at an instant).
     """
 
-    def __init__(self, config, layout, buf):
+    def __init__(self, config, layout, buf, pool=None):
         self.config = config
         self.solver = config.solver
         self.instances = {}
+        self._pool = pool
         try:
             for name, spec in config.fmus.items():
-                self.instances[name] = FmuInstance(spec.path, name=name, kind=spec.kind)
+                self.instances[name] = pool.take(spec) if pool is not None else FmuInstance(spec.path, name=name,
+                                                                                             kind=spec.kind)
             for name, spec in config.fmus.items():
                 self.instances[name].setup(config.run.start, config.run.stop, spec.parameters, spec.start)
         except Exception:
@@ -497,7 +529,17 @@ class PlantSystem:
                          f"within {64 * EVENT_TOL:g} s of the solver's root")
 
     def close(self):
-        """Free every instance."""
-        for inst in self.instances.values():
-            inst.close()
+        """Free every instance (back to the pool, when given one), also when freeing one fails (each removes its
+        unpacked files whatever happens); the first failure is raised after."""
+        failed = None
+        for name, inst in self.instances.items():
+            try:
+                if self._pool is not None:
+                    self._pool.give(inst, self.config.fmus[name])
+                else:
+                    inst.close()
+            except Exception as exc:  # a failed instance may fail again when freed: free the others first
+                failed = failed or exc
         self.instances = {}
+        if failed is not None:
+            raise failed

@@ -23,6 +23,7 @@ COMMANDS = (
     ("run",),
     ("calibrate",),
     ("diagnose",),
+    ("campaign",),
     ("haptic",),
     ("haptic", "margins"),
     ("haptic", "collisions"),
