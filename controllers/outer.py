@@ -10,9 +10,12 @@ Dead-zone compensation, eq. (1)
     ``i_q,ref = sign(e) i_min`` if ``|e| > e_min`` and ``|i_PID| < i_min``, else ``i_PID``.
 Impact trigger, eq. (2)
     fires when ``w_n <= w_{n-1} <= w_{n-2} <= w_{n-3}`` and ``w_n <= Thr w_{n-3}`` (speeds taken in
-    the closing direction). Assumption (not in the paper): the trigger is armed only once the
-    speed has reached ``arm_fraction`` of the set-point (``w_{n-3} >= arm_fraction w_set``), otherwise
-    a standing start (all samples 0) would satisfy eq. (2).
+    the closing direction), on the same differenced encoder speed at 100 Hz as the PID, unfiltered.
+    Arming (not in eq. (2); the paper switches "following the drive to the desired velocity"): the
+    trigger is armed once a speed sample has reached ``arm_fraction`` of the set speed ``speed_rpm``,
+    and stays armed until it fires; otherwise a standing start (all samples 0) would satisfy eq. (2).
+    After a stiff impact that the four-sample window misses (a one-count step up before the drop, a
+    rebound), eq. (2) fires on a later window, at the latest once the motor stands still.
 Mode switch
     on the trigger the loop switches to current mode with ``i_q,ref = i_tight`` for ``hold_s``
     seconds, then 0 A (release).
@@ -42,7 +45,7 @@ TWO_PI = 2.0 * math.pi
 (_PROF, _KP, _KI, _KD, _IMAX, _IMIN, _EMIN, _THR, _CPT, _WSET, _RAMP, _T0, _ITIGHT, _HOLD, _ARM, _DIR,
  _STEPA, _STEPS, _TOPA) = range(19)
 # state indices
-(_QPREV, _W1, _W2, _W3, _INT, _EPREV, _MODE, _TSW, _N) = range(9)
+(_QPREV, _W1, _W2, _W3, _INT, _EPREV, _MODE, _TSW, _ARMED, _N) = range(10)
 
 
 @numba.njit(cache=True)
@@ -233,9 +236,11 @@ def _outer_kernel(t, u, y, x, p):
         iq = staircase_current(t, t0, p[_STEPA], p[_STEPS], p[_TOPA])
         wset = 0.0
     else:
-        if x[_MODE] == 0.0:
-            # impact trigger, eq. (2)
-            if prof == 0.0 and n >= 4.0 and wset > 0.0 and x[_W3] >= p[_ARM] * wset:
+        if x[_MODE] == 0.0 and prof == 0.0:
+            # impact trigger, eq. (2), armed (latched) once the speed has reached arm_fraction of the set speed
+            if x[_ARMED] == 0.0 and n >= 1.0 and p[_WSET] > 0.0 and w >= p[_ARM] * p[_WSET]:
+                x[_ARMED] = 1.0
+            if x[_ARMED] == 1.0 and n >= 4.0:
                 if w <= x[_W1] and x[_W1] <= x[_W2] and x[_W2] <= x[_W3] and w <= p[_THR] * x[_W3]:
                     x[_MODE] = 1.0
                     x[_TSW] = t

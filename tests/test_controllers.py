@@ -236,6 +236,18 @@ def test_trigger_is_not_armed_at_a_standing_start():
     assert not y[:, 3].any()
 
 
+def test_trigger_fires_after_a_stiff_stop_with_one_count_jitter():
+    # 100 Hz speed samples in encoder counts (2048 cpt: one count a sample = 0.307 rad/s), set speed 341 counts:
+    # the speed alternates 341/342 before contact, the motor stops within a sample, rebounds, stands still.
+    c = 2 * math.pi / 2048 / 0.01
+    counts = [0, 341, 342, 341, 342, 150, -70, -40, 10, 0, 1, 0, 0, 0, 0]
+    y = _feed_speeds(_loop(speed_rpm=341 * c * 60 / (2 * math.pi)), [k * c for k in counts])
+    # armed at n = 1 (341 >= 0.5 x 341). Windows (w_n-3, w_n-2, w_n-1, w_n) up to n = 12 each hold a rise:
+    # n = 5 (342 341 342 150) ... n = 12 (0 1 0 0); n = 13 (1 0 0 0): 0 <= 0 <= 0 <= 1 and 0 <= 0.9 -> switch
+    assert list(y[:, 3]) == [0] * 13 + [1, 1]
+    assert y[13, 4] == pytest.approx(1.0 + 13 * 0.01)
+
+
 def test_dead_zone_compensation_eq1():
     loop = _loop(Kp=1e-4, Ki=0.0, e_min=5.0, i_min=0.2, profile="velocity")
     y = _feed_speeds(loop, [0, 90, 90])  # e = 10 > e_min, |i_PID| = 1e-3 < i_min -> +i_min

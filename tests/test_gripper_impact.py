@@ -38,7 +38,7 @@ def trials(gripper_dir):
 
 
 def _switched(runs):
-    """The trials in which the trigger fired (the others never reach current mode and have no steady force)."""
+    """The trials in which the trigger fired (a trial without the switch has no steady force)."""
     return [t for t in runs if t["t_switch_s"] is not None]
 
 
@@ -55,9 +55,8 @@ def test_peaks_match_the_paper(trials):
 
 @pytest.mark.slow
 def test_steady_forces_match_the_paper(trials):
-    assert len(_switched(trials["P3"])) == PHASES  # the trigger fires in every P3 trial
-    assert len(_switched(trials["bare"])) >= PHASES // 2
     for coating in ("bare", "P3"):
+        assert len(_switched(trials[coating])) == PHASES, coating  # also after a bare bounce or rebound
         steady = np.median([t["steady_force_N"] for t in _switched(trials[coating])])
         assert steady == pytest.approx(PAPER[coating]["steady"], rel=0.15), coating
 
