@@ -1,6 +1,7 @@
 """The ``cosim`` command line: a thin layer that parses arguments and calls one library function per command."""
 
 import argparse
+import signal
 import sys
 from pathlib import Path
 
@@ -235,7 +236,8 @@ def make_parser():
 
 
 def main(argv=None):
-    """Run the CLI; returns the exit status (0 success, 2 bad input or a failed step, 130 interrupted).
+    """Run the CLI; returns the exit status: 0 success, 2 bad input or a failed step, 3 a run stopped by a fault
+    (what it recorded is written), 128 + the signal number when interrupted (130 Ctrl-C, 143 SIGTERM).
 
     Parameters
     ----------
@@ -258,6 +260,8 @@ def main(argv=None):
             raise
         print(f"cosim {args.command}: error: {err}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"cosim {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as interrupt:
+        # Ctrl-C, or SIGTERM/SIGHUP turned into an interrupt: the shell's 128 + signal number
+        signum = getattr(interrupt, "signum", signal.SIGINT)
+        print(f"cosim {args.command}: interrupted ({signal.Signals(signum).name})", file=sys.stderr)
+        return 128 + signum
