@@ -177,7 +177,7 @@ def test_build_non_utf8_source(tmp_path, capsys):
     path = tmp_path / "src" / "M.mo"
     path.write_bytes('model M "r\u00e9sum\u00e9"\n  Real x(start = 1);\nequation\n  der(x) = -x;\nend M;\n'
                      .encode("latin-1"))
-    err = _fails(capsys, ["build", str(path), "--model", "M", "--out", str(tmp_path)])
+    err = _fails(capsys, ["build", str(path), "--model", "M", "--out", str(tmp_path / "fmus")])
     assert f"{path}:1:11: the Modelica source must be UTF-8 text; got byte 0xe9" in err
 
 
@@ -185,7 +185,7 @@ def test_build_out_is_an_existing_file(tmp_path, capsys):
     path = _mo(tmp_path, "model M\n  Real x(start = 1);\nequation\n  der(x) = -x;\nend M;\n")
     (tmp_path / "taken").write_text("mine")
     err = _fails(capsys, ["build", str(path), "--model", "M", "--out", str(tmp_path / "taken")])
-    assert "the output folder is an existing file" in err and (tmp_path / "taken").read_text() == "mine"
+    assert "exists and is not a folder" in err and (tmp_path / "taken").read_text() == "mine"
 
 
 def test_build_recursive_function(tmp_path, capsys):
@@ -204,7 +204,7 @@ def test_build_recursive_function(tmp_path, capsys):
           end M;
         end P;
         """)
-    err = _fails(capsys, ["build", str(path), "--model", "P.M", "--out", str(tmp_path)])
+    err = _fails(capsys, ["build", str(path), "--model", "P.M", "--out", str(tmp_path / "fmus")])
     assert "the recursive function P.f (P.f -> P.f" in err and f"{path}:" in err
 
 
@@ -226,7 +226,7 @@ def test_build_division_by_zero(tmp_path, capsys, model, line, expected):
           end B;
         end P;
         """)
-    err = _fails(capsys, ["build", str(path), "--model", f"P.{model}", "--out", str(tmp_path)])
+    err = _fails(capsys, ["build", str(path), "--model", f"P.{model}", "--out", str(tmp_path / "fmus")])
     assert f"{path}:{line}: P.{model} divides by zero: {expected}" in err
 
 
@@ -335,7 +335,7 @@ def test_build_newton_block_solving_for_a_derivative(tmp_path, capsys):
     from cosim.compile import lower
 
     source = str(EXAMPLES.parent / "tests" / "models" / "compiler" / "CompilerTests.mo")
-    assert main(["build", source, "--model", "CompilerTests.TanhFriction", "--out", str(tmp_path)]) == 0
-    assert "built" in capsys.readouterr().out and (tmp_path / "TanhFriction.fmu").is_file()
+    assert main(["build", source, "--model", "CompilerTests.TanhFriction", "--out", str(tmp_path / "fmus")]) == 0
+    assert "built" in capsys.readouterr().out and (tmp_path / "fmus" / "TanhFriction.fmu").is_file()
     model = lower(source, "CompilerTests.TanhFriction")
     assert model.derivatives(np.array([0.3]), np.zeros(0)).tolist() == [0.0]
