@@ -137,3 +137,33 @@ def test_signature_on_the_impact_is_computed_and_zero_at_the_neutral_value(tmp_p
     assert neutral["computed"] and neutral["max"] < 1e-3
     wide = change_on("gear_play", {"play": 2 * 0.013962634}, {"eta_g": 0.68}, tmp_path / "b")
     assert wide["max_noise_levels"] > 1.0 and wide["signal"] == "F_g" and wide["noise"] == 0.5
+
+
+@pytest.mark.slow
+def test_end_to_end_a_gap_without_a_candidate(tmp_path):
+    """A load-cell offset of the first truth (diagnose_truth.py, an offset of 2-3 N on a short staircase at 0.3 N
+    noise) diagnosed with no candidate offered: the gap is found and reported as unexplained, its size is the
+    baseline's RMSE over the noise used, and report.md opens with verdict, evidence and next step."""
+    import json
+
+    import pandas as pd
+
+    from cosim.diagnose import diagnose
+    from diagnose_truth import make_case, write_job
+
+    t, i, y, truth = make_case("loadcell_filter", np.random.default_rng(8), noise=0.3,
+                               levels=(0.0, 0.5, 1.0, 0.5, 0.0))
+    assert abs(truth["F_off"]) > 2.0  # the drawn offset: well above the noise
+    path = write_job(tmp_path, pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), (), workers=0)
+    diagnose(path, out=tmp_path / "out", overrides=["experiment.duration=3.4"], progress=False, build=False)
+    s = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
+    assert s["effect"] == "none" and s["outcome"] == "unexplained gap" and s["gap_found"]
+    levels = s["rmse_before"] / s["noise"]["used"][0]
+    assert s["gap"]["noise_levels"] == pytest.approx(levels, rel=1e-6)
+    assert s["verdict"].startswith(f"a gap of {levels:.1f} noise levels remains that no effect in the library "
+                                   "explains")
+    assert s["gap"]["where"] and all(0.0 <= w["t0"] < w["t1"] <= t[-1] + 1e-9 for w in s["gap"]["where"])
+    lines = (tmp_path / "out" / "report.md").read_text().splitlines()
+    assert lines[2] == f"**{s['verdict']}**"
+    assert lines[4].startswith("- **evidence**: the baseline's residual is")
+    assert lines[5].startswith("- **next step**: the library lacks the physics of this gap")
