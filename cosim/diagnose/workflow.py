@@ -19,6 +19,9 @@
 4. *Add and show*: the winner's variant is refitted on every cost sample, written into the Modelica source (a
    copy of the package under ``OUT/modelica`` with a diff), built into an FMU and, with the baseline's FMU, re-run
    through the master with the measured inputs; gaps before and after per segment and overall.
+5. *Answer*: the verdict (an effect named; a gap of N noise levels no candidate explains, with where it is; or a
+   baseline within the noise), its evidence and the next step, with the effects plausible but not identifiable on
+   these data and the experiment that would show each (:mod:`cosim.diagnose.advice`).
 
 Repeated trials (``data.records``: several records, each with its own fixed values, e.g. the object's position)
 are diagnosed as one experiment: every fit shares its parameters over the records, their samples are end to end
@@ -52,7 +55,7 @@ from cosim.diagnose.frequency import DEG_PER_DB, FrequencyReplay, frequency_nois
 from cosim.diagnose.result import Candidate, Diagnosis, Noise, RecordSummary, Rerun, SegmentRow, Traces
 
 __all__ = ["Samples", "Split", "Scores", "Decision", "Show", "load_samples", "estimate_noise", "split_segments",
-           "score_candidates", "rivals_of", "decide", "show", "run_diagnosis"]
+           "score_candidates", "rivals_of", "decide", "show", "run_diagnosis", "advise", "answer"]
 
 MIN_QUIET_SAMPLES = 20  # fewer samples in an impact's approach and steady holds: its noise from every sample
 RERUN_HOW = "the built FMUs run by the master (BDF) with the measured inputs played at the data rate"
