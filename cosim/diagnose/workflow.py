@@ -794,8 +794,8 @@ def answer(job, samples, decision, advice, segments, ms_after, gap_removed, cand
         return evidence, step
     if d.gap_found:
         best = max(candidates, key=lambda c: c.score, default=None)
-        where = "; ".join(f"{w['segment']} ({_span(job, w)}): {w['sigmas']:.1f} noise levels, {w['shape']}, "
-                          f"bias {w['bias']:+.3g}{unit}" for w in d.where[:3])
+        where = "; ".join(f"{w['segment']} ({_span(job, w)}): {w['sigmas']:.1f} noise levels, shape {w['shape']}, "
+                          f"mean residual {w['bias']:+.3g}{unit}" for w in d.where[:3])
         evidence = (f"the baseline's residual is {d.gap_levels:.1f} noise levels RMS (mean square {d.mean_square:.3g}"
                     f", chance up to {d.chance:.3g}); {significant} of {len(d.rows)} segments above "
                     f"{job.gap_sigmas:g} noise levels: {where}")
