@@ -167,3 +167,15 @@ def test_end_to_end_a_gap_without_a_candidate(tmp_path):
     assert lines[2] == f"**{s['verdict']}**"
     assert lines[4].startswith("- **evidence**: the baseline's residual is")
     assert lines[5].startswith("- **next step**: the library lacks the physics of this gap")
+
+
+def test_a_residual_above_chance_without_a_significant_segment_is_a_diffuse_gap():
+    """A 1 N bias (2 noise levels) on every hold: mean square about 1 + 4 = 5, far above chance, while no hold
+    reaches 3 noise levels (sqrt(5) = 2.2): not "within the noise", a diffuse gap."""
+    decision, samples = _decide([], bias_on=range(len(LEVELS)), bias=1.0)
+    assert not decision.gap_found and decision.outcome == "diffuse gap"
+    assert decision.gap_levels == pytest.approx(np.sqrt(5.0), rel=0.05)
+    verdict = _verdict(_job(), decision)
+    assert verdict.startswith(f"no effect named: a diffuse gap of {decision.gap_levels:.1f} noise levels RMS")
+    assert "within the noise" not in verdict
+    assert answer(_job(), samples, decision, [], [], decision.mean_square, 0.0)[1].startswith("no segment stands")

@@ -193,7 +193,8 @@ class Diagnosis:
         Modelica text of the package with the winner's variant ("" for none).
     variant_diff : str
     outcome : str
-        "named", "unexplained gap" (a gap no candidate explains) or "within noise".
+        "named", "unexplained gap" (a gap no candidate explains), "diffuse gap" (a residual above chance with no
+        significant segment) or "within noise".
     gap : dict
         The baseline's gap: ``noise_levels`` (RMS residual in noise levels), ``where`` (its significant segments,
         largest first, :func:`~cosim.diagnose.advice.gap_locations`) and ``remaining_noise_levels`` (after the

@@ -527,14 +527,17 @@ def decide(job, samples, noise, split, scores):
     return Decision(rows=rows, shapes=branch_shapes(split.segments, rows, sigma),
                     whiteness=whiteness(residual[0, mask]), cross_correlation=cross, mean_square=ms_baseline,
                     chance=chance, gap_found=gap_found, winner=winner, rivals=rivals,
-                    outcome=_outcome(gap_found, winner), gap_levels=float(np.sqrt(max(ms_baseline, 0.0))),
+                    outcome=_outcome(gap_found, winner, ms_baseline > chance), gap_levels=float(np.sqrt(max(ms_baseline, 0.0))),
                     where=gap_locations(rows),
                     plausible=plausible(scores.candidates, winner, rivals, gap_found, job.min_gap_removed))
 
 
-def _outcome(gap_found, winner):
-    """What the decision says: an effect named, a gap no candidate explains, or a baseline within the noise."""
-    return "named" if winner is not None else "unexplained gap" if gap_found else "within noise"
+def _outcome(gap_found, winner, above_chance):
+    """What the decision says: an effect named, a gap no candidate explains, a residual above chance with no
+    segment significant (a diffuse gap: nothing to locate), or a baseline within the noise."""
+    if winner is not None:
+        return "named"
+    return "unexplained gap" if gap_found else "diffuse gap" if above_chance else "within noise"
 
 
 # -- stage 5: the show ----------------------------------------------------------------------------------------------
@@ -637,6 +640,10 @@ def _verdict(job, decision):
         top = decision.where[0]
         return (f"a gap of {decision.gap_levels:.1f} noise levels remains that no effect in the library explains "
                 f"(largest in {top['segment']}, {_span(job, top)}: {top['sigmas']:.1f} noise levels)")
+    if decision.outcome == "diffuse gap":
+        return (f"no effect named: a diffuse gap of {decision.gap_levels:.1f} noise levels RMS remains (mean square "
+                f"{decision.mean_square:.3g} noise levels squared, chance up to {decision.chance:.3g}), with no "
+                f"segment above {job.gap_sigmas:g} noise levels")
     return (f"no missing effect found: the baseline fits within the noise (mean square {decision.mean_square:.3g} "
             f"noise levels squared, chance up to {decision.chance:.3g}; segments above {job.gap_sigmas:g} noise "
             f"levels: {sum(r['significant'] for r in decision.rows)})")
@@ -813,4 +820,8 @@ def answer(job, samples, decision, advice, segments, ms_after, gap_removed, cand
         return evidence, step
     evidence = (f"mean square {d.mean_square:.3g} noise levels squared (chance up to {d.chance:.3g}); "
                 f"{significant} of {len(d.rows)} segments above {job.gap_sigmas:g} noise levels")
+    if d.outcome == "diffuse gap":
+        return evidence, ("no segment stands out, so no effect can be located: the baseline's error is spread over "
+                          "the record (a gain or a shape its free parameters miss); check the calibration, or "
+                          "measure longer or with less noise until a segment exceeds the noise")
     return evidence, "nothing to add on these data: the baseline explains them to within the noise"
