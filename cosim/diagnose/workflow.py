@@ -810,9 +810,9 @@ def answer(job, samples, decision, advice, segments, ms_after, gap_removed, cand
             f"; the best candidate, {best.effect}, removes {100 * best.score:.0f} % of the held-out gap (naming "
             f"needs {100 * job.min_gap_removed:.0f} %) with ΔBIC {best.delta_bic:.1f} (needs {job.min_delta_bic:g})")
         if advice:
-            step = ("plausible but not identifiable on these data: " + "; ".join(a["why"].join((a["effect"] + " (",
-                    ")")) for a in advice) + ". The experiment that would show it: "
-                    + "; ".join(_shows(a) for a in advice))
+            step = ("plausible but not identifiable on these data: "
+                    + "; ".join(f"{a['effect']} ({a['why']})" for a in advice)
+                    + ". The experiment that would show it: " + "; ".join(_shows(a) for a in advice))
         else:
             step = ("the library lacks the physics of this gap: check the fixed parameters and the data where the "
                     "gap is largest, then write the effect as a candidate (docs/guide/diagnose.md, the effect "
