@@ -135,6 +135,8 @@ def _report(diagnosis, figures):
                          for k, v in params.items() if names is None or k in names)
 
     lines = [f"# Diagnosis: {d.model}", "", f"**{d.verdict}**", ""]
+    if d.evidence:
+        lines += [f"- **evidence**: {d.evidence}", f"- **next step**: {d.next_step}", ""]
     if d.also_explained_by:
         lines += [f"Nearly as good on the held-out segments: {', '.join(d.also_explained_by)} (the data do not "
                   f"tell these apart).", ""]
@@ -159,6 +161,7 @@ def _report(diagnosis, figures):
                   f"{r.rmse_after:.4g}{unit}; max error before {r.max_error_before:.4g}{unit}, after "
                   f"{r.max_error_after:.4g}{unit}; largest difference to the CVODES replay "
                   f"{max(r.max_difference_to_replay_before, r.max_difference_to_replay_after):.3g}{unit}", ""]
+    lines += _not_identifiable(d)
     lines += ["## Candidates", "",
               "Fitted on the even segments, scored on the odd ones (score: fraction of the baseline's held-out gap "
               "above the noise that the candidate removes).", "",
@@ -191,6 +194,23 @@ def _report(diagnosis, figures):
                   "`modelica/` holds the package with the variant; `variant.diff` is the change:", "", "```diff",
                   diagnosis.variant_diff.rstrip(), "```"]
     return "\n".join(lines) + "\n"
+
+
+def _not_identifiable(d):
+    """The section on effects plausible but not identifiable on these data (none: no lines)."""
+    if not d.not_identifiable:
+        return []
+    lines = ["## Plausible but not identifiable on these data", "",
+             "| effect | why | change here [noise levels: RMS, max; segments moved] | experiment that shows it | "
+             "expected change there |", "|---|---|---|---|---|"]
+    for a in d.not_identifiable:
+        h, s = a["change_here"], a["shown_by"]
+        there = (f"{s['rms']:.3g} RMS, {s['max']:.3g} max on {s['signal']} ({s['rms_noise_levels']:.1f}, "
+                 f"{s['max_noise_levels']:.1f} noise levels)" if s["computed"] else f"not computed: {s['why']}")
+        job = f" (`{s['job']}`)" if s["job"] else ""
+        lines.append(f"| {a['effect']} | {a['why']} | {h['rms_noise_levels']:.2g}, {h['max_noise_levels']:.2g}; "
+                     f"{h['segments_moved']} of {h['segments']} | {s['experiment']}{job} | {there} |")
+    return lines + [""]
 
 
 def write_diagnosis(diagnosis, out, source=None):

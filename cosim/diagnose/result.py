@@ -192,6 +192,18 @@ class Diagnosis:
     variant_source : str
         Modelica text of the package with the winner's variant ("" for none).
     variant_diff : str
+    outcome : str
+        "named", "unexplained gap" (a gap no candidate explains), "diffuse gap" (a residual above chance with no
+        significant segment) or "within noise".
+    gap : dict
+        The baseline's gap: ``noise_levels`` (RMS residual in noise levels), ``where`` (its significant segments,
+        largest first, :func:`~cosim.diagnose.advice.gap_locations`) and ``remaining_noise_levels`` (after the
+        winner; the baseline's for "none").
+    not_identifiable : list of dict
+        Effects plausible but not identifiable on these data, each with why, its change here and on the
+        experiment that shows it (:func:`~cosim.diagnose.workflow.advise`).
+    evidence, next_step : str
+        The report's lines under the verdict.
     """
 
     job: str
@@ -230,6 +242,11 @@ class Diagnosis:
     traces: Traces
     variant_source: str = ""
     variant_diff: str = ""
+    outcome: str = "within noise"
+    gap: dict = None
+    not_identifiable: list = ()
+    evidence: str = ""
+    next_step: str = ""
 
     @property
     def rmse_before(self):
@@ -247,7 +264,9 @@ class Diagnosis:
         return _plain({
             "job": self.job, "model": self.model, "data": self.data,
             "records": [asdict(r) for r in self.records],
-            "effect": self.effect, "verdict": self.verdict, "also_explained_by": self.also_explained_by,
+            "effect": self.effect, "verdict": self.verdict, "outcome": self.outcome, "evidence": self.evidence,
+            "next_step": self.next_step, "gap": self.gap, "not_identifiable": list(self.not_identifiable),
+            "also_explained_by": self.also_explained_by,
             "kind": self.kind, "signals": self.signals, "units": self.units, "inputs": self.inputs,
             "input_units": self.input_units, "parameter_units": self.parameter_units,
             "noise": self.noise.to_json(),

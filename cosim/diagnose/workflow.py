@@ -19,6 +19,9 @@
 4. *Add and show*: the winner's variant is refitted on every cost sample, written into the Modelica source (a
    copy of the package under ``OUT/modelica`` with a diff), built into an FMU and, with the baseline's FMU, re-run
    through the master with the measured inputs; gaps before and after per segment and overall.
+5. *Answer*: the verdict (an effect named; a gap of N noise levels no candidate explains, with where it is; or a
+   baseline within the noise), its evidence and the next step, with the effects plausible but not identifiable on
+   these data and the experiment that would show each (:mod:`cosim.diagnose.advice`).
 
 Repeated trials (``data.records``: several records, each with its own fixed values, e.g. the object's position)
 are diagnosed as one experiment: every fit shares its parameters over the records, their samples are end to end
@@ -41,6 +44,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from cosim.diagnose.advice import MAX_ADVISED, change_here, change_on, gap_locations, plausible
 from cosim.diagnose.analysis import (band_shape, branch_shapes, cross_correlation, cut_segments, frequency_bands,
                                      in_segment, noise_level, quiet_phases, segment_table, whiteness)
 from cosim.experiment import Experiment, steady_mask
@@ -51,7 +55,7 @@ from cosim.diagnose.frequency import DEG_PER_DB, FrequencyReplay, frequency_nois
 from cosim.diagnose.result import Candidate, Diagnosis, Noise, RecordSummary, Rerun, SegmentRow, Traces
 
 __all__ = ["Samples", "Split", "Scores", "Decision", "Show", "load_samples", "estimate_noise", "split_segments",
-           "score_candidates", "rivals_of", "decide", "show", "run_diagnosis"]
+           "score_candidates", "rivals_of", "decide", "show", "run_diagnosis", "advise", "answer"]
 
 MIN_QUIET_SAMPLES = 20  # fewer samples in an impact's approach and steady holds: its noise from every sample
 RERUN_HOW = "the built FMUs run by the master (BDF) with the measured inputs played at the data rate"
@@ -164,7 +168,10 @@ class Scores:
 class Decision:
     """The baseline's residual per segment (``rows``, :func:`~cosim.diagnose.analysis.segment_table`), its
     shapes, whiteness and cross-correlation with the input; whether it shows a gap (``mean_square`` in noise
-    levels squared against ``chance``), the ``winner`` (None: "none") and its ``rivals``."""
+    levels squared against ``chance``), the ``winner`` (None: "none") and its ``rivals``; the ``outcome``
+    ("named", "unexplained gap" or "within noise"), the gap's size (``gap_levels``: RMS residual in noise levels)
+    and ``where`` it is (:func:`~cosim.diagnose.advice.gap_locations`), the candidates ``plausible`` but not
+    identifiable here (:func:`~cosim.diagnose.advice.plausible`)."""
 
     rows: list
     shapes: list
@@ -175,6 +182,10 @@ class Decision:
     gap_found: bool
     winner: object
     rivals: list
+    outcome: str = "within noise"
+    gap_levels: float = 0.0
+    where: list = ()
+    plausible: list = ()
 
     @property
     def effect(self):
@@ -512,9 +523,21 @@ def decide(job, samples, noise, split, scores):
     qualified = [c for c in scores.candidates if gap_found and c.score >= job.min_gap_removed
                  and c.delta_bic >= job.min_delta_bic]
     winner = max(qualified, key=lambda c: (c.score, c.delta_bic)) if qualified else None
+    rivals = rivals_of(winner, qualified)
     return Decision(rows=rows, shapes=branch_shapes(split.segments, rows, sigma),
                     whiteness=whiteness(residual[0, mask]), cross_correlation=cross, mean_square=ms_baseline,
-                    chance=chance, gap_found=gap_found, winner=winner, rivals=rivals_of(winner, qualified))
+                    chance=chance, gap_found=gap_found, winner=winner, rivals=rivals,
+                    outcome=_outcome(gap_found, winner, ms_baseline > chance), gap_levels=float(np.sqrt(max(ms_baseline, 0.0))),
+                    where=gap_locations(rows),
+                    plausible=plausible(scores.candidates, winner, rivals, gap_found, job.min_gap_removed))
+
+
+def _outcome(gap_found, winner, above_chance):
+    """What the decision says: an effect named, a gap no candidate explains, a residual above chance with no
+    segment significant (a diffuse gap: nothing to locate), or a baseline within the noise."""
+    if winner is not None:
+        return "named"
+    return "unexplained gap" if gap_found else "diffuse gap" if above_chance else "within noise"
 
 
 # -- stage 5: the show ----------------------------------------------------------------------------------------------
@@ -609,10 +632,18 @@ def show(job, samples, noise, scores, decision, folder, build=True, out=None):
 # -- the result -----------------------------------------------------------------------------------------------------
 
 def _verdict(job, decision):
+    """The first line of the answer: the effect named, the gap no candidate explains (its size and where it is
+    largest), or a baseline within the noise."""
     if decision.winner is not None:
         return f"missing effect: {decision.effect} ({_title(decision.effect)})"
     if decision.gap_found:
-        return "no missing effect found"
+        top = decision.where[0]
+        return (f"a gap of {decision.gap_levels:.1f} noise levels remains that no effect in the library explains "
+                f"(largest in {top['segment']}, {_span(job, top)}: {top['sigmas']:.1f} noise levels)")
+    if decision.outcome == "diffuse gap":
+        return (f"no effect named: a diffuse gap of {decision.gap_levels:.1f} noise levels RMS remains (mean square "
+                f"{decision.mean_square:.3g} noise levels squared, chance up to {decision.chance:.3g}), with no "
+                f"segment above {job.gap_sigmas:g} noise levels")
     return (f"no missing effect found: the baseline fits within the noise (mean square {decision.mean_square:.3g} "
             f"noise levels squared, chance up to {decision.chance:.3g}; segments above {job.gap_sigmas:g} noise "
             f"levels: {sum(r['significant'] for r in decision.rows)})")
@@ -631,13 +662,16 @@ def _segment_rows(samples, noise, split, job, rows, after):
                  for rb, ra in zip(rows, rows_after))
 
 
-def _diagnosis(job, samples, noise, split, scores, decision, shown):
-    """The stages' results as a :class:`Diagnosis`."""
+def _diagnosis(job, samples, noise, split, scores, decision, shown, advice=()):
+    """The stages' results as a :class:`Diagnosis`, with the answer a user acts on (:func:`answer`)."""
     s, base, final = samples, scores.base, shown.final
     y, mask, model, frequency = s.measured, s.mask, s.model, job.kind == "frequency"
     rmse_before, max_before = _rmse(base["predicted"], y, mask)
     rmse_after, max_after = _rmse(shown.after, y, mask)
     ms_after, ms_baseline = _ms(shown.after, y, noise.weights, mask), decision.mean_square
+    segments = _segment_rows(s, noise, split, job, decision.rows, shown.after)
+    gap_removed = float(1 - (ms_after - 1) / (ms_baseline - 1)) if ms_baseline > 1 else 0.0
+    evidence, next_step = answer(job, s, decision, advice, segments, ms_after, gap_removed, scores.candidates)
     return Diagnosis(
         job=str(job.path), model=job.model, data=str(job.data_path),
         records=tuple(RecordSummary(path=str(path), parameters=trial, samples=len(r.time), compared=int(p.sum()),
@@ -650,10 +684,10 @@ def _diagnosis(job, samples, noise, split, scores, decision, shown):
         parameter_units={**{p.name: p.unit for p in model.parameters}, **_effect_units(job.effects)},
         noise=noise, rmse_before_per_signal=rmse_before, rmse_after_per_signal=rmse_after,
         max_error_before=max_before[0], max_error_after=max_after[0],
-        gap_removed=float(1 - (ms_after - 1) / (ms_baseline - 1)) if ms_baseline > 1 else 0.0,
+        gap_removed=gap_removed,
         baseline_parameters=base["parameters"], baseline_free={n: list(v) for n, v in job.free.items()},
         after_parameters=final["parameters"] if final else None, fmu=shown.fmu, rerun=shown.rerun,
-        segments=_segment_rows(s, noise, split, job, decision.rows, shown.after),
+        segments=segments,
         gap_found=decision.gap_found, baseline_mean_square=ms_baseline, shapes=decision.shapes,
         whiteness=decision.whiteness, input_cross_correlation=decision.cross_correlation,
         fold_samples=[int(train.sum()) for train, _ in split.folds],
@@ -663,7 +697,10 @@ def _diagnosis(job, samples, noise, split, scores, decision, shown):
         traces=Traces(time=s.time, inputs=np.zeros((len(s.time), 0)) if frequency else s.experiment.inputs,
                       measured=y, before=base["predicted"], after=shown.after, mask=mask,
                       candidate_predictions={name: pair[0]["predicted"] for name, pair in scores.fits.items()}),
-        variant_source=shown.variant_source, variant_diff=shown.variant_diff)
+        variant_source=shown.variant_source, variant_diff=shown.variant_diff,
+        outcome=decision.outcome, gap={"noise_levels": decision.gap_levels, "where": list(decision.where),
+                                       "remaining_noise_levels": float(np.sqrt(max(ms_after, 0.0)))},
+        not_identifiable=list(advice), evidence=evidence, next_step=next_step)
 
 
 def run_diagnosis(job, progress=True, build=True, out=None):
@@ -697,4 +734,94 @@ def run_diagnosis(job, progress=True, build=True, out=None):
         scores = score_candidates(job, samples, noise, split, base, Path(scratch), progress)
         decision = decide(job, samples, noise, split, scores)
         shown = show(job, samples, noise, scores, decision, Path(scratch), build, out)
-    return _diagnosis(job, samples, noise, split, scores, decision, shown)
+        advice = advise(job, samples, noise, split, scores, decision, Path(scratch))
+    return _diagnosis(job, samples, noise, split, scores, decision, shown, advice)
+
+
+# -- the answer a user acts on -------------------------------------------------------------------------------------
+
+def advise(job, samples, noise, split, scores, decision, folder):
+    """The plausible effects the data cannot identify (:func:`~cosim.diagnose.advice.plausible`, at most
+    ``MAX_ADVISED``), each with why, its change on the data given and on the experiment that shows it
+    (:func:`~cosim.diagnose.advice.change_on`, variants written into ``folder``); a list of dicts."""
+    segments = [in_segment(samples.time, seg) for seg in split.segments]
+    base = scores.fits["baseline"][0]["predicted"] if scores.fits else scores.base["predicted"]
+    out = []
+    for c in decision.plausible[:MAX_ADVISED]:
+        why = (f"the held-out segments do not tell it from {decision.effect}" if decision.winner is not None else
+               f"it removes {100 * c.score:.0f} % of the held-out gap (naming needs {100 * job.min_gap_removed:.0f} "
+               f"%) with ΔBIC {c.delta_bic:.1f} (needs {job.min_delta_bic:g})")
+        here = change_here(scores.fits[c.effect][0]["predicted"], base, noise.weights, samples.mask, segments)
+        values = {n: c.parameters[n] for n in c.added_parameters if n in c.parameters}
+        shown = change_on(c.effect, values, scores.base["parameters"], folder / f"advice_{c.effect}",
+                          this=(job.kind, job.model))
+        out.append({"effect": c.effect, "title": _title(c.effect), "why": why, "score": c.score,
+                    "delta_bic": c.delta_bic, "parameters": values, "change_here": here, "shown_by": shown})
+    return out
+
+
+def _span(job, where):
+    """A segment's extent as words: time for a time series, frequency for a frequency response."""
+    if job.kind == "frequency":
+        return f"{where['t0']:.3g}-{where['t1']:.3g} Hz"
+    return f"t = {where['t0']:.4g}-{where['t1']:.4g} s"
+
+
+def _shows(entry):
+    """The experiment that would show an advised effect and its computed change there, as words."""
+    shown = entry["shown_by"]
+    text = f"{entry['effect']}: {shown['experiment']}"
+    if shown["job"]:
+        text += f" (`{Path(shown['job']).name}`)"
+    if shown["computed"]:
+        return (text + f", where at the size fitted here it changes {shown['signal']} by {shown['rms']:.3g} RMS, "
+                f"{shown['max']:.3g} at most ({shown['rms_noise_levels']:.1f} and {shown['max_noise_levels']:.1f} "
+                f"noise levels of that job)")
+    return text + f" (change not computed: {shown['why']})"
+
+
+def answer(job, samples, decision, advice, segments, ms_after, gap_removed, candidates=()):
+    """The evidence behind the verdict and the next step, one paragraph each (the report's first lines);
+    ``segments``: the :class:`SegmentRow` table before and after the winner, ``candidates``: the scored ones."""
+    d, unit = decision, f" {samples.units[0]}" if samples.units and samples.units[0] else ""
+    significant = sum(r["significant"] for r in d.rows)
+    if d.winner is not None:
+        w = d.winner
+        left = [r for r in segments if r.significant_after]
+        evidence = (f"{w.effect} removes {100 * w.score:.0f} % of the baseline's gap on held-out segments "
+                    f"(ΔBIC {w.delta_bic:.1f}); refitted on every segment it removes {100 * gap_removed:.0f} % of "
+                    f"the gap above the noise ({d.gap_levels:.1f} -> {np.sqrt(max(ms_after, 0.0)):.1f} noise levels)")
+        if left:
+            evidence += (f"; {len(left)} segment(s) stay above {job.gap_sigmas:g} noise levels, largest "
+                         f"{max(left, key=lambda r: r.rmse_after * r.sigmas / r.rmse_before).segment}")
+        step = (f"add {w.effect} to the model: the variant is in OUT/modelica and OUT/variant.diff; calibrate it "
+                f"with its parameters free")
+        if advice:
+            step += ". To tell it from " + "; ".join(_shows(a) for a in advice)
+        return evidence, step
+    if d.gap_found:
+        best = max(candidates, key=lambda c: c.score, default=None)
+        where = "; ".join(f"{w['segment']} ({_span(job, w)}): {w['sigmas']:.1f} noise levels, shape {w['shape']}, "
+                          f"mean residual {w['bias']:+.3g}{unit}" for w in d.where[:3])
+        evidence = (f"the baseline's residual is {d.gap_levels:.1f} noise levels RMS (mean square {d.mean_square:.3g}"
+                    f", chance up to {d.chance:.3g}); {significant} of {len(d.rows)} segments above "
+                    f"{job.gap_sigmas:g} noise levels: {where}")
+        evidence += "" if best is None else (
+            f"; the best candidate, {best.effect}, removes {100 * best.score:.0f} % of the held-out gap (naming "
+            f"needs {100 * job.min_gap_removed:.0f} %) with ΔBIC {best.delta_bic:.1f} (needs {job.min_delta_bic:g})")
+        if advice:
+            step = ("plausible but not identifiable on these data: "
+                    + "; ".join(f"{a['effect']} ({a['why']})" for a in advice)
+                    + ". The experiment that would show it: " + "; ".join(_shows(a) for a in advice))
+        else:
+            step = ("the library lacks the physics of this gap: check the fixed parameters and the data where the "
+                    "gap is largest, then write the effect as a candidate (docs/guide/diagnose.md, the effect "
+                    "library) and run the diagnosis again")
+        return evidence, step
+    evidence = (f"mean square {d.mean_square:.3g} noise levels squared (chance up to {d.chance:.3g}); "
+                f"{significant} of {len(d.rows)} segments above {job.gap_sigmas:g} noise levels")
+    if d.outcome == "diffuse gap":
+        return evidence, ("no segment stands out, so no effect can be located: the baseline's error is spread over "
+                          "the record (a gain or a shape its free parameters miss); check the calibration, or "
+                          "measure longer or with less noise until a segment exceeds the noise")
+    return evidence, "nothing to add on these data: the baseline explains them to within the noise"
