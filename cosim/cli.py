@@ -142,6 +142,9 @@ def _cmd_diagnose(args):
     result = diagnose(args.job, out=out, overrides=args.set, progress=not args.no_progress,
                       build=not args.no_build, force=args.force)
     print(result.verdict)
+    for label, text in (("evidence", result.evidence), ("next step", result.next_step)):
+        if text:
+            print(f"{label}: {text}")
     unit = f" {result.units[0]}" if result.units[0] else ""
     print(f"{result.signals[0]}, measured vs replayed model: RMSE {result.rmse_before:.4g} -> "
           f"{result.rmse_after:.4g}{unit}, max error {result.max_error_before:.4g} -> "
