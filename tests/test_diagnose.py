@@ -15,7 +15,7 @@ import pytest
 
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis
 from cosim.diagnose.analysis import _best_lag, cut_segments, noise_level, whiteness
-from cosim.diagnose.effects import variant_text
+from cosim.diagnose.effects import applicable, variant_text
 from cosim.diagnose.workflow import rivals_of
 from cosim.errors import ConfigError
 from cosim.experiment import steady_mask
@@ -24,6 +24,7 @@ from diagnose_truth import SOURCE, make_case, write_job
 CANDIDATES = ("backdrive_efficiency", "loadcell_filter")
 EXPECTED = {"Gripper.GripperCurrentDriven": ["backdrive_efficiency", "load_dependent_friction", "stiction", "cogging",
                                              "loadcell_filter", "contact_damping", "gear_play", "coating_relaxation"]}
+LIBRARY = applicable(SOURCE.read_text(encoding="utf-8"), "Gripper.GripperCurrentDriven")  # every effect that applies
 
 
 def _write_job(folder, frame, effects=CANDIDATES, workers=2, extra=""):
@@ -208,14 +209,15 @@ def test_records_job_errors_name_the_key(tmp_path):
 
 # -- hidden-effect cases ------------------------------------------------------------------------------------------
 
-# Seeds: 2 gives eta_b = eta_d - 0.13; 8 gives a 2.7 N load-cell offset (offsets near 1 N are comparable to the
-# baseline's model-form floor against the quasi-static truth, 0.5-1 N, and are named but with < 80 % of the gap
-# removed: docs/dev/diagnose-history.md).
-@pytest.mark.parametrize("effect, seed", [("backdrive_efficiency", 2), ("loadcell_filter", 8), ("none", 1)])
+# The seeds were drawn once at random (python -c "import secrets; print(secrets.randbelow(2**31))"), not picked for
+# the workflow's success; a failing draw is a finding, not a reason to draw again. Every case is offered the whole
+# effect library of the model.
+@pytest.mark.parametrize("effect, seed", [("backdrive_efficiency", 1965006390), ("loadcell_filter", 470831167),
+                                          ("none", 1621119728)])
 @pytest.mark.slow
 def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     frame, truth = _case_frame(effect, seed)
-    job = load_diagnose_job(_write_job(tmp_path, frame))
+    job = load_diagnose_job(_write_job(tmp_path, frame, effects=LIBRARY))
     rebuild = effect == "backdrive_efficiency"  # one case also builds the FMUs and re-runs them through the master
     result = run_diagnosis(job, progress=False, build=rebuild, out=tmp_path / "out")
     s = result.to_json()

@@ -8,8 +8,11 @@
 2. *Locate*: the experiment is cut into its natural segments (holds, impact phases, frequency bands); each
    segment's residual is compared with the noise and given a shape; whiteness and cross-correlation with the
    input are reported.
-3. *Name*: every candidate effect is written as a Modelica variant of the baseline, calibrated on the even
-   segments (with the baseline's parameters free as well), and scored on the odd segments it was not fitted on:
+3. *Name*: every candidate effect is written as a Modelica variant of the baseline and screened from the
+   baseline's fit on every cost sample: the chi-square one bounded Gauss-Newton step predicts, the baseline's
+   Jacobian columns from its fit and the effect's by forward differences (a score test of the nested effect, no
+   fit). The ``REFIT_BEST`` with the best predicted BIC are calibrated on the even segments (with the baseline's
+   parameters free as well), and scored on the odd segments they were not fitted on:
    ``score`` = fraction of the baseline's held-out excess gap (mean square residual above the noise) that the
    candidate removes; BIC and a likelihood-ratio test on the fitted segments give the evidence against noise.
    Candidates run in parallel (Dask). The winner is the best-scoring candidate that removes at least
@@ -286,13 +289,17 @@ def _free_at(job, fit):
     return {n: (fit["parameters"][n], lo, hi) for n, (_, lo, hi) in job.free.items()}
 
 
-def _restart_baseline(job, model, records, fit, starts, weights, mask):
-    """The best of ``fit`` (a baseline fit on ``mask``) and refits of the baseline from each of ``starts`` (fits
-    whose values of the baseline's free parameters start the refit)."""
-    best = fit
-    for other in starts:
-        refit = _fit(model, records, job, _free_at(job, other), weights, mask, "baseline")
-        best = refit if refit["chi2"] < best["chi2"] else best
+def _restart_baseline(job, groups, weights, progress):
+    """For each (fit, mask, starts) of ``groups`` (a baseline fit on ``mask`` and fits whose values of the
+    baseline's free parameters start refits of it), the best of the fit and its refits; the refits of every group
+    run in parallel."""
+    tasks = [{"job": job, "effect": "baseline", "variant_path": str(job.source), "variant_model": job.model,
+              "baseline": {}, "weights": weights, "mask": mask, "start": _free_at(job, other), "group": g}
+             for g, (_, mask, starts) in enumerate(groups) for other in starts]
+    best = [fit for fit, _, _ in groups]
+    for task, refit in zip(tasks, _run_tasks(job, tasks, progress, desc="baseline restarts")):
+        if refit["chi2"] < best[task["group"]]["chi2"]:
+            best[task["group"]] = refit
     return best
 
 
@@ -462,7 +469,6 @@ def _fold_fits(job, samples, weights, folds, base, candidates, progress):
     samples, the baseline restarted from candidates that beat it and stalled candidates from the baseline;
     returns the fits ("baseline" and each candidate -> [fold 0, fold 1]) and ``base``, refitted when a restart
     moved a fold's baseline."""
-    s = samples
     base_free = _free_at(job, base)
     tasks = [{"job": job, "effect": "baseline", "variant_path": str(job.source), "variant_model": job.model,
               "baseline": base_free, "weights": weights, "mask": train, "fold": f}
@@ -476,10 +482,10 @@ def _fold_fits(job, samples, weights, folds, base, candidates, progress):
     # baseline's own fit missed (an impact's cost is rough: the held force jumps with where the motor sticks).
     # The baseline is refitted from the values of every candidate that beats it by more than min_delta_bic on
     # the same samples, so that no candidate wins by a better start.
-    restarted = []
-    for f, (fit, (train, _)) in enumerate(zip(results["baseline"], folds)):
-        better = [results[n][f] for n in names if results[n][f]["chi2"] < fit["chi2"] - job.min_delta_bic]
-        restarted.append(_restart_baseline(job, s.model, s.records, fit, better, weights, train))
+    restarted = _restart_baseline(job, [(fit, train, [results[n][f] for n in names if results[n][f]["chi2"] <
+                                                     fit["chi2"] - job.min_delta_bic])
+                                        for f, (fit, (train, _)) in enumerate(zip(results["baseline"], folds))],
+                                  weights, progress)
     moved = [new for new, old in zip(restarted, results["baseline"]) if new is not old]
     results["baseline"] = restarted
     # The other way round: a candidate fitting a fold worse than the (restarted) baseline stalled (a
@@ -492,7 +498,7 @@ def _fold_fits(job, samples, weights, folds, base, candidates, progress):
         if retry["chi2"] < results[task["effect"]][task["fold"]]["chi2"]:
             results[task["effect"]][task["fold"]] = retry
     if moved:
-        base = _restart_baseline(job, s.model, s.records, base, moved, weights, s.mask)
+        base = _restart_baseline(job, [(base, samples.mask, moved)], weights, progress)[0]
     return results, base
 
 
@@ -597,18 +603,15 @@ def _build_folder(out):
 
 def _final_fit(job, samples, noise, winner, path, variant):
     """The winner's variant refitted on every cost sample, from the mean of its two folds' values (and from each
-    fold's when they found different minima); the best fit."""
-    from cosim.compile import lower
-    from cosim.diagnose.job import load_records
-
-    vmodel = lower(path, variant)
+    fold's when they found different minima, in parallel); the best fit."""
     folds_fit = (winner.parameters, winner.parameters_other_fold)
     starts = [{n: 0.5 * (folds_fit[0][n] + folds_fit[1][n]) for n in folds_fit[0]}]
     if any(abs(folds_fit[0][n] - folds_fit[1][n]) > 0.1 * abs(starts[0][n]) for n in folds_fit[0]):
         starts += folds_fit  # the folds found different minima: their mean may lie in neither basin
-    variant_records = load_records(job, vmodel)
-    return min((_fit(vmodel, variant_records, job, {n: (v, *winner.free[n][1:]) for n, v in start.items()},
-                     noise.weights, samples.mask, winner.effect) for start in starts), key=lambda fit: fit["chi2"])
+    tasks = [{"job": job, "effect": winner.effect, "variant_path": str(path), "variant_model": variant,
+              "baseline": {}, "weights": noise.weights, "mask": samples.mask,
+              "start": {n: (v, *winner.free[n][1:]) for n, v in start.items()}} for start in starts]
+    return min(_run_tasks(job, tasks, False, desc="final fit"), key=lambda fit: fit["chi2"])
 
 
 def _rerun_both(job, samples, base, final, variant_path, variant, folder):
