@@ -453,15 +453,14 @@ def _screen(job, samples, weights, base, folder, progress):
                       "baseline": base_free, "weights": weights, "mask": samples.mask,
                       "columns": {n: base["columns"][n] for n in job.free}})
     results = _run_tasks(job, tasks, progress, _screen_candidate, "screening candidates")
-    screen = {task["effect"]: {"chi2": r["chi2"], "predicted": r["predicted"], "start": r["start"],
+    screen = {task["effect"]: {"chi2": r["chi2"], "predicted": r["predicted"],
                                "delta_bic": base["chi2"] - r["predicted"]
                                - len(_added_parameters(task["effect"])) * np.log(samples.n_fit)}
               for task, r in zip(tasks, results)}
     best = sorted(screen, key=lambda name: -screen[name]["delta_bic"])[:REFIT_BEST]
     for name, entry in screen.items():
         entry["refitted"] = name in best
-    return screen, [{**task, "start": screen[task["effect"]].pop("start")} for task in tasks
-                    if task["effect"] in best]
+    return screen, [{**task, "start": r["start"]} for task, r in zip(tasks, results) if task["effect"] in best]
 
 
 def _fold_fits(job, samples, weights, folds, base, candidates, progress):
