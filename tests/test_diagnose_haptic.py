@@ -146,7 +146,11 @@ def test_noise_estimate_matches_the_true_scatter():
 # the workflow's success; a failing draw is a finding, not a reason to draw again. HAPTIC is the whole library of
 # Haptic.Device7.
 @pytest.mark.parametrize("effect, seed", [("none", 1163582361), ("hand_mass", 1731260208),
-                                          ("vibration_mode", 1704698810), ("loop_delay", 1890363567)])
+                                          # finding of the drawn seed, with and without the screen: the mode is
+                                          # named but fitted at 35.5 Hz against the truth's 44.8 Hz
+                                          pytest.param("vibration_mode", 1704698810, marks=pytest.mark.xfail(
+                                              strict=True, reason="mode frequency 21 % off")),
+                                          ("loop_delay", 1890363567)])
 @pytest.mark.slow
 def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     frame, truth = make_case(effect, np.random.default_rng(seed))

@@ -232,7 +232,9 @@ def test_shipped_speed_job_loads_the_speed_run():
     ("gear_play", 758604987, 1),
     ("contact_damping", 1424536644, 1),
     ("coating_relaxation", 1660404856, 1),
-    ("cogging", 1974176483, 3),
+    # finding of the drawn seed (docs/dev/diagnose-history.md, "Speed (issue 32)"): the baseline fits the three
+    # impacts within the noise (mean square 0.706 noise levels squared), so no gap is found and "none" is answered
+    pytest.param("cogging", 1974176483, 3, marks=pytest.mark.xfail(strict=True, reason="detent below the noise")),
     ("load_dependent_friction", 847392348, 1),
     ("none", 1955914767, 1),
 ])
