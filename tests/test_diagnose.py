@@ -15,7 +15,7 @@ import pytest
 
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis
 from cosim.diagnose.analysis import _best_lag, cut_segments, noise_level, whiteness
-from cosim.diagnose.effects import variant_text
+from cosim.diagnose.effects import applicable, variant_text
 from cosim.diagnose.workflow import rivals_of
 from cosim.errors import ConfigError
 from cosim.experiment import steady_mask
@@ -24,6 +24,7 @@ from diagnose_truth import SOURCE, make_case, write_job
 CANDIDATES = ("backdrive_efficiency", "loadcell_filter")
 EXPECTED = {"Gripper.GripperCurrentDriven": ["backdrive_efficiency", "load_dependent_friction", "stiction", "cogging",
                                              "loadcell_filter", "contact_damping", "gear_play", "coating_relaxation"]}
+LIBRARY = applicable(SOURCE.read_text(encoding="utf-8"), "Gripper.GripperCurrentDriven")  # every effect that applies
 
 
 def _write_job(folder, frame, effects=CANDIDATES, workers=2, extra=""):
@@ -126,6 +127,30 @@ def test_staircase_segments_are_the_holds():
     assert [s.level for s in segs] == [0.0, 1.0, 2.0, 1.0, 0.0]
 
 
+def test_linearised_fit_of_a_linear_replay_is_its_least_squares_fit():
+    """The screen's one Gauss-Newton step is exact on outputs linear in the parameters: the predicted chi-square is
+    the least-squares minimum (numpy's lstsq), with a bound active the fit of the other column alone; a column given
+    (the baseline's from its fit) is used instead of a difference."""
+    from cosim.diagnose.fitting import linearised_fit
+
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(2, 40))
+    replay = SimpleNamespace(free=["p", "q"], scale=np.array([2.0, 0.5]),
+                             evaluate=lambda x: (a.T @ (x * np.array([2.0, 0.5])))[None, :])
+    measured = (a.T @ [1.0, -0.3])[None, :] + rng.normal(0.0, 0.1, (1, 40))
+    weights, mask = np.array([10.0]), np.ones(40, bool)
+    free = linearised_fit(replay, measured, weights, mask, [0.5, 0.5], ([-5.0, -5.0], [5.0, 5.0]), {})
+    best = np.linalg.lstsq(10 * a.T, 10 * measured[0], rcond=None)
+    np.testing.assert_allclose(free["predicted"], best[1][0], rtol=1e-6)
+    np.testing.assert_allclose([free["parameters"]["p"], free["parameters"]["q"]], best[0], rtol=1e-6)
+    bounded = linearised_fit(replay, measured, weights, mask, [0.5, 0.5], ([-5.0, 0.0], [5.0, 5.0]),
+                             {"p": 10 * a[0]})  # d(weighted residual)/dp: weight times p's outputs
+    alone = np.linalg.lstsq(10 * a[:1].T, 10 * measured[0], rcond=None)
+    np.testing.assert_allclose(bounded["predicted"], alone[1][0], rtol=1e-6)
+    np.testing.assert_allclose(bounded["parameters"]["p"], alone[0][0], rtol=1e-6)
+    assert bounded["parameters"]["q"] == pytest.approx(0.0, abs=1e-9) and bounded["replays"] == 2
+
+
 def test_a_rival_must_also_leave_a_residual_like_the_winners():
     """'Also explained by' asks for a score within 0.1 of the winner's and a held-out mean square within 1.5 times
     its own. Numbers of two shipped demos (held-out mean squares in noise units from their RMSE after and the
@@ -208,14 +233,15 @@ def test_records_job_errors_name_the_key(tmp_path):
 
 # -- hidden-effect cases ------------------------------------------------------------------------------------------
 
-# Seeds: 2 gives eta_b = eta_d - 0.13; 8 gives a 2.7 N load-cell offset (offsets near 1 N are comparable to the
-# baseline's model-form floor against the quasi-static truth, 0.5-1 N, and are named but with < 80 % of the gap
-# removed: docs/dev/diagnose-history.md).
-@pytest.mark.parametrize("effect, seed", [("backdrive_efficiency", 2), ("loadcell_filter", 8), ("none", 1)])
+# The seeds were drawn once at random (python -c "import secrets; print(secrets.randbelow(2**31))"), not picked for
+# the workflow's success; a failing draw is a finding, not a reason to draw again. Every case is offered the whole
+# effect library of the model.
+@pytest.mark.parametrize("effect, seed", [("backdrive_efficiency", 1965006390), ("loadcell_filter", 470831167),
+                                          ("none", 1621119728)])
 @pytest.mark.slow
 def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     frame, truth = _case_frame(effect, seed)
-    job = load_diagnose_job(_write_job(tmp_path, frame))
+    job = load_diagnose_job(_write_job(tmp_path, frame, effects=LIBRARY))
     rebuild = effect == "backdrive_efficiency"  # one case also builds the FMUs and re-runs them through the master
     result = run_diagnosis(job, progress=False, build=rebuild, out=tmp_path / "out")
     s = result.to_json()

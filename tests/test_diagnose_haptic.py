@@ -142,7 +142,15 @@ def test_noise_estimate_matches_the_true_scatter():
 
 # -- hidden effects ----------------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("effect, seed", [("none", 1), ("hand_mass", 1), ("vibration_mode", 1), ("loop_delay", 1)])
+# The seeds were drawn once at random (python -c "import secrets; print(secrets.randbelow(2**31))"), not picked for
+# the workflow's success; a failing draw is a finding, not a reason to draw again. HAPTIC is the whole library of
+# Haptic.Device7.
+@pytest.mark.parametrize("effect, seed", [("none", 1163582361), ("hand_mass", 1731260208),
+                                          # finding of the drawn seed, with and without the screen: the mode is
+                                          # named but fitted at 35.5 Hz against the truth's 44.8 Hz
+                                          pytest.param("vibration_mode", 1704698810, marks=pytest.mark.xfail(
+                                              strict=True, reason="mode frequency 21 % off")),
+                                          ("loop_delay", 1890363567)])
 @pytest.mark.slow
 def test_workflow_names_the_hidden_effect(effect, seed, tmp_path):
     frame, truth = make_case(effect, np.random.default_rng(seed))

@@ -17,6 +17,7 @@ import pytest
 from cosim.compile import lower
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis, write_variant
 from cosim.diagnose.analysis import noise_level, quiet_phases
+from cosim.diagnose.effects import applicable
 from cosim.diagnose.fitting import Replay
 from cosim.experiment import Experiment
 from diagnose_truth_impact import (CONDITION, COUNTS, CURRENT_NOISE, DURATION, F_GUIDE, FORCE_NOISE, I_STEP,
@@ -30,6 +31,8 @@ SOURCE = ROOT / "modelica" / "Gripper" / "package.mo"
 MODEL = "Gripper.GripperCurrentDriven"
 BARE = {"gap0": 0.005, "t_coat": 0.0, "k_obj": 3.53e7, "k_P": 1e12, "C_p": 2000.0, "C_h": 2000.0}
 COUNT = 2 * math.pi / COUNTS  # rad, one encoder count
+LIBRARY = applicable(SOURCE.read_text(encoding="utf-8"), MODEL)  # every effect that applies
+SPEED_LIBRARY = applicable(SOURCE.read_text(encoding="utf-8"), "Gripper.GripperSpeedControlled")
 
 
 def _experiment():
@@ -220,22 +223,25 @@ def test_shipped_speed_job_loads_the_speed_run():
     assert [h.level for h in holds] == [2.0, 3.5, 2.5, 4.0]
 
 
-# One random case per effect, against the effect and the candidate that came closest to it in the benchmark
-# (benchmarks/diagnose_impact.py runs the whole library on many cases); two candidates keep the file under 5 min.
-# Cogging is diagnosed over three repeated impacts (one impact sees the detent torque at one rest angle); that case
-# also builds both FMUs and re-runs every record through the master.
-@pytest.mark.parametrize("effect, seed, trials, candidates", [
-    ("gear_play", 2, 1, ("gear_play", "coating_relaxation")),
-    ("contact_damping", 1, 1, ("contact_damping", "coating_relaxation")),
-    ("coating_relaxation", 1, 1, ("coating_relaxation", "gear_play")),
-    ("cogging", 3, 3, ("cogging", "gear_play")),
-    ("load_dependent_friction", 1, 1, ("load_dependent_friction", "gear_play")),
-    ("none", 1, 1, ("gear_play", "coating_relaxation")),
+# One random case per effect, each offered the whole effect library of the model. The seeds here and in the slide's
+# and the speed run's tests were drawn once at random (python -c "import secrets; print(secrets.randbelow(2**31))"),
+# not picked for the workflow's success; a failing draw is a finding, not a reason to draw again. Cogging is
+# diagnosed over three repeated impacts (one impact sees the detent torque at one rest angle); that case also builds
+# both FMUs and re-runs every record through the master.
+@pytest.mark.parametrize("effect, seed, trials", [
+    ("gear_play", 758604987, 1),
+    ("contact_damping", 1424536644, 1),
+    ("coating_relaxation", 1660404856, 1),
+    # finding of the drawn seed (docs/dev/diagnose-history.md, "Speed (issue 32)"): the baseline fits the three
+    # impacts within the noise (mean square 0.706 noise levels squared), so no gap is found and "none" is answered
+    pytest.param("cogging", 1974176483, 3, marks=pytest.mark.xfail(strict=True, reason="detent below the noise")),
+    ("load_dependent_friction", 847392348, 1),
+    ("none", 1955914767, 1),
 ])
-def test_workflow_names_the_hidden_impact_effect(effect, seed, trials, candidates, tmp_path):
+def test_workflow_names_the_hidden_impact_effect(effect, seed, trials, tmp_path):
     case = make_case(effect, np.random.default_rng(seed), trials=trials)
     truth = case[1]
-    job = load_diagnose_job(write_job(tmp_path, SOURCE, case, candidates, workers=0))
+    job = load_diagnose_job(write_job(tmp_path, SOURCE, case, LIBRARY, workers=0))
     rebuild = trials > 1
     s = run_diagnosis(job, progress=False, build=rebuild, out=tmp_path / "out").to_json()
     assert s["effect"] == effect, s["verdict"]
@@ -266,16 +272,14 @@ def test_workflow_names_the_hidden_impact_effect(effect, seed, trials, candidate
 
 
 def test_workflow_names_guide_stiction_on_the_slide(tmp_path):
-    """The slide (1 kHz current and encoder, the 100 Hz load cell), a Karnopp breakaway of 6.6 N in the truth's
-    guides: the stiction candidate (a Stribeck bristle, not the truth's rule) is named, removes >= 80 % of the
-    force gap above the noise and brings the angle back from ~140 counts RMS, with the breakaway level within 5 %
-    and the sliding level within 0.05 N (measured: 6.73 N against 6.64 N, 0.091 against 0.0785 N; the sixth
-    round's candidate fitted 7.03 N). Two Dask workers: the stiff bristle made the fits ~3x slower (455 s in
-    process, 305 s with two workers, on the CI-like machine). The benchmark (``--experiment slide``) runs the
-    whole library and the no-effect cases."""
-    case = make_case("stiction", np.random.default_rng(52), experiment="slide")
+    """The slide (1 kHz current and encoder, the 100 Hz load cell), a Karnopp breakaway in the truth's guides: the
+    stiction candidate (a Stribeck bristle, not the truth's rule) is named, removes >= 80 % of the force gap above
+    the noise and brings the angle back from over 30 counts RMS to under 5, with the breakaway level within 5 % and
+    the sliding level within 0.05 N. Two Dask workers: the stiff bristle makes the fits slow. The whole library is
+    offered; the benchmark (``--experiment slide``) also runs the no-effect cases."""
+    case = make_case("stiction", np.random.default_rng(2077593043), experiment="slide")
     truth = case[1]
-    job = load_diagnose_job(write_job(tmp_path, SOURCE, case, ("stiction",), workers=2, experiment="slide"))
+    job = load_diagnose_job(write_job(tmp_path, SOURCE, case, LIBRARY, workers=2, experiment="slide"))
     s = run_diagnosis(job, progress=False, build=False).to_json()
     assert s["effect"] == "stiction", s["verdict"]
     assert s["gap_removed"] >= 0.8
@@ -291,12 +295,10 @@ def test_workflow_names_cogging_on_the_speed_run(tmp_path):
     the truth's tabulated detent energy (fundamental and a second harmonic) against the cogging candidate (one
     sinusoid) on Gripper.GripperSpeedControlled. Named, >= 80 % of the gap above the noise removed, the current
     brought to within 1.5 times its noise and the fundamental's amplitude within 10 % and phase within 0.1 rad
-    (the second harmonic, 10-30 % of it, is left). Rival: the stiction candidate, the runner-up on the
-    benchmark's speed-run cases."""
-    case = make_case("cogging", np.random.default_rng(3), experiment="speed")
+    (the second harmonic, 10-30 % of it, is left). The whole library of the speed-controlled model is offered."""
+    case = make_case("cogging", np.random.default_rng(590588296), experiment="speed")
     truth = case[1]
-    job = load_diagnose_job(write_job(tmp_path, SOURCE, case, ("cogging", "stiction"), workers=0,
-                                      experiment="speed"))
+    job = load_diagnose_job(write_job(tmp_path, SOURCE, case, SPEED_LIBRARY, workers=0, experiment="speed"))
     s = run_diagnosis(job, progress=False, build=False).to_json()
     assert s["effect"] == "cogging", s["verdict"]
     assert s["gap_removed"] >= 0.8

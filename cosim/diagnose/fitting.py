@@ -2,18 +2,20 @@
 
 Single shooting with CVODES (:class:`cosim.calibrate.shooting.SingleShooting`, the calibration's integrator of
 the lowered Modelica equations) and scipy's trust-region least squares. The Jacobian is taken by forward
-differences of whole replays: with the 3-5 parameters of a diagnosis this is several times cheaper than the
-forward-sensitivity Jacobian on the stiff gripper (measured: 1 s against 4 s on a 8 s staircase).
+differences of whole replays: on the stiff gripper the forward-sensitivity Jacobian costs more than the replays
+of a difference per parameter (measured on the shipped static job, 3 parameters: one replay 7.7 s, the exact
+Jacobian 80 s; docs/dev/diagnose-history.md). The difference Jacobian at a fit's optimum is kept
+(``jacobian``): it screens the candidates (:func:`linearised_fit`) without a replay of its columns.
 """
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, lsq_linear
 
 from cosim.calibrate.shooting import SingleShooting
 from cosim.errors import ConfigError
 from cosim.experiment import Experiment
 
-__all__ = ["Replay", "Trials", "fit_samples", "check_parameters", "weighted"]
+__all__ = ["Replay", "Trials", "fit_samples", "linearised_fit", "check_parameters", "weighted"]
 
 
 def check_parameters(model, names):
@@ -32,6 +34,7 @@ def weighted(residual, weights):
 
 
 _FAILED_REPLAY = 1e3  # weighted residual (noise levels) of every sample when a trial replay fails
+DIFF_STEP = 3e-3  # forward-difference step relative to the scaled parameter (at least 1: the fit works on value/scale)
 
 
 class Replay:
@@ -94,6 +97,24 @@ class Trials:
         return np.hstack([r.evaluate(q) for r in self.replays])
 
 
+def _residual_function(replay, measured, weights, mask):
+    """The weighted residual on ``mask`` as a function of scaled parameters, and the outputs of its last
+    evaluations by parameter bytes (the fit's optimum was evaluated: no replay again to predict there)."""
+    outputs = {}
+
+    def residual(q):
+        try:
+            y = replay.evaluate(q)
+        except RuntimeError:  # CVODES failed at these values (e.g. a stiff impact): a step the solver must reject
+            return np.full(int(mask.sum()) * measured.shape[0], _FAILED_REPLAY)
+        if len(outputs) > 64:
+            outputs.clear()
+        outputs[np.asarray(q, float).tobytes()] = y
+        return weighted(y - measured, weights)[:, mask].ravel()
+
+    return residual, outputs
+
+
 def fit_samples(replay, measured, weights, mask, start, bounds, max_nfev=40):
     """Least-squares fit of the replay's free parameters on the samples in ``mask``.
 
@@ -115,26 +136,63 @@ def fit_samples(replay, measured, weights, mask, start, bounds, max_nfev=40):
     -------
     dict
         ``parameters`` (dict), ``predicted`` (n_signals, N), ``chi2`` (weighted sum of squares on ``mask``),
-        ``evaluations``, ``success``.
+        ``success``, ``columns`` (name -> d(weighted residual on ``mask``)/d(value) at the optimum, by forward
+        differences).
     """
     scale = replay.scale
     lo, hi = np.asarray(bounds[0], float) / scale, np.asarray(bounds[1], float) / scale
     q0 = np.clip(np.asarray(start, float) / scale, lo, hi)
-
-    def residual(q):
-        try:
-            y = replay.evaluate(q)
-        except RuntimeError:  # CVODES failed at these values (e.g. a stiff impact): a step the solver must reject
-            return np.full(int(mask.sum()) * measured.shape[0], _FAILED_REPLAY)
-        return weighted(y - measured, weights)[:, mask].ravel()
-
+    residual, outputs = _residual_function(replay, measured, weights, mask)
+    jacobian = np.zeros((int(mask.sum()) * measured.shape[0], 0))
     if len(q0):
-        solution = least_squares(residual, q0, bounds=(lo, hi), method="trf", jac="2-point", diff_step=3e-3,
+        solution = least_squares(residual, q0, bounds=(lo, hi), method="trf", jac="2-point", diff_step=DIFF_STEP,
                                  x_scale=1.0, xtol=1e-6, ftol=1e-6, max_nfev=max_nfev)
-        q, success = solution.x, bool(solution.success)
+        q, success, jacobian = solution.x, bool(solution.success), solution.jac
     else:
         q, success = q0, True
-    predicted = replay.evaluate(q)
+    predicted = outputs.get(np.asarray(q, float).tobytes())
+    predicted = replay.evaluate(q) if predicted is None else predicted
     r = weighted(predicted - measured, weights)[:, mask]
     return {"parameters": dict(zip(replay.free, (q * scale).tolist())), "predicted": predicted,
-            "chi2": float(np.sum(r ** 2)), "success": success}
+            "chi2": float(np.sum(r ** 2)), "success": success,
+            "columns": {n: jacobian[:, k] / scale[k] for k, n in enumerate(replay.free)}}
+
+
+def linearised_fit(replay, measured, weights, mask, start, bounds, columns):
+    """The chi-square one bounded Gauss-Newton step from ``start`` predicts: a candidate screened without a fit.
+
+    Parameters
+    ----------
+    replay, measured, weights, mask, start, bounds
+        As for :func:`fit_samples`.
+    columns : dict
+        name -> d(weighted residual on ``mask``)/d(value) [1/unit] known from another fit (a candidate's
+        baseline parameters: the baseline's Jacobian at its optimum); the other columns by forward differences,
+        one replay each.
+
+    Returns
+    -------
+    dict
+        ``chi2`` at ``start``, ``predicted`` (after the step, within the bounds), ``parameters`` (the step's
+        values), ``replays``.
+    """
+    scale = replay.scale
+    lo, hi = np.asarray(bounds[0], float) / scale, np.asarray(bounds[1], float) / scale
+    q0 = np.clip(np.asarray(start, float) / scale, lo, hi)
+    residual, _ = _residual_function(replay, measured, weights, mask)
+    r0 = residual(q0)
+    jacobian, replays = np.empty((len(r0), len(q0))), 1
+    for k, name in enumerate(replay.free):
+        if name in columns:
+            jacobian[:, k] = columns[name] * scale[k]
+            continue
+        h = DIFF_STEP * max(1.0, abs(q0[k]))
+        h = h if q0[k] + h <= hi[k] else -h
+        q = q0.copy()
+        q[k] += h
+        r = residual(q)
+        jacobian[:, k] = 0.0 if np.all(r == _FAILED_REPLAY) else (r - r0) / h  # a failed replay: no evidence
+        replays += 1
+    step = lsq_linear(jacobian, -r0, bounds=(lo - q0, hi - q0 + 1e-15))
+    return {"chi2": float(r0 @ r0), "predicted": float(np.sum((r0 + jacobian @ step.x) ** 2)),
+            "parameters": dict(zip(replay.free, ((q0 + step.x) * scale).tolist())), "replays": replays}
