@@ -31,7 +31,8 @@ def trials(coating, phases):
     for k in range(phases):
         gap = gap0 + (k - phases // 2) * PERIOD_TRAVEL / phases
         config = load_config(ROOT / "examples" / name,
-                             [f"fmus.plant.parameters.gap0={gap!r}", 'record.signals=["plant.F_g"]'])
+                             [f"fmus.plant.parameters.gap0={gap!r}", 'record.signals=["plant.F_g"]',
+                              "plot.panels=[]"])
         out.append(summarize(engine_for(config).run(progress=False), config))
     return out
 

@@ -31,7 +31,7 @@ def trials(gripper_dir):
         for k in range(PHASES):
             gap = GAP0[coating] + (k - PHASES // 2) * PERIOD_TRAVEL / PHASES
             sets = gripper_overrides(gripper_dir) + [f"fmus.plant.parameters.gap0={gap!r}",
-                                                     'record.signals=["plant.F_g"]']
+                                                     'record.signals=["plant.F_g"]', "plot.panels=[]"]
             cfg = load_config(EXAMPLES / CONFIG[coating], sets)
             out[coating].append(summarize(run(cfg, progress=False), cfg))
     return out

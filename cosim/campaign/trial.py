@@ -76,7 +76,7 @@ class TrialRunner:
         from cosim.master.plant import FmuPool
 
         overrides = [f"fmus.{_PLANT}.parameters.{k}={v!r}" for k, v in coating.parameters.items()]
-        overrides.append(f'record.signals=["{_PLANT}.F_g"]')
+        overrides += [f'record.signals=["{_PLANT}.F_g"]', "plot.panels=[]"]
         self.job, self.coating = job, coating
         self.base = load_config(coating.config, overrides)
         if _PLANT not in self.base.fmus or _OUTER not in self.base.controllers or self.base.summary.kind != "impact":

@@ -54,7 +54,7 @@ def overrides(coating, params, phase):
     p = "fmus.plant.parameters"
     gap = GAP0[coating] + (phase - PHASES // 2) * PERIOD_TRAVEL / PHASES
     items = [f"{p}.J_r={params['J_r']!r}", f"{p}.C_h={params['C']!r}", f"{p}.gap0={gap!r}",
-             'record.signals=["plant.F_g"]']
+             'record.signals=["plant.F_g"]', "plot.panels=[]"]
     if coating == "bare":  # the bare finger's hard stop is C_hs = C_h (paper); the coating keeps C_p = 10 N.s/m
         items.append(f"{p}.C_p={params['C']!r}")
     else:
