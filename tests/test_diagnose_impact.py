@@ -271,6 +271,9 @@ def test_workflow_names_the_hidden_impact_effect(effect, seed, trials, tmp_path)
     # contact_damping: the truth's law c_hc*pen^p_hc*v has no parameter in common with lambda_hc*F_s*v
 
 
+@pytest.mark.xfail(strict=True, reason="finding (issue 32): with the whole library offered, the screen (a linearised "
+                   "fit from the neutral bristle) does not rank stiction among the two it refits; a gap of ~105 noise "
+                   "levels is reported as unexplained")
 def test_workflow_names_guide_stiction_on_the_slide(tmp_path):
     """The slide (1 kHz current and encoder, the 100 Hz load cell), a Karnopp breakaway in the truth's guides: the
     stiction candidate (a Stribeck bristle, not the truth's rule) is named, removes >= 80 % of the force gap above
