@@ -5,7 +5,7 @@ quarter of the steady force), steady force (mean of the last second of tightenin
 Each coating is run at ten contact phases of the 100 Hz outer loop (the free travel shifted by a tenth of the
 10 ms period each), since the rebound depends on where in the loop's period the contact falls; the table gives
 the median and the range over the phases. The parameters were fitted to these figures
-(docs/models/gripper_impact_fit.py); the bounce is the figure the fit did not see.
+(benchmarks/impact_fit.py); the bounce is the figure the fit did not see.
 
 Usage: PYTHONPATH=. python benchmarks/impact.py [--phases 10] [--validation]
 """
@@ -21,20 +21,27 @@ from validation import ROOT, write_section
 
 CONFIGS = {"bare": ("gripper_impact.toml", 0.006), "P3": ("gripper_impact_p3.toml", 0.0085)}  # config, free travel
 PERIOD_TRAVEL = 0.0335 * 0.01  # m: jaw travel in one outer-loop period at 1000 rpm
+PHASES = 10
 PAPER = {"bare": (220.0, 62.0, "drops to about 0 in some trials"), "P3": (160.0, 40.0, "no drop")}
 
 
-def trials(coating, phases):
-    """Summary dicts of the ``phases`` phase-shifted trials of ``coating``."""
+def trials(coating, phases=PHASES, overrides=()):
+    """Summary dicts of the ``phases`` phase-shifted trials of ``coating`` (``overrides``: further ``--set``
+    items, e.g. the FMU path or the parameters of a fit)."""
     name, gap0 = CONFIGS[coating]
     out = []
     for k in range(phases):
         gap = gap0 + (k - phases // 2) * PERIOD_TRAVEL / phases
         config = load_config(ROOT / "examples" / name,
-                             [f"fmus.plant.parameters.gap0={gap!r}", 'record.signals=["plant.F_g"]',
+                             [*overrides, f"fmus.plant.parameters.gap0={gap!r}", 'record.signals=["plant.F_g"]',
                               "plot.panels=[]"])
         out.append(summarize(engine_for(config).run(progress=False), config))
     return out
+
+
+def bounced(summary):
+    """A bounce: the force fell below a quarter of the steady force after the peak (no steady force: no switch)."""
+    return summary["steady_force_N"] is not None and summary["min_force_after_peak_N"] < 0.25 * summary["steady_force_N"]
 
 
 def rows(coating, runs):
@@ -43,8 +50,7 @@ def rows(coating, runs):
     peaks = [r["peak_force_N"] for r in runs]
     steadies = [r["steady_force_N"] for r in runs if r["steady_force_N"] is not None]
     mins = [r["min_force_after_peak_N"] for r in runs]
-    bounced = sum(r["steady_force_N"] is not None and r["min_force_after_peak_N"] < 0.25 * r["steady_force_N"]
-                  for r in runs)
+    bounces = sum(bounced(r) for r in runs)
     missed = len(runs) - len(steadies)
     delays = [1e3 * (r["t_switch_s"] - r["t_contact_s"]) for r in runs
               if r["t_switch_s"] is not None and r["t_contact_s"] is not None]
@@ -57,8 +63,8 @@ def rows(coating, runs):
     return [
         (coating, "peak (N)", f"{peak_p:g} ± 20 %", f"{peak:.1f}", f"{min(peaks):.1f}-{max(peaks):.1f}",
          within(peak, peak_p, 0.20)),
-        (coating, "least force after the peak (N)", drop_p, f"bounce in {bounced} of {len(runs)}",
-         f"{min(mins):.1f}-{max(mins):.1f}", "yes" if (bounced > 0) == want_bounce else "no"),
+        (coating, "least force after the peak (N)", drop_p, f"bounce in {bounces} of {len(runs)}",
+         f"{min(mins):.1f}-{max(mins):.1f}", "yes" if (bounces > 0) == want_bounce else "no"),
         (coating, "steady (N)", f"{steady_p:g} ± 15 %", f"{steady:.1f}", f"{min(steadies):.1f}-{max(steadies):.1f}"
          + (f" ({missed} without switch)" if missed else ""), within(steady, steady_p, 0.15)),
         (coating, "switch after contact (ms)", "not given", f"{np.median(delays):.0f}" if delays else "-",
@@ -68,7 +74,7 @@ def rows(coating, runs):
 
 def main():
     args = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    args.add_argument("--phases", type=int, default=10, help="contact phases per coating")
+    args.add_argument("--phases", type=int, default=PHASES, help="contact phases per coating")
     args.add_argument("--validation", action="store_true", help="also write the table into docs/validation.md")
     opts = args.parse_args()
     header = ("coating", "figure", "paper", "model (median)", "range over the phases", "within target")

@@ -7,43 +7,28 @@ outer loop (the free travel shifted by a tenth of the 10 ms period each), as ben
 The peaks and the steady forces were fitted (docs/models/gripper.md, "Impact fit"); the bounce was not.
 """
 
+import sys
+
 import numpy as np
 import pytest
 
-from cosim.config import load_config
-from cosim.master import run
-from cosim.master.summary import summarize
 from test_master_support import EXAMPLES, gripper_dir, gripper_overrides  # noqa: F401
 
+sys.path.insert(0, str(EXAMPLES.parent / "benchmarks"))
+from impact import PHASES, bounced, trials as impact_trials  # noqa: E402  (the benchmark's trials, measured alike)
+
 PAPER = {"bare": {"peak": 220.0, "steady": 62.0}, "P3": {"peak": 160.0, "steady": 40.0}}  # N, Sec. 4.4
-GAP0 = {"bare": 0.006, "P3": 0.0085}  # m: the shipped configs' free travel (6 mm)
-PERIOD_TRAVEL = 0.0335 * 0.01  # m: jaw travel in one 10 ms outer-loop period at 1000 rpm (33.5 mm/s)
-CONFIG = {"bare": "gripper_impact.toml", "P3": "gripper_impact_p3.toml"}
-PHASES = 10
 
 
 @pytest.fixture(scope="module")
 def trials(gripper_dir):
     """Summaries of the phase-shifted trials of each coating: dict coating -> list of summary dicts."""
-    out = {}
-    for coating in ("bare", "P3"):
-        out[coating] = []
-        for k in range(PHASES):
-            gap = GAP0[coating] + (k - PHASES // 2) * PERIOD_TRAVEL / PHASES
-            sets = gripper_overrides(gripper_dir) + [f"fmus.plant.parameters.gap0={gap!r}",
-                                                     'record.signals=["plant.F_g"]', "plot.panels=[]"]
-            cfg = load_config(EXAMPLES / CONFIG[coating], sets)
-            out[coating].append(summarize(run(cfg, progress=False), cfg))
-    return out
+    return {coating: impact_trials(coating, PHASES, gripper_overrides(gripper_dir)) for coating in ("bare", "P3")}
 
 
 def _switched(runs):
     """The trials in which the trigger fired (a trial without the switch has no steady force)."""
     return [t for t in runs if t["t_switch_s"] is not None]
-
-
-def _bounced(t):
-    return t["min_force_after_peak_N"] < 0.25 * t["steady_force_N"]
 
 
 @pytest.mark.slow
@@ -63,5 +48,5 @@ def test_steady_forces_match_the_paper(trials):
 
 @pytest.mark.slow
 def test_bare_fingers_bounce_in_some_trials_and_p3_never(trials):
-    assert any(_bounced(t) for t in _switched(trials["bare"]))  # "in some cases, become null" (Sec. 4.3)
-    assert not any(_bounced(t) for t in trials["P3"])  # "the force did not drop to zero after the peak" (Sec. 4.4)
+    assert any(bounced(t) for t in _switched(trials["bare"]))  # "in some cases, become null" (Sec. 4.3)
+    assert not any(bounced(t) for t in trials["P3"])  # "the force did not drop to zero after the peak" (Sec. 4.4)

@@ -20,26 +20,18 @@ Why not `cosim calibrate`: it replays a measured input (the logged current) into
 traces. The paper prints no trace for Figs. 9 and 13, only these numbers, and the peak happens under the 100 Hz
 velocity loop: replaying a fixed current with another inertia changes the approach speed itself.
 
-Run (about 10 min on 2 cores): PYTHONPATH=. python docs/models/gripper_impact_fit.py
+Run (about 10 min on 2 cores): PYTHONPATH=. python benchmarks/impact_fit.py
 Prints the fitted values and the figures at the start and at the fit; docs/models/gripper.md records them.
 """
 
 import json
 import sys
-from pathlib import Path
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from cosim.config import load_config
-from cosim.master.engine import engine_for
-from cosim.master.summary import summarize
+from impact import PHASES, bounced, trials
 
-ROOT = Path(__file__).resolve().parents[2]
-CONFIGS = {"bare": ROOT / "examples" / "gripper_impact.toml", "P3": ROOT / "examples" / "gripper_impact_p3.toml"}
-GAP0 = {"bare": 0.006, "P3": 0.0085}  # free travel 6 mm before the (coated) finger touches
-PERIOD_TRAVEL = 0.0335 * 0.01  # jaw travel in one outer-loop period at 1000 rpm, m
-PHASES = 10
 TARGETS = {"bare_peak": 220.0, "bare_steady": 62.0, "P3_peak": 160.0, "P3_steady": 40.0}
 START = {"J_r": 1e-5, "C": 2000.0, "d_lim": 0.0015}  # estimate, paper, estimate
 # The solver starts from a hand scan (docs/models/gripper.md, "Impact fit"): from START the P3 figures jump as the
@@ -49,12 +41,10 @@ BOUNDS = {"J_r": (3e-6, 3e-5), "C": (50.0, 2000.0), "d_lim": (1e-4, 2.4e-3)}
 NAMES = tuple(START)
 
 
-def overrides(coating, params, phase):
-    """``--set`` items of one trial: the fitted parameters and the free travel of contact phase ``phase``."""
+def overrides(coating, params):
+    """``--set`` items of the fitted parameters (the free travel of each contact phase is :func:`impact.trials`'s)."""
     p = "fmus.plant.parameters"
-    gap = GAP0[coating] + (phase - PHASES // 2) * PERIOD_TRAVEL / PHASES
-    items = [f"{p}.J_r={params['J_r']!r}", f"{p}.C_h={params['C']!r}", f"{p}.gap0={gap!r}",
-             'record.signals=["plant.F_g"]', "plot.panels=[]"]
+    items = [f"{p}.J_r={params['J_r']!r}", f"{p}.C_h={params['C']!r}"]
     if coating == "bare":  # the bare finger's hard stop is C_hs = C_h (paper); the coating keeps C_p = 10 N.s/m
         items.append(f"{p}.C_p={params['C']!r}")
     else:
@@ -62,24 +52,12 @@ def overrides(coating, params, phase):
     return items
 
 
-def trials(coating, params):
-    """Summary keys (peak, minimum after the peak, steady force) of the trials at every contact phase."""
-    out = []
-    for k in range(PHASES):
-        config = load_config(CONFIGS[coating], overrides(coating, params, k))
-        out.append(summarize(engine_for(config).run(progress=False), config))
-    return out
-
-
 def figures(params):
     """The fitted figures (medians over the phases) and the checks, for one parameter set."""
-    bare, p3 = trials("bare", params), trials("P3", params)
+    bare, p3 = (trials(c, PHASES, overrides(c, params)) for c in ("bare", "P3"))
 
     def med(rows, key):  # a trial whose trigger never fired has no steady force
         return float(np.nanmedian([np.nan if r[key] is None else r[key] for r in rows]))
-
-    def bounced(r):
-        return r["steady_force_N"] is not None and r["min_force_after_peak_N"] < 0.25 * r["steady_force_N"]
 
     return {"bare_peak": med(bare, "peak_force_N"), "P3_peak": med(p3, "peak_force_N"),
             "P3_steady": med(p3, "steady_force_N"), "bare_steady": med(bare, "steady_force_N"),
