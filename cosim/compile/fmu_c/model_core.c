@@ -230,23 +230,6 @@ static int event_pass_with(Model *s, casadi_fn pass, EventFlags *flags) {
 
 int model_event_pass(Model *s, EventFlags *flags) { return event_pass_with(s, cosim_update, flags); }
 
-/* The end of the simulation: passes with terminal() true until the memory settles (when-clauses on terminal()
- * fire once: their held condition is set by the first pass). */
-int model_terminal(Model *s) {
-    EventFlags flags;
-    double x_pre[N_X + 1], m_pre[N_M + 1];
-    int pass;
-    for (pass = 0; pass < MAX_TERMINAL_PASSES; pass++) {
-        memcpy(x_pre, s->x, sizeof x_pre);
-        memcpy(m_pre, s->m, sizeof m_pre);
-        if (event_pass_with(s, cosim_terminal, &flags)) return CORE_ERROR;
-        /* settled when nothing changed bit for bit (a NaN state, after a failed run, is settled too) */
-        if (!memcmp(x_pre, s->x, sizeof x_pre) && !memcmp(m_pre, s->m, sizeof m_pre)) return CORE_OK;
-    }
-    logf_(s, 1, "t = %.17g: the terminal() passes did not settle%s", s->t, "");
-    return CORE_ERROR;
-}
-
 /* The next time event strictly after the current time, or INFINITY. */
 double model_next_time(Model *s) {
     double next = INFINITY;
@@ -260,12 +243,13 @@ double model_next_time(Model *s) {
 
 /* ---- Co-Simulation services: event iteration, the embedded solver ---- */
 
-int model_event_iteration(Model *s, int *terminated) {
+/* Passes of `pass` until the memory settles (or terminate() fires); the indicators then settle too. */
+static int iterate_events(Model *s, casadi_fn pass_fn, int *terminated) {
     EventFlags flags;
     int pass;
     *terminated = 0;
     for (pass = 0; pass < MAX_EVENT_PASSES; pass++) {
-        if (model_event_pass(s, &flags)) return CORE_ERROR;
+        if (event_pass_with(s, pass_fn, &flags)) return CORE_ERROR;
         if (flags.terminate) {
             *terminated = 1;
             return CORE_OK;
@@ -277,6 +261,15 @@ int model_event_iteration(Model *s, int *terminated) {
     }
     logf_(s, 1, "t = %.17g: event iteration did not settle after %s passes", s->t, "MAX_EVENT_PASSES (100)");
     return CORE_ERROR;
+}
+
+int model_event_iteration(Model *s, int *terminated) { return iterate_events(s, cosim_update, terminated); }
+
+/* The end of the simulation: the event iteration with terminal() true (a when-clause on terminal() fires once:
+ * its held condition is set by the first pass). */
+int model_terminal(Model *s) {
+    int terminated;
+    return iterate_events(s, cosim_terminal, &terminated);
 }
 
 /* s->xdot at (t, x): s is moved there. */

@@ -16,9 +16,6 @@
 #define CORE_OK 0
 #define CORE_ERROR 1
 
-/* Most passes with terminal() true at the end of the simulation (model_terminal). */
-#define MAX_TERMINAL_PASSES 100
-
 /* Types a value reference can be read or written as. */
 #define TYPE_FLOAT64 0
 #define TYPE_INT64 1
