@@ -97,12 +97,20 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle (bristle deflection at the Coulomb level)";
       parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed (bounds the state's rate)";
       parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
+      parameter Real d_pre(unit = "N.m.s/rad") = 0 "Presliding damping (LuGre's sigma_1), faded out above w_pre; 0: none";
+      parameter Real w_pre(unit = "rad/s") = 1 "Speed scale above which the presliding damping fades out";
       input Real w(unit = "rad/s") "Shaft speed relative to the housing";
       output Real tau_f(unit = "N.m") "Friction torque against the motion";
       Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
+      Real ds(unit = "1/s") "Rate of the bristle deflection";
     equation
-      der(s) = Gripper.Components.bristleRate(w, s, phi_b, tau_b, s_ba);
-      tau_f = T_c*s;
+      // The bristle alone is a lossless spring in presliding: a shaft held on it rings at sqrt(k/J) with only the
+      // rotor's viscous loss to damp it. d_pre*phi_b*ds is the bristle damping (sigma_1*dz/dt) of LuGre (Canudas
+      // de Wit et al. 1995): d_pre*w in presliding, nothing at rest nor in steady sliding (ds = 0 there); the
+      // factor exp(-(w/w_pre)^2) keeps it out of fast reversals (Olsson's velocity-dependent sigma_1).
+      ds = Gripper.Components.bristleRate(w, s, phi_b, tau_b, s_ba);
+      der(s) = ds;
+      tau_f = T_c*s + d_pre*phi_b*ds*exp(-(w/w_pre)^2);
     end BristleFriction;
 
     model MeshEfficiency "Gear mesh loss: efficiency eta by the direction of power flow, held by an elasto-plastic bristle (input side)"
@@ -455,6 +463,8 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the bristle frictions (motor side)";
       parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
       parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range (elasto-plastic friction)";
+      parameter Real d_pre(unit = "N.m.s/rad") = 0 "Presliding damping of the motor-side drag, faded out above w_pre (0: none)";
+      parameter Real w_pre(unit = "rad/s") = 1 "Speed scale above which the presliding damping fades out";
       parameter Real play(unit = "rad") = 0.013962634 "Total gear shaft play 0.8 deg (paper)";
       parameter Real c_play(unit = "N.m/rad") = 1000 "Stiffness at the play stops (gear output)";
       parameter Real d_play(unit = "N.m.s/rad") = 0.05 "Damping at the play stops (gear output)";
@@ -486,7 +496,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real tau_load(unit = "N.m") "Load torque on the motor shaft, against positive rotation";
     output Real F_g(unit = "N") "Gripping force (load cell)";
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
-    Gripper.Components.BristleFriction drag(T_c = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) "No-load drag at the motor shaft";
+    Gripper.Components.BristleFriction drag(T_c = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, d_pre = d_pre, w_pre = w_pre) "No-load drag at the motor shaft";
     replaceable Gripper.Components.MeshEfficiency mesh(eta = eta_g, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) constrainedby Gripper.Interfaces.MeshSlot "Gear efficiency by power-flow direction";
     Gripper.Components.IdealGear gear(ratio = ratio) "Planetary gear kinematics";
     Gripper.Components.RotationalDamper bearing(d = B_g) "Gear bearing damping at the output";
@@ -535,7 +545,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
     output Real F_g(unit = "N") "Gripping force (load cell)";
     Gripper.Components.PMSM motor(R_s = R_s, L_d = L_d, L_q = L_q, p = p, Psi_m = Psi_m, J = J_r + J_g, B_r = B_r) "Motor with the gear input inertia";
-    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, d_pre = d_pre, w_pre = w_pre, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
   equation
     motor.v_d = v_d;
     motor.v_q = v_q;
@@ -579,7 +589,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
     parameter Real k_c(unit = "1/s") = 2000 "Correction rate of the motor-angle reconstruction";
     Gripper.Components.AngleReconstruction shaft(k_c = k_c) "Motor angle between communication points";
-    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, d_pre = d_pre, w_pre = w_pre, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
   equation
     shaft.theta_in = theta_m;
     shaft.w_in = w_m;
@@ -602,7 +612,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real F_g(unit = "N") "Gripping force (load cell)";
     Real phi(unit = "rad", start = 0.0, fixed = true) "Motor shaft angle";
     Real w(unit = "rad/s", start = 0.0, fixed = true) "Motor shaft speed";
-    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, d_pre = d_pre, w_pre = w_pre, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
     replaceable Gripper.Components.NoCogging cog constrainedby Gripper.Interfaces.CoggingSlot "Motor cogging (none)";
     replaceable Gripper.Components.IdealLoadCell lc constrainedby Gripper.Interfaces.LoadCellSlot "Load cell (ideal)";
   equation
@@ -635,7 +645,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     Real w(unit = "rad/s", start = 0.0, fixed = true) "Motor shaft speed";
     Real e_w(unit = "rad", start = 0.0, fixed = true) "Integral of the speed error";
     Real i_ref(unit = "A") "q current the speed loop asks for";
-    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+    replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, d_pre = d_pre, w_pre = w_pre, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
     replaceable Gripper.Components.NoCogging cog constrainedby Gripper.Interfaces.CoggingSlot "Motor cogging (none)";
     replaceable Gripper.Components.IdealLoadCell lc constrainedby Gripper.Interfaces.LoadCellSlot "Load cell (ideal)";
   equation

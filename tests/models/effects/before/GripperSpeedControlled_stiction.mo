@@ -7,7 +7,7 @@
       output Real tau_load(unit = "N.m") "Load torque on the motor shaft, against positive rotation";
       output Real F_g(unit = "N") "Gripping force (load cell)";
       output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
-      Gripper.Components.BristleFriction drag(T_c = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) "No-load drag at the motor shaft";
+      Gripper.Components.BristleFriction drag(T_c = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, d_pre = d_pre, w_pre = w_pre) "No-load drag at the motor shaft";
       Gripper.Components.MeshEfficiency mesh(eta = eta_g, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) "Gear efficiency by power-flow direction";
       Gripper.Components.IdealGear gear(ratio = ratio) "Planetary gear kinematics";
       Gripper.Components.RotationalDamper bearing(d = B_g) "Gear bearing damping at the output";
@@ -58,7 +58,7 @@
       Real w(unit = "rad/s", start = 0.0, fixed = true) "Motor shaft speed";
       Real e_w(unit = "rad", start = 0.0, fixed = true) "Integral of the speed error";
       Real i_ref(unit = "A") "q current the speed loop asks for";
-      Gripper.Diagnosis.DrivetrainMechanics_stiction drive(F_sj = F_sj, ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
+      Gripper.Diagnosis.DrivetrainMechanics_stiction drive(F_sj = F_sj, ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, d_pre = d_pre, w_pre = w_pre, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
     equation
       der(phi) = w;
       (J_r + J_g)*der(w) = k_t*i_ref - B_r*w - drive.tau_load;
