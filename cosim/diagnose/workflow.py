@@ -12,7 +12,10 @@
    baseline's fit on every cost sample: the chi-square one bounded Gauss-Newton step predicts, the baseline's
    Jacobian columns from its fit and the effect's by forward differences (a score test of the nested effect, no
    fit). The ``REFIT_BEST`` with the best predicted BIC are calibrated on the even segments (with the baseline's
-   parameters free as well), and scored on the odd segments they were not fitted on:
+   parameters free as well), and scored on the odd segments they were not fitted on; while the baseline shows a
+   gap that none of those fitted explains, the next ``REFIT_BEST`` in the screen's order are fitted too, up to
+   the whole library (a linearised screen can rank a strongly nonlinear effect low, and "no effect in the
+   library explains it" must mean that each was fitted):
    ``score`` = fraction of the baseline's held-out excess gap (mean square residual above the noise) that the
    candidate removes; BIC and a likelihood-ratio test on the fitted segments give the evidence against noise.
    Candidates run in parallel (Dask). The winner is the best-scoring candidate that removes at least
@@ -455,7 +458,7 @@ def _screen(job, samples, weights, base, folder, progress):
     the chi-square one bounded Gauss-Newton step predicts from each of its starts, the baseline's Jacobian
     columns taken from its fit and the effect's by forward differences (a score test of the nested effect: a
     replay per start and per effect parameter, no fit); returns effect -> screen (:class:`Scores`) and the fold
-    tasks of the ``REFIT_BEST`` with the best predicted BIC, each from its best start."""
+    tasks of every candidate from its best start, best predicted BIC first."""
     base_free = _free_at(job, base)
     tasks = []
     for name in job.effects:
@@ -468,24 +471,24 @@ def _screen(job, samples, weights, base, folder, progress):
                                "delta_bic": base["chi2"] - r["predicted"]
                                - len(_added_parameters(task["effect"])) * np.log(samples.n_fit)}
               for task, r in zip(tasks, results)}
-    best = sorted(screen, key=lambda name: -screen[name]["delta_bic"])[:REFIT_BEST]
-    for name, entry in screen.items():
-        entry["refitted"] = name in best
-    return screen, [{**task, "start": r["start"]} for task, r in zip(tasks, results) if task["effect"] in best]
+    for entry in screen.values():
+        entry["refitted"] = False
+    ranked = sorted(zip(tasks, results), key=lambda pair: -screen[pair[0]["effect"]]["delta_bic"])
+    return screen, [{**task, "start": r["start"]} for task, r in ranked]
 
 
-def _fold_fits(job, samples, weights, folds, base, candidates, progress):
+def _fold_fits(job, samples, weights, folds, base, candidates, progress, fits=None):
     """The baseline and the ``candidates`` (fold tasks from :func:`_screen`) fitted on each fold's training
     samples, the baseline restarted from candidates that beat it and stalled candidates from the baseline;
     returns the fits ("baseline" and each candidate -> [fold 0, fold 1]) and ``base``, refitted when a restart
-    moved a fold's baseline."""
-    base_free = _free_at(job, base)
-    tasks = [{"job": job, "effect": "baseline", "variant_path": str(job.source), "variant_model": job.model,
-              "baseline": base_free, "weights": weights, "mask": train, "fold": f}
-             for f, (train, _) in enumerate(folds)]
+    moved a fold's baseline. The ``fits`` of an earlier call are kept, and its baseline's fold fits reused."""
+    results = {name: list(pair) for name, pair in (fits or {}).items()}
+    tasks = [] if "baseline" in results else [
+        {"job": job, "effect": "baseline", "variant_path": str(job.source), "variant_model": job.model,
+         "baseline": _free_at(job, base), "weights": weights, "mask": train, "fold": f}
+        for f, (train, _) in enumerate(folds)]
     tasks += [{**task, "mask": train, "fold": f} for task in candidates for f, (train, _) in enumerate(folds)]
     names = [task["effect"] for task in candidates]
-    results = {}
     for task, res in zip(tasks, _run_tasks(job, tasks, progress)):
         results.setdefault(task["effect"], [None, None])[task["fold"]] = res
     # A candidate contains the baseline, so its fit may find values of the baseline's parameters that the
@@ -548,13 +551,23 @@ def _score(job, samples, weights, folds, fits):
 
 def score_candidates(job, samples, noise, split, base, folder, progress=True):
     """Screen every candidate from the baseline's fit, fit the baseline and the best few on each fold and score
-    them on the held-out folds (variants written into ``folder``); no candidates: no fits."""
+    them on the held-out folds (variants written into ``folder``), the next few in the screen's order while the
+    baseline's gap stays unexplained; no candidates: no fits."""
     if not job.effects:
         return Scores(base=base, fits={}, candidates=())
-    screen, candidates = _screen(job, samples, noise.weights, base, folder, progress)
-    fits, base = _fold_fits(job, samples, noise.weights, split.folds, base, candidates, progress)
-    return Scores(base=base, fits=fits, candidates=_score(job, samples, noise.weights, split.folds, fits),
-                  screen=screen)
+    screen, ranked = _screen(job, samples, noise.weights, base, folder, progress)
+    fits = None
+    while ranked:
+        batch, ranked = ranked[:REFIT_BEST], ranked[REFIT_BEST:]
+        fits, base = _fold_fits(job, samples, noise.weights, split.folds, base, batch, progress, fits)
+        for task in batch:
+            screen[task["effect"]]["refitted"] = True
+        scores = Scores(base=base, fits=fits, candidates=_score(job, samples, noise.weights, split.folds, fits),
+                        screen=screen)
+        decision = decide(job, samples, noise, split, scores)
+        if not decision.gap_found or decision.winner is not None:
+            break
+    return scores
 
 
 # -- stage 4: the decision ----------------------------------------------------------------------------------------
@@ -843,6 +856,12 @@ def _shows(entry):
     return text + f" (change not computed: {shown['why']})"
 
 
+def _levels_after(row):
+    """A segment's residual after the winner in noise levels (its noise level is rmse_before / sigmas; a segment
+    the baseline fitted exactly, sigmas 0, gives no noise level and counts as 0)."""
+    return row.rmse_after * row.sigmas / row.rmse_before if row.rmse_before > 0 else 0.0
+
+
 def answer(job, samples, decision, advice, segments, ms_after, gap_removed, candidates=()):
     """The evidence behind the verdict and the next step, one paragraph each (the report's first lines);
     ``segments``: the :class:`SegmentRow` table before and after the winner, ``candidates``: the scored ones."""
@@ -856,7 +875,7 @@ def answer(job, samples, decision, advice, segments, ms_after, gap_removed, cand
                     f"the gap above the noise ({d.gap_levels:.1f} -> {np.sqrt(max(ms_after, 0.0)):.1f} noise levels)")
         if left:
             evidence += (f"; {len(left)} segment(s) stay above {job.gap_sigmas:g} noise levels, largest "
-                         f"{max(left, key=lambda r: r.rmse_after * r.sigmas / r.rmse_before).segment}")
+                         f"{max(left, key=_levels_after).segment}")
         step = (f"add {w.effect} to the model: the variant is in OUT/modelica and OUT/variant.diff; calibrate it "
                 f"with its parameters free")
         if advice:
