@@ -30,6 +30,7 @@ import secrets
 import sys
 import tempfile
 import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -136,7 +137,8 @@ def draw_rows(truths, effects, cases, seed, noise, workers):
 
 
 def _interval(pair):
-    return f"{100 * pair[0]:.0f}-{100 * pair[1]:.0f} %"
+    """A Wilson interval in % (its bounds clipped to 0-100: rounding leaves -0 at a count of 0)."""
+    return f"{max(0.0, 100 * pair[0]):.0f}-{min(100.0, 100 * pair[1]):.0f} %"
 
 
 def count_table(rows):
@@ -149,7 +151,8 @@ def count_table(rows):
                 continue
             gap = "-" if effect == "none" else f"{entry['gap_removed_80']}/{entry['named_right']}"
             table.append([truth, f"`{effect}`", entry["cases"], f"{entry['named_right']}/{entry['cases']}",
-                          _interval(entry["interval"]), ", ".join(entry["named"]), gap])
+                          _interval(entry["interval"]),
+                          ", ".join(f"{name} {n}" for name, n in Counter(entry["named"]).items()), gap])
         su = counts["summary"]
         notes.append(f"Truth {truth}: named right on the effects a staircase shows {su['named_right_shown']}/"
                      f"{su['shown_cases']} ({_interval(su['named_right_interval'])}, target >= 85 %); false alarms "
