@@ -39,10 +39,10 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from diagnose_truth import make_case, write_job  # noqa: E402
-from diagnose_truth2 import SHOWN_ON_STAIRCASE, count_rows, diagnose_case2, library  # noqa: E402
+from diagnose_truth import make_case  # noqa: E402
+from diagnose_truth2 import SHOWN_ON_STAIRCASE, count_rows, diagnose_case2, diagnose_frame, library  # noqa: E402
 
-from cosim.diagnose import load_diagnose_job, run_diagnosis  # noqa: E402
+from cosim.diagnose import load_diagnose_job  # noqa: E402
 from validation import write_section  # noqa: E402
 
 # The effects a staircase shows, and none (docs/guide/diagnose.md, "Which experiment shows which effect").
@@ -107,15 +107,11 @@ def time_job(path, workers=None, build=True):
 
 
 def diagnose_case1(effect, seed, folder, noise, workers):
-    """Diagnose the first truth's case (``effect``, ``seed``) with the whole library offered; one row as
-    :func:`diagnose_truth2.diagnose_case2` gives."""
+    """Diagnose the first truth's case (``effect``, ``seed``, load-cell ``noise``) with the whole library offered;
+    one row as :func:`diagnose_truth2.diagnose_frame` gives."""
     t, i, y, truth = make_case(effect, np.random.default_rng(seed), noise=noise)
-    path = write_job(folder, pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), library(), workers)
-    start = time.perf_counter()
-    s = run_diagnosis(load_diagnose_job(path), progress=False, build=False).to_json()
-    return {"truth": effect, "seed": seed, "named": s["effect"], "verdict": s["verdict"], "gap_found": s["gap_found"],
-            "gap_removed": s["gap_removed"], "rmse_before": s["rmse_before"], "rmse_after": s["rmse_after"],
-            "noise": noise, "seconds": time.perf_counter() - start}
+    return diagnose_frame(pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), {**truth, "noise": noise}, seed, folder,
+                          library(), workers)
 
 
 def draw_rows(truths, effects, cases, seed, noise, workers):

@@ -193,8 +193,17 @@ def library(source_text=None):
 
 def diagnose_case2(effect, seed, folder, effects=None, workers=2):
     """Diagnose the second truth's case (``effect``, ``seed``) with the job of ``diagnose_truth.write_job``
-    offering ``effects`` (default: the full library) in ``folder``; no FMU build. Returns one row: the truth,
-    the named effect, its verdict, the gap removed and the figures the counts need."""
+    offering ``effects`` (default: the full library) in ``folder``; no FMU build. Returns one row
+    (:func:`diagnose_frame`)."""
+    frame, truth = case_frame2(effect, seed)
+    return diagnose_frame(frame, truth, seed, folder, effects, workers)
+
+
+def diagnose_frame(frame, truth, seed, folder, effects=None, workers=2):
+    """Diagnose a staircase case of either truth (``frame``: time, i_ref, F_g; ``truth``: its dict, with the
+    ``effect`` and the ``noise`` sd) with the job of ``diagnose_truth.write_job`` offering ``effects`` (default:
+    the full library) in ``folder``; no FMU build. Returns one row: the truth, the named effect, its verdict, the
+    gap removed and the figures the counts need."""
     import time
     from pathlib import Path
 
@@ -203,11 +212,10 @@ def diagnose_case2(effect, seed, folder, effects=None, workers=2):
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    frame, truth = case_frame2(effect, seed)
     job = load_diagnose_job(write_job(folder, frame, library() if effects is None else effects, workers))
     start = time.perf_counter()
     s = run_diagnosis(job, progress=False, build=False).to_json()
-    return {"truth": effect, "seed": seed, "named": s["effect"], "verdict": s["verdict"],
+    return {"truth": truth["effect"], "seed": seed, "named": s["effect"], "verdict": s["verdict"],
             "gap_found": s["gap_found"], "gap_removed": s["gap_removed"],
             "baseline_mean_square": s["baseline_mean_square"], "rmse_before": s["rmse_before"],
             "rmse_after": s["rmse_after"], "noise": truth["noise"], "seconds": time.perf_counter() - start,
