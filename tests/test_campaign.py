@@ -167,6 +167,31 @@ def test_one_trial_alone_gives_its_row_and_a_cosim_run_command(job_path, one_wor
     assert s["t_contact_s"] == pytest.approx(expected["t_contact_s"], rel=1e-12)
 
 
+# Bare fingers at 750 rpm, 0.5 A, trial 65: a trial of the shipped job whose eq. (2) window is broken by a one-count
+# step of the encoder speed at contact and fires 0.2 s later, once the motor stands still (found in the full
+# campaign, where 10 of the cell's 100 trials had no steady force before the runner ran such trials to their end).
+LATE = ["campaign.trials=100", "campaign.hold_s=0.3", "campaign.steady_s=0.2", "campaign.margin_s=0.05",
+        'campaign.coatings=["bare"]', "campaign.speeds_rpm=[750]", "campaign.currents_A=[0.5]"]
+
+
+def test_a_late_trigger_is_run_to_the_end_of_its_tightening(job_path, tmp_path):
+    """The row's steady force is the mean of the 100 Hz load-cell samples over the last steady_s of tightening,
+    recomputed here from the force of the printed ``cosim run`` command (its own run) plus the drawn noise's mean."""
+    row, command = run_one_trial(job_path, 65, LATE)
+    argv = shlex.split(command)
+    out = tmp_path / "late"
+    subprocess.run([sys.executable, *argv[1:], "--out", str(out), "--no-progress"], cwd=ROOT, check=True,
+                   env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True)
+    s = json.loads((out / "summary.json").read_text())
+    assert s["t_switch_s"] - row["t_contact_s"] > 0.1  # later than the job's margin allows
+    data = pd.read_parquet(out / "results.parquet")
+    end = s["t_switch_s"] + 0.3
+    assert data["time"].iloc[-1] >= end
+    samples = end - np.arange(20)[::-1] / 100.0
+    expected = np.mean(np.interp(samples, data["time"], data["F_g"])) + row["load_cell_noise_N"]
+    assert row["steady_force_N"] == pytest.approx(expected, abs=1e-9)
+
+
 @pytest.mark.slow
 def test_resume_against_a_changed_job_is_refused_naming_the_change(job_path, one_worker):
     out, _ = one_worker

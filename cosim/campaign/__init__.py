@@ -80,4 +80,6 @@ def run_one_trial(path, index, overrides=()):
         raise ConfigError(f"--trial {index}: the campaign has trials 0 to {len(specs) - 1}")
     spec = specs[index]
     coating = next(c for c in job.coatings if c.name == spec.coating)
-    return TrialRunner(job, coating).run(spec), run_command(job, spec)
+    runner = TrialRunner(job, coating)
+    row = runner.run(spec)
+    return row, run_command(job, spec, runner.stop_s)

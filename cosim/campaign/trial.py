@@ -25,6 +25,7 @@ DRAWN = ("free_travel_m", "play_position", "encoder_phase", "friction_scatter", 
 COLUMNS = ("coating", "speed_rpm", "current_A", "trial", "seed", *DRAWN, "peak_force_N", "min_force_after_peak_N",
            "steady_force_N", "bounced", "t_contact_s")
 _PLANT, _OUTER = "plant", "outer"
+_LATE_MARGIN_S = 0.01  # s simulated past the end of a late trigger's tightening (above one record period)
 
 
 def _fmu_value(spec, name):
@@ -87,9 +88,15 @@ class TrialRunner:
         self.engine.fmu_pool = FmuPool()  # the FMU stays loaded from one trial to the next
         self.loop_s = 0.0  # wall time inside the engine's loop, summed over the trials run
         self.kernel_s = 0.0  # wall time compiling or loading the loop's kernel (the first run), summed
+        self.stop_s = None  # the stop time (s) of the last trial's run, the longer one of a late trigger
 
     def run(self, spec):
         """Run one trial.
+
+        The run stops ``margin_s`` after the expected end of tightening; when the impact trigger fired later than
+        that allows (a window of eq. (2) broken by the encoder's quantisation or a rebound, so the trigger fires
+        once the motor stands still), the same trial is run again up to the end of its tightening. The engine's
+        fixed steps make the longer run the same as the shorter one up to its stop.
 
         Parameters
         ----------
@@ -100,33 +107,43 @@ class TrialRunner:
         dict
             The trial's row of trials.parquet (:data:`COLUMNS`).
         """
-        job, eng, base = self.job, self.engine, self.base
+        job = self.job
         values, noise = draw(job, spec)
-        params, start, ctrl, stop = _trial_settings(job, base, spec, values)
+        params, start, ctrl, stop = _trial_settings(job, self.base, spec, values)
+        result, s = self._simulate(params, start, ctrl, stop)
+        if s["t_switch_s"] is not None and result.data["time"][-1] < s["t_switch_s"] + job.hold_s - 1e-6:
+            result, s = self._simulate(params, start, ctrl, s["t_switch_s"] + job.hold_s + _LATE_MARGIN_S)
+        return self._row(spec, values, noise, result, s)
+
+    def _simulate(self, params, start, ctrl, stop):
+        """Run the engine with a trial's plant values, outer-loop values and stop; (result, impact summary)."""
+        eng, base = self.engine, self.base
         plant = dataclasses.replace(base.fmus[_PLANT], parameters=params, start=start)
         eng.config = dataclasses.replace(base, run=dataclasses.replace(base.run, stop=stop),
                                          fmus={**base.fmus, _PLANT: plant})
         eng.k_stop = eng.tb.ticks(stop - base.run.start)
+        self.stop_s = stop
         outer = eng.controllers[_OUTER]
         outer.values.update(ctrl)
         outer.p[:] = outer.pack()
         result = eng.run(progress=False)
         self.loop_s += result.wall_s
         self.kernel_s += result.compile_s - eng.compile_s
-        return self._row(spec, values, noise, result)
+        summary = base.summary
+        return result, summary.plugin.summarize(result.data, result.controller_values[_OUTER], dict(summary.columns))
 
-    def _row(self, spec, values, noise, result):
-        """Reduce a run to its row: the impact summary of the recorded force, the steady force from the
-        load cell's 100 Hz samples (with their noise) over the last ``steady_s`` of tightening."""
+    def _row(self, spec, values, noise, result, s):
+        """Reduce a run and its impact summary ``s`` to the trial's row: the impact summary of the recorded force,
+        the steady force from the load cell's 100 Hz samples (with their noise) over the last ``steady_s`` of
+        tightening."""
         job, summary = self.job, self.base.summary
-        s = summary.plugin.summarize(result.data, result.controller_values[_OUTER], dict(summary.columns))
         t = result.data["time"]
         f = result.data[summary.columns["force"]]
         steady = math.nan
         noise_mean = 0.0
         window = s.get("steady_window_s")
         if window is not None and window[1] < s["t_switch_s"] + job.hold_s - 1e-6:
-            window = None  # the run stopped before the end of tightening: no steady force (margin_s too short)
+            window = None  # the run stopped before the end of tightening: no steady force
         if window is not None:
             end = window[1]
             n = int(round(job.steady_s * job.load_cell_rate))
@@ -144,7 +161,7 @@ class TrialRunner:
             bool(low < job.bounce_fraction * steady), s["t_contact_s"] if s["t_contact_s"] is not None else math.nan)))
 
 
-def run_command(job, spec):
+def run_command(job, spec, stop=None):
     """The ``cosim run`` command that runs one trial's co-simulation alone (the load cell's noise and the
     steady force's 100 Hz sampling are the campaign's post-processing: not in it).
 
@@ -152,6 +169,8 @@ def run_command(job, spec):
     ----------
     job : cosim.campaign.job.CampaignJob
     spec : cosim.campaign.draws.TrialSpec
+    stop : float, optional
+        The run's stop time (s), when it was not the expected one (:attr:`TrialRunner.stop_s`).
 
     Returns
     -------
@@ -163,7 +182,8 @@ def run_command(job, spec):
     sets = [f"fmus.{_PLANT}.parameters.{k}={v!r}" for k, v in coating.parameters.items()]
     base = load_config(coating.config, sets)
     values, _ = draw(job, spec)
-    params, start, ctrl, stop = _trial_settings(job, base, spec, values)
+    params, start, ctrl, expected_stop = _trial_settings(job, base, spec, values)
+    stop = expected_stop if stop is None else stop
     sets = [f"run.stop={stop!r}"]
     sets += [f"fmus.{_PLANT}.parameters.{k}={v!r}" for k, v in params.items()]
     sets += [f'fmus.{_PLANT}.start."{k}"={v!r}' for k, v in start.items()]
