@@ -27,6 +27,9 @@ the reduction was chosen so that the resolution, 2 pi/(2048 * 20) = 1.53e-4 rad 
 order of the ~0.03 mm nominal resolution quoted for the device).
 """
 
+import json
+from pathlib import Path
+
 import control
 import numpy as np
 import pandas as pd
@@ -37,7 +40,7 @@ from cosim.haptic.params import PARAMS_11, PARAMS_7, POSITIONS, USERS, load_user
 from cosim.haptic.tf import tf_11, tf_7
 
 __all__ = ["TRUTH_EFFECTS", "FS", "ENCODER_STEP", "random_plant", "measure", "make_case", "second_mode_ss",
-           "delayed_response"]
+           "delayed_response", "SOURCE", "write_job"]
 
 TRUTH_EFFECTS = ("none", "hand_mass", "vibration_mode", "loop_delay")
 FS = 1000.0                                   # Hz, the loop and sampling rate of seed 000
@@ -156,3 +159,43 @@ def make_case(effect, rng):
     """A random hidden-effect case: (measured table, truth dict)."""
     plant, truth = random_plant(effect, rng)
     return measure(plant, int(rng.integers(1 << 30))), truth
+
+
+# -- the diagnosis job of a measured table (tests and benchmark, both truths) ------------------------------------
+
+SOURCE = Path(__file__).resolve().parent.parent / "modelica" / "Haptic" / "package.mo"
+JOB = """
+[model]
+source = "{source}"
+name = "Haptic.Device7"
+[data]
+path = "data.csv"
+[experiment]
+kind = "frequency"
+input = "tau"
+sample_rate = 1000.0
+[compare]
+signals = [{{ output = "phi", noise = 0.02 }}]
+max_nfev = 100
+{parameters}
+[candidates]
+effects = {effects}
+[parallel]
+workers = {workers}
+"""
+# The baseline's free parameters (start, min, max): Table I-like starts, bounds well beyond Table I's ranges
+BASELINE = {"m1": (8e-4, 2e-4, 4e-3), "b1": (0.04, 1e-3, 0.5), "bc": (0.04, 1e-4, 0.5), "kc": (80.0, 5.0, 400.0),
+            "m2": (2e-3, 2e-4, 0.02), "bs": (0.05, 1e-5, 1.0), "ks": (2.0, 0.05, 300.0)}
+
+
+def write_job(folder, frame, effects, workers=0):
+    """Write ``frame`` (the measured table) and a diagnosis job of Haptic.Device7 offering ``effects`` into
+    ``folder``; returns the job's path."""
+    folder = Path(folder)
+    frame.to_csv(folder / "data.csv", index=False)
+    tables = "".join(f"[parameters.{n}]\nstart = {a!r}\nmin = {lo!r}\nmax = {hi!r}\n"
+                     for n, (a, lo, hi) in BASELINE.items())
+    path = folder / "job.toml"
+    path.write_text(JOB.format(source=SOURCE.as_posix(), effects=json.dumps(list(effects)), parameters=tables,
+                               workers=workers))
+    return path

@@ -17,46 +17,14 @@ from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis, write_vari
 from cosim.diagnose.effects import variant_text
 from cosim.diagnose.frequency import FrequencyExperiment, frequency_noise, response
 from cosim.errors import ConfigError
-from diagnose_truth_haptic import FS, make_case, second_mode_ss
+from diagnose_truth_haptic import FS, SOURCE, make_case, second_mode_ss, write_job
 from test_gripper_support import ROOT
 
-SOURCE = ROOT / "modelica" / "Haptic" / "package.mo"
 HAPTIC = ("hand_mass", "vibration_mode", "loop_delay")
 F = np.linspace(1.0, 100.0, 200)  # Hz, the band of the hidden-effect data
 
-JOB = """
-[model]
-source = "{source}"
-name = "Haptic.Device7"
-[data]
-path = "data.csv"
-[experiment]
-kind = "frequency"
-input = "tau"
-sample_rate = 1000.0
-[compare]
-signals = [{{ output = "phi", noise = 0.02 }}]
-max_nfev = 100
-{parameters}
-[candidates]
-effects = {effects}
-[parallel]
-workers = 0
-"""
-
-
-# The baseline's free parameters (start, min, max): Table I-like starts, bounds well beyond Table I's ranges
-BASELINE = {"m1": (8e-4, 2e-4, 4e-3), "b1": (0.04, 1e-3, 0.5), "bc": (0.04, 1e-4, 0.5), "kc": (80.0, 5.0, 400.0),
-            "m2": (2e-3, 2e-4, 0.02), "bs": (0.05, 1e-5, 1.0), "ks": (2.0, 0.05, 300.0)}
-
-
 def _write_job(folder, frame, effects=HAPTIC):
-    frame.to_csv(folder / "data.csv", index=False)
-    tables = "".join(f"[parameters.{n}]\nstart = {a!r}\nmin = {lo!r}\nmax = {hi!r}\n"
-                     for n, (a, lo, hi) in BASELINE.items())
-    path = folder / "job.toml"
-    path.write_text(JOB.format(source=SOURCE.as_posix(), effects=json.dumps(list(effects)), parameters=tables))
-    return path
+    return write_job(folder, frame, effects)
 
 
 def _variant_response(name, values, sample_rate=FS):
