@@ -215,10 +215,17 @@ def diagnose_frame(frame, truth, seed, folder, effects=None, workers=2):
     job = load_diagnose_job(write_job(folder, frame, library() if effects is None else effects, workers))
     start = time.perf_counter()
     s = run_diagnosis(job, progress=False, build=False).to_json()
+    return diagnosis_row(s, truth, seed, truth["noise"], time.perf_counter() - start)
+
+
+def diagnosis_row(summary, truth, seed, noise, seconds):
+    """One evaluation row from a diagnosis's summary (``Diagnosis.to_json()``) of a truth's case: the truth, the
+    named effect, its verdict, the gap removed and the figures the counts need (``noise``: the truth's noise)."""
+    s = summary
     return {"truth": truth["effect"], "seed": seed, "named": s["effect"], "verdict": s["verdict"],
             "gap_found": s["gap_found"], "gap_removed": s["gap_removed"],
             "baseline_mean_square": s["baseline_mean_square"], "rmse_before": s["rmse_before"],
-            "rmse_after": s["rmse_after"], "noise": truth["noise"], "seconds": time.perf_counter() - start,
+            "rmse_after": s["rmse_after"], "noise": noise, "seconds": seconds,
             "truth_parameters": {k: float(v) for k, v in truth.items() if k != "effect"}}
 
 

@@ -284,6 +284,7 @@ def diagnose_frame_haptic(frame, truth, seed, folder, noise, workers=0):
     """Diagnose a measured table of either truth with the whole library; no FMU build. Returns the row of
     tests/diagnose_truth2.diagnose_frame (``noise``: the case's noise parameter, its units per truth)."""
     from cosim.diagnose import load_diagnose_job, run_diagnosis
+    from diagnose_truth2 import diagnosis_row
     from diagnose_truth_haptic import write_job
 
     folder = Path(folder)
@@ -291,11 +292,7 @@ def diagnose_frame_haptic(frame, truth, seed, folder, noise, workers=0):
     job = load_diagnose_job(write_job(folder, frame, library(), workers))
     start = time.perf_counter()
     s = run_diagnosis(job, progress=False, build=False).to_json()
-    return {"truth": truth["effect"], "seed": seed, "named": s["effect"], "verdict": s["verdict"],
-            "gap_found": s["gap_found"], "gap_removed": s["gap_removed"],
-            "baseline_mean_square": s["baseline_mean_square"], "rmse_before": s["rmse_before"],
-            "rmse_after": s["rmse_after"], "noise": noise, "seconds": time.perf_counter() - start,
-            "truth_parameters": {k: float(v) for k, v in truth.items() if k != "effect"}}
+    return diagnosis_row(s, truth, seed, noise, time.perf_counter() - start)
 
 
 def diagnose_case_haptic2(effect, seed, folder, workers=0, estimator="lines"):
