@@ -1,0 +1,430 @@
+"""A second hidden-effect truth of the gripper's dynamic experiments (impact, slide, speed run), written from other
+textbook formulations than the candidates' Modelica and than ``diagnose_truth_impact.py``; never used to tune
+anything (issue #32 item 3).
+
+The experiments, inputs, outputs, sampling and noise are those of the first truth (``diagnose_truth_impact.py``:
+``T_STEP``, ``I_STEP``, ``SLIDE_PROFILE``, ``SPEED_PROFILE``, the PI speed loop, the 100 Hz load cell with 0.5 N
+noise, the 2048 cpt encoder truncated to whole counts, the 1 kHz current of the slide and speed run, the current
+noise), so its ``write_job`` writes the diagnosis job of a case of this module. What differs is the plant, each
+part against the candidates' Modelica and the first truth:
+
+* motor friction: LuGre (Canudas de Wit et al. 1995) in its normalised form, ``T_f = L (z/PHI_M + SIGMA1_M
+  dz/dt)``, ``dz/dt = w - |w| z/(PHI_M mu(w))``, Stribeck ``mu = 1 + 0.1 exp(-(w/W_S_M)^2)``, viscous ``B_R``
+  (Modelica: elasto-plastic bristle of presliding ``phi_b``; first truth: Karnopp with a Dahl state);
+* gear loss: torque-proportional inside the LuGre level, ``L = T_c0 + c |tau_out|/N`` with ``c = 1/eta - 1`` when
+  the motor drives the load and ``1 - eta`` when the load back-drives it (sign of ``z tau_out``), ``tau_out`` the
+  gear output's load (mesh shaft and bearing damping ``B_g``, eq. 9) (Modelica: an efficiency by power flow on
+  its own bristle; first truth: a Karnopp band);
+* gear mesh: Nordin and Gutman's (2002) "physical" backlash, a Kelvin-Voigt shaft (``K_MESH``, ``C_MESH``) in
+  series with a dead zone whose position inside the play is a state, so the torque never jumps and never pulls
+  (Modelica: a rigid gear with an elastic play stop; first truth: a dead-band spring with clamped damping);
+* guides: LuGre in force units (bristles ``SIGMA0_G``, damping ``SIGMA1_G``) with a Stribeck breakaway ``F_s``
+  (``F_GUIDE`` without the effect) and a level growing by ``mu_F F_contact`` (Modelica: a regularised Coulomb, the
+  effects' elasto-plastic bristles; first truth: Karnopp);
+* coating: one smooth nonlinear law instead of two linear regions: a Hertz-like soft region ``F ~ delta^1.2``
+  (tangent stiffness ``k_P`` at 0.3 mm) plus a softplus stiffening to ``k_H`` past ``d_lim``, its damping
+  blended from ``C_p`` to ``C_h`` by a logistic of the same width (both: two linear regions, damping switched);
+* contact damping (effect): Tsuji's (Hertz-Mindlin) ``c (delta/0.5 mm)^0.25`` on the coating's deflection rate
+  (candidate: Hunt-Crossley ``lambda F v``; first truth: ``c_hc pen^p v``, p 1.2-1.8);
+* coating relaxation (effect): two Prony (Maxwell) terms by backward Euler (candidate: one Maxwell branch;
+  first truth: one Prony term by the recursive exponential integrator);
+* cogging (effect): a detent torque interpolated linearly in a 64-point FEM-like table over one slot pitch
+  (harmonics 1-3, ``diagnose_truth2.cogging_table``) (candidate: one sinusoid; first truth: spline derivative of a
+  tabulated energy with harmonics 1-2);
+* load cell: second order (``f_lc``, ``zeta_lc``; 500 Hz and 0.7 without the effect) (candidate: first-order lag
+  and offset; first truth: ideal).
+
+Hidden effects and their drawn sizes (ranges of the plant, as the first truth's where it has the effect):
+``gear_play`` (play 0.3-0.55 deg or 1.1-1.6 deg instead of 0.8 deg), ``contact_damping`` (Tsuji ``c`` 100-300
+N.s/m at 0.5 mm), ``coating_relaxation`` (two Prony terms of total stiffness 0.5-2 ``k_P``, split 30-70 %, time
+constants 0.03-0.1 s and 0.15-0.4 s), ``stiction`` (guide breakaway ``F_s`` 3-10 N, Stribeck velocity 0.5-2
+mm/s), ``cogging`` (table peak 1.5-4 mN.m at a random phase), ``load_dependent_friction`` (``mu_F`` 0.01-0.05),
+``loadcell_filter`` (``f_lc`` 4-15 Hz, ``zeta_lc`` 0.5-1, offset +-1-3 N) or ``none``. Every case draws ``eta``
+0.62-0.74 and ``T_c0`` 6-10 mN.m (the baseline's free parameters, as the first truth).
+
+Integration: semi-implicit Euler at ``DT`` = 10 us compiled with numba; the bristle states by the exact solution
+of their linear ODE over a step (stable at any slip speed), the coating's deflection by backward Euler (a
+safeguarded Newton solve of the series balance finger/object spring = coating force at every step).
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from diagnose_truth2 import cogging_table
+from diagnose_truth_impact import (CONDITION, COUNTS, CURRENT_NOISE, FORCE_NOISE, I_STEP, K_IW, K_PW, PLACEMENT,
+                                   RATE_HZ, SLIDE_GAP0, SLIDE_PROFILE, SLIDE_RATE_HZ, SPEED_PROFILE, T_STEP, DURATION,
+                                   EXPERIMENTS)
+
+__all__ = ["TRUTH2_IMPACT_EFFECTS", "SHOWN_BY", "simulate", "make_case_impact2", "effect_signal2",
+           "diagnose_case_impact2", "diagnose_case_impact1", "library"]
+
+TRUTH2_IMPACT_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction", "cogging",
+                         "load_dependent_friction", "loadcell_filter")
+# docs/guide/diagnose.md, "Which experiment shows which effect": the effects each experiment is said to show
+SHOWN_BY = {"impact": ("gear_play", "contact_damping", "coating_relaxation", "load_dependent_friction"),
+            "slide": ("stiction",), "speed": ("cogging",)}
+
+# the paper's values (as the first truth; docs/models/gripper.md)
+K_T, J_M, B_R = 0.0393939394, 1.01e-5, 1.01e-5    # N.m/A, kg.m2, N.m.s/rad
+RATIO, T_MAX, OMEGA_MAX = 28.0, 0.13, 628.3185    # 1, N.m, rad/s
+PLAY_NOMINAL = math.radians(0.8)                  # rad, total play
+R_P, J_P, M_JF = 0.008957, 7.94e-7, 0.08          # m, kg.m2, kg
+C_GREASE = 4 * 0.2 * 2e-4 / 5e-5                  # N.s/m, eq. (11)
+F_GUIDE = 0.0785                                  # N, sliding guide friction per jaw
+K_F = 1.46e6                                      # N/m, finger
+DT = 1e-5                                         # s
+# this truth's own elements
+K_MESH, C_MESH = 1000.0, 0.05                     # N.m/rad, N.m.s/rad: mesh shaft at the gear output
+PHI_M, SIGMA1_M, STRIBECK_M, W_S_M = 1e-3, 1.1, 1.1, 0.2  # rad, s/rad, static/Coulomb, rad/s: motor LuGre
+SIGMA0_G = 1e7                                    # N/m: guide bristles (1 um of presliding at 10 N)
+SIGMA1_G = math.sqrt(SIGMA0_G * (M_JF + J_P / (2 * R_P ** 2)))  # N.s/m: bristle damping ratio 0.5 on the jaw
+V_S_G = 1e-3                                      # m/s: guide Stribeck velocity without the effect
+DELTA_REF, HERTZ_N, W_TRANS = 3e-4, 1.2, 1e-4     # m, 1, m: coating's soft-region law and region transition
+F_LC_NOMINAL, ZETA_LC_NOMINAL = 500.0, 0.7        # Hz, 1: load cell without the effect
+
+
+@njit(cache=True)
+def _coating(delta, delta_prev, q1, q2, k_P, k_H, d_lim, C_p, C_h, c_tsuji, k1, tau1, k2, tau2):
+    """The coating's force at deflection ``delta`` [m] reached from ``delta_prev`` in one step (backward Euler
+    rates), and its derivative in ``delta``; also the two Prony forces it implies."""
+    rate = (delta - delta_prev) / DT
+    if delta > 0:
+        soft = k_P * DELTA_REF / HERTZ_N * (delta / DELTA_REF) ** HERTZ_N
+        d_soft = k_P * (delta / DELTA_REF) ** (HERTZ_N - 1)
+    else:
+        soft, d_soft = k_P * delta, k_P
+    u = (delta - d_lim) / W_TRANS
+    sig = 1.0 / (1.0 + math.exp(-u)) if u > -50 else 0.0
+    splus = u + math.log1p(math.exp(-u)) if u > 0 else math.log1p(math.exp(u))
+    elastic = soft + (k_H - k_P) * W_TRANS * splus
+    d_elastic = d_soft + (k_H - k_P) * sig
+    C = C_p + (C_h - C_p) * sig
+    dC = (C_h - C_p) * sig * (1 - sig) / W_TRANS
+    tsuji = c_tsuji * (max(delta, 0.0) / 5e-4) ** 0.25
+    d_tsuji = 0.25 * tsuji / delta if delta > 1e-12 else 0.0
+    p1 = (q1 + k1 * (delta - delta_prev)) / (1 + DT / tau1)
+    p2 = (q2 + k2 * (delta - delta_prev)) / (1 + DT / tau2)
+    force = elastic + (C + tsuji) * rate + p1 + p2
+    d_force = d_elastic + (dC + d_tsuji) * rate + (C + tsuji) / DT + k1 / (1 + DT / tau1) + k2 / (1 + DT / tau2)
+    return force, d_force, p1, p2
+
+
+@njit(cache=True)
+def _contact(pen, delta_prev, q1, q2, k_s, k_P, k_H, d_lim, C_p, C_h, c_tsuji, k1, tau1, k2, tau2):
+    """Coating deflection where the finger/object springs ``k_s*(pen - delta)`` (never pulling) meet the coating's
+    force: safeguarded Newton on a strictly decreasing balance. Returns (delta, contact force, q1, q2)."""
+    def balance(d):
+        f, df, p1, p2 = _coating(d, delta_prev, q1, q2, k_P, k_H, d_lim, C_p, C_h, c_tsuji, k1, tau1, k2, tau2)
+        if pen - d > 0:
+            return k_s * (pen - d) - f, -k_s - df
+        return -f, -df
+    lo, hi, width = delta_prev, delta_prev, 1e-6
+    while balance(lo)[0] < 0:
+        lo -= width
+        width *= 2
+    width = 1e-6
+    while balance(hi)[0] > 0:
+        hi += width
+        width *= 2
+    d = min(max(delta_prev, lo), hi)
+    for _ in range(200):
+        g, dg = balance(d)
+        if abs(g) < 1e-9:  # N: converged at d
+            break
+        if g > 0:
+            lo = d
+        else:
+            hi = d
+        step = d - g / dg
+        d = step if lo < step < hi else 0.5 * (lo + hi)
+        if hi - lo < 1e-15:
+            break
+    f, df, p1, p2 = _coating(d, delta_prev, q1, q2, k_P, k_H, d_lim, C_p, C_h, c_tsuji, k1, tau1, k2, tau2)
+    return d, k_s * max(pen - d, 0.0), p1, p2
+
+
+@njit(cache=True)
+def _bristle(z, speed, sigma0, level):
+    """LuGre's bristle after one step at ``speed``: the exact solution of dz/dt = speed - sigma0 |speed| z / level."""
+    a = sigma0 * abs(speed) / level
+    if a == 0.0:
+        return z
+    z_ss = speed / a
+    return z_ss + (z - z_ss) * math.exp(-a * DT)
+
+
+@njit(cache=True)
+def _load_cell_step(y, dy, force, w_lc, zeta_lc):
+    """The second-order load cell ``y'' = w_lc^2 (force - y) - 2 zeta_lc w_lc y'`` one step on (semi-implicit
+    Euler): its reading and rate."""
+    dy += DT * (w_lc ** 2 * (force - y) - 2 * zeta_lc * w_lc * dy)
+    return y + DT * dy, dy
+
+
+@njit(cache=True)
+def _integrate(inputs, speed_mode, steps_per_sample, eta, T_c0, play, gap0, t_coat, k_s, k_P, k_H, d_lim, C_p,
+               C_h, c_tsuji, k1, tau1, k2, tau2, F_s, v_s, mu_F, cog_y, cog_period, f_lc, zeta_lc):
+    """The plant of the module docstring at ``DT`` over ``len(inputs)`` samples. ``inputs``: the current [A] per
+    sample, or (``speed_mode``) the motor speed reference [rad/s] of the PI loop. Returns per sample (before the
+    sample's step): load-cell reading [N], contact force [N], motor angle [rad], q current [A], jaw travel [m]."""
+    n = len(inputs)
+    out = np.empty((n, 5))
+    m = M_JF + J_P / (2 * R_P ** 2)
+    B_g = T_MAX * (1 - eta) * RATIO ** 2 / OMEGA_MAX  # eq. (9): bearing damping at the gear output
+    c_drive, c_back = 1 / eta - 1, 1 - eta
+    w_lc = 2 * math.pi * f_lc
+    n_cog = len(cog_y)
+    theta = w = x = v = z_m = z_g = t_b = delta = q1 = q2 = y_lc = dy_lc = F_c = integral = 0.0
+    for k in range(n * steps_per_sample):
+        j = k // steps_per_sample
+        if speed_mode:
+            i_q = K_PW * (inputs[j] - w) + K_IW * integral
+            integral += DT * (inputs[j] - w)
+        else:
+            i_q = inputs[j]
+        if k % steps_per_sample == 0:
+            out[j, 0], out[j, 1], out[j, 2], out[j, 3], out[j, 4] = y_lc, F_c, theta, i_q, x
+        # contact: coating in series with the finger/object springs
+        delta, F_c, q1, q2 = _contact(x - (gap0 - t_coat), delta, q1, q2, k_s, k_P, k_H, d_lim, C_p, C_h, c_tsuji,
+                                      k1, tau1, k2, tau2)
+        # Nordin-Gutman backlash: Kelvin-Voigt shaft in series with a dead zone at position t_b
+        rel, rel_rate = theta / RATIO - x / R_P, w / RATIO - v / R_P
+        t_b_new = min(max(t_b + DT * (rel_rate + K_MESH / C_MESH * (rel - t_b)), -play / 2), play / 2)
+        tau = K_MESH * (rel - t_b) + C_MESH * (rel_rate - (t_b_new - t_b) / DT)
+        t_b = t_b_new
+        tau_out = tau + B_g * w / RATIO  # the gear output's load: mesh shaft and bearing
+        # motor: LuGre with the torque-proportional gear loss in its level
+        cog = 0.0
+        if n_cog:
+            u = (theta % cog_period) / cog_period * n_cog
+            i0 = int(u) % n_cog
+            cog = cog_y[i0] + (cog_y[(i0 + 1) % n_cog] - cog_y[i0]) * (u - int(u))
+        level = T_c0 + (c_drive if z_m * tau_out >= 0 else c_back) * abs(tau_out) / RATIO
+        z_new = _bristle(z_m, w, 1 / PHI_M, 1 + (STRIBECK_M - 1) * math.exp(-(w / W_S_M) ** 2))
+        T_f = level * (z_new / PHI_M + SIGMA1_M * (z_new - z_m) / DT)
+        z_m = z_new
+        w_new = w + DT * (K_T * i_q - B_R * w - tau_out / RATIO - cog - T_f) / J_M
+        # jaw: rack, grease, LuGre guides (force units) with Stribeck breakaway and a load-dependent level
+        g_level = F_GUIDE + mu_F * F_c + (F_s - F_GUIDE) * math.exp(-(v / v_s) ** 2)
+        zg_new = _bristle(z_g, v, SIGMA0_G, g_level)
+        F_guide = SIGMA0_G * zg_new + SIGMA1_G * (zg_new - z_g) / DT
+        z_g = zg_new
+        v_new = v + DT * (tau / (2 * R_P) - C_GREASE * v - F_c - F_guide) / m
+        y_lc, dy_lc = _load_cell_step(y_lc, dy_lc, F_c, w_lc, zeta_lc)
+        w, v = w_new, v_new
+        theta += DT * w
+        x += DT * v
+    return out
+
+
+def simulate(truth, experiment="impact", gap0=None, profile=None):
+    """One noise-free record of ``experiment`` for the parameters ``truth`` (a dict from
+    :func:`make_case_impact2`; ``eta_g`` and ``T_c0`` are enough for the baseline), the object at ``gap0`` [m] of
+    travel (default: the experiment's). Returns (time [s], input, load-cell reading [N] with its offset, contact
+    force [N], motor angle [rad], q current [A], jaw travel [m]): the input is the current [A] per sample, or for
+    the speed run the speed reference [rad/s]. ``profile``: (time [s], input) corners joined by straight lines in
+    place of the experiment's input (for the tests), at the experiment's rate and over its last corner."""
+    _experiment(experiment)
+    gap0 = (CONDITION["gap0"] if experiment == "impact" else SLIDE_GAP0) if gap0 is None else gap0
+    rate = RATE_HZ if experiment == "impact" else SLIDE_RATE_HZ
+    duration = {"impact": DURATION, "slide": SLIDE_PROFILE[-1][0], "speed": SPEED_PROFILE[-1][0]}[experiment]
+    time = np.arange(int(round((profile[-1][0] if profile else duration) * rate))) / rate
+    if profile:
+        given = np.interp(time, *zip(*profile))
+    elif experiment == "impact":
+        given = np.where(time >= T_STEP - 1e-12, I_STEP, 0.0)
+    else:
+        given = np.interp(time, *zip(*(SPEED_PROFILE if experiment == "speed" else SLIDE_PROFILE)))
+    c, t = CONDITION, truth
+    k_rel = t.get("k_rel", 0.0) * c["k_P"]
+    cog = cogging_table(t["T_cog"], t["phase_cog"])[1] if "T_cog" in t else np.zeros(0)
+    out = _integrate(np.ascontiguousarray(given, dtype=float), experiment == "speed",
+                     int(round(1.0 / (rate * DT))), t["eta_g"], t["T_c0"], t.get("play", PLAY_NOMINAL), gap0,
+                     c["t_coat"], 1.0 / (1.0 / K_F + 1.0 / c["k_obj"]), c["k_P"], c["k_H_ratio"] * c["k_P"],
+                     c["d_lim"], c["C_p"], c["C_h"], t.get("c_tsuji", 0.0), k_rel * t.get("split", 0.5),
+                     t.get("tau_rel1", 0.05), k_rel * (1 - t.get("split", 0.5)), t.get("tau_rel2", 0.2),
+                     t.get("F_sj", F_GUIDE), t.get("v_s", V_S_G), t.get("mu_F", 0.0), np.asarray(cog, dtype=float),
+                     2 * np.pi / 24, t.get("f_lc", F_LC_NOMINAL), t.get("zeta_lc", ZETA_LC_NOMINAL))
+    return time, given, out[:, 0] + t.get("F_off", 0.0), out[:, 1], out[:, 2], out[:, 3], out[:, 4]
+
+
+def _experiment(name):
+    """Check that ``name`` is one of the first truth's experiments."""
+    if name not in EXPERIMENTS:
+        raise ValueError(f"experiment must be one of {', '.join(EXPERIMENTS)}; got {name!r}")
+
+
+def draw_truth(effect, rng):
+    """The drawn parameters of one case of ``effect`` (module docstring: the ranges), by the Modelica's names where
+    there is one."""
+    if effect not in TRUTH2_IMPACT_EFFECTS:
+        raise ValueError(f"effect must be one of {', '.join(TRUTH2_IMPACT_EFFECTS)}; got {effect!r}")
+    truth = {"effect": effect, "eta_g": float(rng.uniform(0.62, 0.74)), "T_c0": float(rng.uniform(6e-3, 1e-2))}
+    if effect == "gear_play":
+        truth["play"] = math.radians(rng.uniform(0.3, 0.55) if rng.random() < 0.5 else rng.uniform(1.1, 1.6))
+    elif effect == "contact_damping":
+        truth["c_tsuji"] = float(rng.uniform(100.0, 300.0))
+    elif effect == "coating_relaxation":
+        truth.update(k_rel=float(rng.uniform(0.5, 2.0)), split=float(rng.uniform(0.3, 0.7)),
+                     tau_rel1=float(rng.uniform(0.03, 0.1)), tau_rel2=float(rng.uniform(0.15, 0.4)))
+    elif effect == "stiction":
+        truth.update(F_sj=float(rng.uniform(3.0, 10.0)), v_s=float(rng.uniform(5e-4, 2e-3)))
+    elif effect == "cogging":
+        truth.update(T_cog=float(rng.uniform(1.5e-3, 4e-3)), phase_cog=float(rng.uniform(0, 2 * np.pi)))
+    elif effect == "load_dependent_friction":
+        truth["mu_F"] = float(rng.uniform(0.01, 0.05))
+    elif effect == "loadcell_filter":
+        truth.update(f_lc=float(rng.uniform(4.0, 15.0)), zeta_lc=float(rng.uniform(0.5, 1.0)),
+                     F_off=float(rng.choice([-1.0, 1.0]) * rng.uniform(1.0, 3.0)))
+    return truth
+
+
+def make_case_impact2(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
+    """A random hidden-effect case of this truth in the first truth's structure (``make_case`` of
+    diagnose_truth_impact.py): (records, truth dict), each record (time, input, measured channel, measured
+    angle, {"gap0": travel [m]}); the force with ``noise`` [N] (NaN between the load cell's 100 Hz samples on the
+    slide), or on the speed run the current with ``CURRENT_NOISE``; the angle in whole encoder counts (truncated).
+    Trial 0 has the object at the experiment's distance, further trials within ``PLACEMENT`` of it."""
+    truth = draw_truth(effect, rng)
+    _experiment(experiment)
+    records = []
+    for k in range(trials):
+        placed = (CONDITION["gap0"] if experiment == "impact" else SLIDE_GAP0) + \
+            (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
+        t, given, force, _, theta, current, _ = simulate(truth, experiment, placed)
+        angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
+        if experiment == "speed":
+            records.append((t, given, current + rng.normal(0.0, CURRENT_NOISE, len(t)), angle, {"gap0": placed}))
+            continue
+        sampled = np.arange(len(t)) % (int(round(SLIDE_RATE_HZ / RATE_HZ)) if experiment == "slide" else 1) == 0
+        measured = np.full(len(t), np.nan)
+        measured[sampled] = force[sampled] + rng.normal(0.0, noise, int(sampled.sum()))
+        records.append((t, given, measured, angle, {"gap0": placed}))
+    return records, truth
+
+
+def effect_signal2(case, experiment="impact"):
+    """RMS change the hidden effect alone makes to the case's noise-free records (the truth with the effect less
+    the truth without it, same ``eta_g``, ``T_c0``, object positions): (compared channel, motor angle [rad]); the
+    compared channel is the load cell [N], or the current [A] on the speed run. Zero for ``none``."""
+    records, truth = case
+    if truth["effect"] == "none":
+        return 0.0, 0.0
+    base = {"eta_g": truth["eta_g"], "T_c0": truth["T_c0"]}
+    column = 5 if experiment == "speed" else 2
+    channel, angle = [], []
+    for record in records:
+        run_1, run_0 = simulate(truth, experiment, record[4]["gap0"]), simulate(base, experiment, record[4]["gap0"])
+        keep = np.isfinite(record[2])
+        channel.append((run_1[column] - run_0[column])[keep])
+        angle.append(run_1[4] - run_0[4])
+    return (float(np.sqrt(np.mean(np.concatenate(channel) ** 2))),
+            float(np.sqrt(np.mean(np.concatenate(angle) ** 2))))
+
+
+# -- the evaluation: diagnose drawn cases of both truths and count them side by side -------------------------------
+
+MODELS = {"impact": "Gripper.GripperCurrentDriven", "slide": "Gripper.GripperCurrentDriven",
+          "speed": "Gripper.GripperSpeedControlled"}
+
+
+def library(experiment):
+    """Every effect of the library that applies to the model of ``experiment`` (the whole library is offered)."""
+    from cosim.diagnose.effects import applicable
+    from diagnose_truth import SOURCE
+
+    return applicable(SOURCE.read_text(encoding="utf-8"), MODELS[experiment])
+
+
+def diagnose_records(case, seed, folder, experiment, workers=2, max_nfev=20):
+    """Diagnose ``case`` ((records, truth) of either truth) with the first truth's ``write_job`` offering the
+    whole library of the experiment's model, no FMU build. Returns one row with the keys of
+    ``diagnose_truth2.diagnose_frame`` (``noise``: the compared channel's noise sd)."""
+    import time
+    from pathlib import Path
+
+    from cosim.diagnose import load_diagnose_job, run_diagnosis
+    from diagnose_truth import SOURCE
+    from diagnose_truth2 import diagnosis_row
+    from diagnose_truth_impact import write_job
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    truth = case[1]
+    job = load_diagnose_job(write_job(folder, SOURCE, case, library(experiment), workers, max_nfev, experiment))
+    start = time.perf_counter()
+    s = run_diagnosis(job, progress=False, build=False).to_json()
+    return diagnosis_row(s, truth, seed, CURRENT_NOISE if experiment == "speed" else FORCE_NOISE,
+                         time.perf_counter() - start)
+
+
+def diagnose_case_impact2(effect, seed, folder, experiment="impact", workers=2):
+    """Diagnose this truth's case (``effect``, ``seed``) of ``experiment``; one row (:func:`diagnose_records`)."""
+    case = make_case_impact2(effect, np.random.default_rng(seed), experiment=experiment)
+    return {**diagnose_records(case, seed, folder, experiment, workers), "experiment": experiment,
+            "truth_model": 2, "effect_signal": effect_signal2(case, experiment)}
+
+
+def diagnose_case_impact1(effect, seed, folder, experiment="impact", workers=2):
+    """The same row for the first truth's case (``diagnose_truth_impact.make_case``), for the side-by-side count."""
+    from diagnose_truth_impact import effect_signal, make_case
+
+    case = make_case(effect, np.random.default_rng(seed), experiment=experiment)
+    return {**diagnose_records(case, seed, folder, experiment, workers), "experiment": experiment,
+            "truth_model": 1, "effect_signal": effect_signal(case, experiment)}
+
+
+# The run of the issue: effects per experiment in priority order (docs/guide/diagnose.md: which experiment shows
+# which effect, and "none" for the false alarms); loadcell_filter on the impact is extra (shown by the staircase).
+PLAN = (("impact", ("none", "gear_play", "contact_damping", "coating_relaxation", "load_dependent_friction")),
+        ("speed", ("none", "cogging")), ("slide", ("none", "stiction")))
+
+
+def main(argv=None):
+    """Diagnose ``--cases`` drawn cases of each planned effect, both truths, appending one JSON row per line to
+    ``--rows``; the seeds come from the OS and are printed. Ends with the counts per experiment and truth."""
+    import argparse
+    import json
+    import tempfile
+
+    from diagnose_truth2 import count_rows
+
+    parser = argparse.ArgumentParser(description=main.__doc__)
+    parser.add_argument("--cases", type=int, default=1)
+    parser.add_argument("--experiments", nargs="*", default=[e for e, _ in PLAN])
+    parser.add_argument("--truths", nargs="*", type=int, default=[2, 1])
+    parser.add_argument("--rows", default="out/truth2_impact_rows.jsonl")
+    parser.add_argument("--workers", type=int, default=2)
+    args = parser.parse_args(argv)
+    entropy = np.random.SeedSequence().entropy
+    print(f"SeedSequence entropy (from the OS): {entropy}", flush=True)
+    seeds = iter(np.random.SeedSequence(entropy).generate_state(10000))
+    rows = []
+    for k in range(args.cases):
+        for experiment, effects in PLAN:
+            if experiment not in args.experiments:
+                continue
+            for effect in effects:
+                seed = int(next(seeds))
+                for truth in args.truths:
+                    diagnose = diagnose_case_impact2 if truth == 2 else diagnose_case_impact1
+                    with tempfile.TemporaryDirectory() as folder:
+                        row = diagnose(effect, seed, folder, experiment, args.workers)
+                    rows.append(row)
+                    with open(args.rows, "a", encoding="utf-8") as f:
+                        f.write(json.dumps(row) + "\n")
+                    print(f"case {k} {experiment:6s} truth {truth} {effect:24s} seed {seed:10d} named "
+                          f"{row['named']:24s} gap removed {100 * row['gap_removed']:6.1f} % "
+                          f"RMSE {row['rmse_before']:.4g} -> {row['rmse_after']:.4g} {row['seconds']:.0f} s",
+                          flush=True)
+    for experiment in args.experiments:
+        for truth in args.truths:
+            mine = [r for r in rows if r["experiment"] == experiment and r["truth_model"] == truth]
+            if mine:
+                print(experiment, "truth", truth, json.dumps(count_rows(mine, SHOWN_BY[experiment]), indent=1))
+
+
+if __name__ == "__main__":  # PYTHONPATH=.:tests python tests/diagnose_truth2_impact.py --cases 3
+    main()
