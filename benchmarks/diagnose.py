@@ -1,20 +1,30 @@
-"""Counts of the discrepancy workflow over drawn hidden-effect cases of two independent truths of the static
-current staircase, side by side; or the time of each stage of one job.
+"""Counts of the discrepancy workflow on drawn cases of two truths of each experiment, or a job's stage times.
 
-Run: python benchmarks/diagnose.py [--cases N] [--seed S] [--truths 1 2] [--effects ...] [--workers W] [--validation]
+Drawn cases of two independent truths of every experiment are diagnosed and counted side by side; or one job's
+stages are timed.
+
+Run: python benchmarks/diagnose.py [--experiments E ...] [--cases N] [--seed S] [--truths 1 2] [--effects ...]
+                                   [--workers W] [--validation]
 Each case hides one effect, or none, in a truth written independently of the Modelica plant and its candidates,
-and is diagnosed by Gripper.GripperCurrentDriven with the whole effect library that applies to it offered:
+and is diagnosed by the experiment's baseline model with the whole effect library that applies to it offered.
+Per experiment (``--experiments``, default all), truth 1 is the one the workflow was developed against and truth 2
+one written from other textbook formulations and never used to tune anything:
 
-* truth 1, ``tests/diagnose_truth.py``: a quasi-static stick/slip gripper (Karnopp, rigid drivetrain), the truth
-  the candidates and thresholds were developed against;
-* truth 2, ``tests/diagnose_truth2.py``: other textbook formulations (Dahl motor friction, torque-proportional gear
-  loss, a compliant mesh with backlash, LuGre guides, a second-order load cell), never used to tune anything.
+* ``staircase`` (the static current staircase, force at 100 Hz): ``tests/diagnose_truth.py`` (quasi-static
+  Karnopp stick/slip, rigid drivetrain) and ``tests/diagnose_truth2.py`` (Dahl motor friction, torque-proportional
+  gear loss, a compliant mesh with backlash, LuGre guides, a second-order load cell);
+* ``impact``, ``slide``, ``speed`` (the current-step impact; stops and restarts against the jaw guides; a slow
+  speed run under a PI loop): ``tests/diagnose_truth_impact.py`` and ``tests/diagnose_truth2_impact.py``;
+* ``haptic`` (the PHANToM's frequency response with a user): ``tests/diagnose_truth_haptic.py`` and
+  ``tests/diagnose_truth2_haptic.py`` (built without the project's transfer-function code).
 
-The run's seed is drawn from the operating system unless ``--seed`` is given (to re-run a printed draw); every
-case's seed derives from it and is printed with its row. Counts: named right per effect with Wilson 95 %
-intervals, false alarms on "none", named right on the effects a staircase shows (backdrive_efficiency,
-loadcell_filter) and the gap above the noise removed when named (the targets of issue 32: >= 85 %, <= 5 %,
->= 80 %). ``--validation`` writes them into docs/validation.md, stamped with the commit and the seed.
+The effects drawn are "none" and those the experiment shows (docs/guide/diagnose.md, "Which experiment shows which
+effect"), unless ``--effects`` names others. The run's seed is drawn from the operating system unless ``--seed``
+is given (to re-run a printed draw); every case's seed derives from it and is printed with its row. Counts: named
+right per effect with Wilson 95 % intervals, false alarms on "none", named right on the effects the experiment
+shows and the gap above the noise removed when named (the targets of issue 32: >= 85 %, <= 5 %, >= 80 %).
+``--validation`` writes each experiment's counts into its section of docs/validation.md, stamped with the commit
+and the seed.
 
 Run: python benchmarks/diagnose.py --job examples/diagnose_static.toml [--workers W] [--no-build]
 Diagnoses a job file as ``cosim diagnose`` does (FMUs built and re-run unless --no-build) and prints the wall time of
@@ -41,12 +51,15 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from diagnose_truth import make_case  # noqa: E402
 from diagnose_truth2 import SHOWN_ON_STAIRCASE, count_rows, diagnose_case2, diagnose_frame, library  # noqa: E402
+from diagnose_truth2_haptic import SHOWN as SHOWN_ON_HAPTIC  # noqa: E402
+from diagnose_truth2_haptic import diagnose_case_haptic1, diagnose_case_haptic2  # noqa: E402
+from diagnose_truth2_impact import SHOWN_BY, diagnose_case_impact1, diagnose_case_impact2  # noqa: E402
 
 from cosim.diagnose import load_diagnose_job  # noqa: E402
 from validation import write_section  # noqa: E402
 
-# The effects a staircase shows, and none (docs/guide/diagnose.md, "Which experiment shows which effect").
-EFFECTS = ("none", *SHOWN_ON_STAIRCASE)
+# Noise sd [N] of the first staircase truth's load cell (the second draws its own).
+STAIRCASE_NOISE = 0.3
 
 # The workflow's stages as run_diagnosis calls them (cosim.diagnose.workflow); those a version lacks are skipped.
 STAGES = ("load_samples", "estimate_noise", "_fit", "split_segments", "score_candidates", "_screen", "_fold_fits",
@@ -106,29 +119,50 @@ def time_job(path, workers=None, build=True):
         print(f"  candidate {c['effect']:24s} score {c['score']:.3f} delta BIC {c['delta_bic']:.1f}")
 
 
-def diagnose_case1(effect, seed, folder, noise, workers):
-    """Diagnose the first truth's case (``effect``, ``seed``, load-cell ``noise``) with the whole library offered;
-    one row as :func:`diagnose_truth2.diagnose_frame` gives."""
-    t, i, y, truth = make_case(effect, np.random.default_rng(seed), noise=noise)
-    return diagnose_frame(pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), {**truth, "noise": noise}, seed, folder,
-                          library(), workers)
+def diagnose_staircase1(effect, seed, folder, workers):
+    """Diagnose the first staircase truth's case (``effect``, ``seed``, load-cell noise ``STAIRCASE_NOISE``) with the
+    whole library offered; one row as :func:`diagnose_truth2.diagnose_frame` gives."""
+    t, i, y, truth = make_case(effect, np.random.default_rng(seed), noise=STAIRCASE_NOISE)
+    return diagnose_frame(pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), {**truth, "noise": STAIRCASE_NOISE},
+                          seed, folder, library(), workers)
 
 
-def draw_rows(truths, effects, cases, seed, noise, workers):
-    """Diagnose ``cases`` drawn cases of each effect of each truth; returns {truth: [row, ...]}."""
-    seeds = np.random.default_rng(seed).integers(0, 2 ** 31, size=(cases, len(truths), len(effects)))
+def diagnose_staircase2(effect, seed, folder, workers):
+    """Diagnose the second staircase truth's case with the whole library offered; one row."""
+    return diagnose_case2(effect, seed, folder, library(), workers)
+
+
+def _gripper(experiment, function):
+    return lambda effect, seed, folder, workers: function(effect, seed, folder, experiment, workers)
+
+
+# experiment -> (the effects it shows, {truth: case function (effect, seed, folder, workers) -> row}, default
+# Dask workers: the haptic fits are fast enough in process)
+EXPERIMENTS = {
+    "staircase": (SHOWN_ON_STAIRCASE, {1: diagnose_staircase1, 2: diagnose_staircase2}, 2),
+    **{name: (SHOWN_BY[name], {1: _gripper(name, diagnose_case_impact1), 2: _gripper(name, diagnose_case_impact2)}, 2)
+       for name in ("impact", "slide", "speed")},
+    "haptic": (SHOWN_ON_HAPTIC, {1: diagnose_case_haptic1, 2: diagnose_case_haptic2}, 0),
+}
+
+
+def draw_rows(experiment, truths, effects, cases, seed, workers):
+    """Diagnose ``cases`` drawn cases of each effect of each truth of ``experiment``; returns {truth: [row, ...]}."""
+    _, functions, default_workers = EXPERIMENTS[experiment]
+    workers = default_workers if workers is None else workers
+    stream = np.random.default_rng([seed, list(EXPERIMENTS).index(experiment)])  # one stream an experiment
+    seeds = stream.integers(0, 2 ** 31, size=(cases, len(truths), len(effects)))
     rows = {t: [] for t in truths}
     for k in range(cases):
         for a, truth in enumerate(truths):
             for b, effect in enumerate(effects):
                 case_seed = int(seeds[k, a, b])
                 with tempfile.TemporaryDirectory() as folder:
-                    row = (diagnose_case1(effect, case_seed, folder, noise, workers) if truth == 1 else
-                           diagnose_case2(effect, case_seed, folder, library(), workers))
+                    row = functions[truth](effect, case_seed, folder, workers)
                 rows[truth].append(row)
-                print(f"truth {truth} case {k} {effect:22s} seed {case_seed:10d} named {row['named']:22s} "
-                      f"RMSE {row['rmse_before']:.3f} -> {row['rmse_after']:.3f} N (noise {row['noise']:.2f}), "
-                      f"gap removed {100 * row['gap_removed']:5.1f} %, {row['seconds']:.0f} s", flush=True)
+                print(f"{experiment} truth {truth} case {k} {effect:24s} seed {case_seed:10d} named {row['named']:24s} "
+                      f"RMSE {row['rmse_before']:.4g} -> {row['rmse_after']:.4g} (truth's noise {row['noise']:.3g}), gap "
+                      f"removed {100 * row['gap_removed']:5.1f} %, {row['seconds']:.0f} s", flush=True)
     return rows
 
 
@@ -137,11 +171,12 @@ def _interval(pair):
     return f"{max(0.0, 100 * pair[0]):.0f}-{min(100.0, 100 * pair[1]):.0f} %"
 
 
-def count_table(rows):
-    """Rows of the validation table and the summary lines, from {truth: [row, ...]}."""
+def count_table(rows, shown):
+    """Rows of the validation table and the summary lines, from {truth: [row, ...]}; ``shown``: the effects the
+    experiment shows."""
     table, notes = [], []
     for truth, mine in rows.items():
-        counts = count_rows(mine)
+        counts = count_rows(mine, shown)
         for effect, entry in counts.items():
             if effect == "summary":
                 continue
@@ -150,43 +185,52 @@ def count_table(rows):
                           _interval(entry["interval"]),
                           ", ".join(f"{name} {n}" for name, n in Counter(entry["named"]).items()), gap])
         su = counts["summary"]
-        notes.append(f"Truth {truth}: named right on the effects a staircase shows {su['named_right_shown']}/"
+        notes.append(f"Truth {truth}: named right on the effects the experiment shows {su['named_right_shown']}/"
                      f"{su['shown_cases']} ({_interval(su['named_right_interval'])}, target >= 85 %); false alarms "
                      f"{su['false_alarms']}/{su['none_cases']} ({_interval(su['false_alarm_interval'])}, target "
                      f"<= 5 %); median time a case {np.median([r['seconds'] for r in mine]):.0f} s.")
     return table, notes
 
 
+def run_experiment(experiment, args, seed):
+    """Draw, diagnose and count one experiment's cases; print them and, with ``--validation``, write its section."""
+    shown = EXPERIMENTS[experiment][0]
+    effects = args.effects or ["none", *shown]
+    start = time.time()
+    rows = draw_rows(experiment, args.truths, effects, args.cases, seed, args.workers)
+    table, notes = count_table(rows, shown)
+    print(f"\n{experiment}: {time.time() - start:.0f} s")
+    for row in table:
+        print("  ".join(map(str, row)))
+    print("\n".join(notes), flush=True)
+    if args.validation:
+        write_section(f"diagnose-{experiment}", ["truth", "hidden effect", "cases", "named right", "95 % interval",
+                                                 "named", "gap removed >= 80 % when named"], table, seeds=[seed],
+                      notes=notes)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--job", type=Path, help="time the stages of this job instead of drawing cases")
     parser.add_argument("--no-build", action="store_true", help="with --job: do not build and re-run the FMUs")
-    parser.add_argument("--cases", type=int, default=3, help="cases per truth and effect")
+    parser.add_argument("--experiments", nargs="+", choices=tuple(EXPERIMENTS), default=list(EXPERIMENTS),
+                        help="experiments to draw cases of (default: all)")
+    parser.add_argument("--cases", type=int, default=3, help="cases per experiment, truth and effect")
     parser.add_argument("--seed", type=int, help="the run's seed (default: drawn from the operating system)")
     parser.add_argument("--truths", type=int, nargs="+", choices=(1, 2), default=[1, 2])
-    parser.add_argument("--effects", nargs="+", default=list(EFFECTS), help=f"hidden effects (default {EFFECTS})")
-    parser.add_argument("--noise", type=float, default=0.3, help="truth 1's load-cell noise sd [N] (truth 2 draws it)")
-    parser.add_argument("--workers", type=int, help="Dask workers (default: the job's; 2 for drawn cases)")
+    parser.add_argument("--effects", nargs="+", help="hidden effects (default: none and those the experiment shows)")
+    parser.add_argument("--workers", type=int,
+                        help="Dask workers (default: the job's; for drawn cases 2, the haptic ones 0)")
     parser.add_argument("--validation", action="store_true", help="also write the counts into docs/validation.md")
     args = parser.parse_args(argv)
     if args.job:
         time_job(args.job, args.workers, not args.no_build)
         return
     seed = secrets.randbelow(2 ** 31) if args.seed is None else args.seed
-    print(f"seed {seed}; truths {args.truths}; effects {args.effects}; {args.cases} cases each; the whole library "
-          f"offered: {', '.join(library())}", flush=True)
-    start = time.time()
-    rows = draw_rows(args.truths, args.effects, args.cases, seed, args.noise,
-                     2 if args.workers is None else args.workers)
-    table, notes = count_table(rows)
-    print(f"\n{time.time() - start:.0f} s")
-    for row in table:
-        print("  ".join(map(str, row)))
-    print("\n".join(notes))
-    if args.validation:
-        write_section("diagnose-staircase", ["truth", "hidden effect", "cases", "named right", "95 % interval",
-                                             "named", "gap removed >= 80 % when named"], table, seeds=[seed],
-                      notes=notes)
+    print(f"seed {seed}; experiments {args.experiments}; truths {args.truths}; {args.cases} cases each; the whole "
+          "library of each experiment's model offered", flush=True)
+    for experiment in args.experiments:
+        run_experiment(experiment, args, seed)
 
 
 if __name__ == "__main__":

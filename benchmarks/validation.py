@@ -12,9 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
-
-__all__ = ["DOC", "write_section", "write_confusion"]
+__all__ = ["DOC", "write_section"]
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "validation.md"
@@ -81,35 +79,3 @@ def write_section(name, header, rows, seeds=(), notes=(), doc=DOC):
     body = "\n".join(lines) + end
     doc.write_text(text[:text.index(begin)] + body + text[text.index(end) + len(end):], encoding="utf-8")
     print(f"wrote section {name!r} of {doc}")
-
-
-def write_confusion(name, matrix, gaps, seeds, doc=DOC):
-    """Write a diagnosis benchmark's confusion matrix (rows: the hidden effect, columns: the effect named) as
-    section ``name``, with the share named right per row and the gap above the noise removed when right.
-
-    Parameters
-    ----------
-    name : str
-        The section's marker name.
-    matrix : pandas.DataFrame
-        Case counts, indexed by the hidden effect (``"none"`` for no effect), one column per effect named.
-    gaps : sequence of float, or of tuples whose first item is diagnosis.json's ``gap_removed``
-        One entry per case named right.
-    seeds : sequence of int
-        The benchmark's seeds.
-    doc : path, optional
-        The page; default docs/validation.md.
-    """
-    columns = [c for c in matrix.columns if matrix[c].any() or c in matrix.index]
-    rows = []
-    for truth, counts in matrix.iterrows():
-        total = int(counts.sum())
-        right = int(counts.get(truth, 0))
-        verdict = f"false alarms {total - right}/{total}" if truth == "none" else f"named right {right}/{total}"
-        rows.append([f"`{truth}`", *(int(counts[c]) for c in columns), verdict])
-    notes = []
-    if len(gaps):
-        removed = 100 * np.asarray(gaps, float).reshape(len(gaps), -1)[:, 0]
-        notes.append(f"Gap above the noise removed when named right: min {removed.min():.0f} %, median "
-                     f"{np.median(removed):.0f} %.")
-    write_section(name, ["hidden \\ named", *(f"`{c}`" for c in columns), "result"], rows, seeds, notes, doc)
