@@ -55,7 +55,7 @@ from numba import njit
 from diagnose_truth2 import cogging_table
 from diagnose_truth_impact import (CONDITION, COUNTS, CURRENT_NOISE, FORCE_NOISE, I_STEP, K_IW, K_PW, PLACEMENT,
                                    RATE_HZ, SLIDE_GAP0, SLIDE_PROFILE, SLIDE_RATE_HZ, SPEED_PROFILE, T_STEP, DURATION,
-                                   EXPERIMENTS)
+                                   EXPERIMENTS, draw_baseline)
 
 __all__ = ["TRUTH2_IMPACT_EFFECTS", "SHOWN_BY", "simulate", "make_case_impact2", "effect_signal2",
            "diagnose_case_impact2", "diagnose_case_impact1", "library"]
@@ -261,10 +261,8 @@ def draw_truth(effect, rng):
     there is one."""
     if effect not in TRUTH2_IMPACT_EFFECTS:
         raise ValueError(f"effect must be one of {', '.join(TRUTH2_IMPACT_EFFECTS)}; got {effect!r}")
-    truth = {"effect": effect, "eta_g": float(rng.uniform(0.62, 0.74)), "T_c0": float(rng.uniform(6e-3, 1e-2))}
-    if effect == "gear_play":
-        truth["play"] = math.radians(rng.uniform(0.3, 0.55) if rng.random() < 0.5 else rng.uniform(1.1, 1.6))
-    elif effect == "contact_damping":
+    truth = draw_baseline(effect, rng)
+    if effect == "contact_damping":
         truth["c_tsuji"] = float(rng.uniform(100.0, 300.0))
     elif effect == "coating_relaxation":
         truth.update(k_rel=float(rng.uniform(0.5, 2.0)), split=float(rng.uniform(0.3, 0.7)),

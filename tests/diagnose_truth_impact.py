@@ -45,8 +45,8 @@ import numpy as np
 
 from diagnose_truth import free_and_candidates
 
-__all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "make_case", "effect_signal",
-           "write_job"]
+__all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "draw_baseline", "make_case",
+           "effect_signal", "write_job"]
 
 TRUTH_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction", "cogging",
                  "load_dependent_friction")
@@ -211,6 +211,16 @@ class TabulatedCogging:
         return float(self.torque(theta % self.period))
 
 
+def draw_baseline(effect, rng):
+    """The truth dict's start for a case of ``effect``: the baseline's free parameters (``eta_g``, ``T_c0``) near
+    their nominal values and, for ``gear_play``, the play. Both impact truths draw them here, first and in this
+    order, so one seed gives a case of either truth the same baseline."""
+    truth = {"effect": effect, "eta_g": float(rng.uniform(0.62, 0.74)), "T_c0": float(rng.uniform(6e-3, 1e-2))}
+    if effect == "gear_play":
+        truth["play"] = math.radians(rng.uniform(0.3, 0.55) if rng.random() < 0.5 else rng.uniform(1.1, 1.6))
+    return truth
+
+
 def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
     """A random hidden-effect case: one gripper with one draw of its parameters and ``trials`` repeated impacts
     (the paper's protocol repeats each condition), slides (``experiment="slide"``: ``SLIDE_PROFILE``) or speed
@@ -225,10 +235,8 @@ def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
     where there is one (``eta_g``, ``T_c0``, ``play``, ``F_sj``)."""
     if effect not in TRUTH_EFFECTS:
         raise ValueError(f"truth effect must be one of {', '.join(TRUTH_EFFECTS)}; got {effect!r}")
-    truth = {"effect": effect, "eta_g": float(rng.uniform(0.62, 0.74)), "T_c0": float(rng.uniform(6e-3, 1e-2))}
-    if effect == "gear_play":
-        truth["play"] = math.radians(rng.uniform(0.3, 0.55) if rng.random() < 0.5 else rng.uniform(1.1, 1.6))
-    elif effect == "contact_damping":
+    truth = draw_baseline(effect, rng)
+    if effect == "contact_damping":
         truth["p_hc"] = float(rng.uniform(1.2, 1.8))
         c_ref = rng.uniform(100.0, 300.0)  # N.s/m at 0.5 mm penetration
         truth["c_hc"] = float(c_ref / 5e-4 ** truth["p_hc"])
