@@ -141,9 +141,7 @@ class TrialRunner:
         f = result.data[summary.columns["force"]]
         steady = math.nan
         noise_mean = 0.0
-        window = s.get("steady_window_s")
-        if window is not None and window[1] < s["t_switch_s"] + job.hold_s - 1e-6:
-            window = None  # the run stopped before the end of tightening: no steady force
+        window = s.get("steady_window_s")  # None when the trigger never fired; else it ends with the tightening (run)
         if window is not None:
             end = window[1]
             n = int(round(job.steady_s * job.load_cell_rate))
