@@ -1,30 +1,31 @@
-"""Counts of the discrepancy workflow on drawn cases of two truths of each experiment, or a job's stage times.
+"""Counts of the discrepancy workflow on drawn cases of independent truths of each experiment, or a job's stage times.
 
-Drawn cases of two independent truths of every experiment are diagnosed and counted side by side; or one job's
-stages are timed.
-
-Run: python benchmarks/diagnose.py [--experiments E ...] [--cases N] [--seed S] [--truths 1 2] [--effects ...]
-                                   [--workers W] [--validation]
+Run: python benchmarks/diagnose.py [--experiments E ...] [--cases N] [--seed S] [--truths 1 2 ...] [--effects ...]
+                                   [--coating free|fixed] [--rows FILE] [--workers W] [--validation]
 Each case hides one effect, or none, in a truth written independently of the Modelica plant and its candidates,
 and is diagnosed by the experiment's baseline model with the whole effect library that applies to it offered.
-Per experiment (``--experiments``, default all), truth 1 is the one the workflow was developed against and truth 2
-one written from other textbook formulations and never used to tune anything:
+Per experiment (``--experiments``, default all), truth 1 is the one the workflow was developed against; truths 2
+and 3 were written from other textbook formulations and never used to tune anything (truth 3 was written after
+truth 2's results had been seen, to judge the changes made in response to them):
 
 * ``staircase`` (the static current staircase, force at 100 Hz): ``tests/diagnose_truth.py`` (quasi-static
   Karnopp stick/slip, rigid drivetrain) and ``tests/diagnose_truth2.py`` (Dahl motor friction, torque-proportional
   gear loss, a compliant mesh with backlash, LuGre guides, a second-order load cell);
 * ``impact``, ``slide``, ``speed`` (the current-step impact; stops and restarts against the jaw guides; a slow
-  speed run under a PI loop): ``tests/diagnose_truth_impact.py`` and ``tests/diagnose_truth2_impact.py``;
+  speed run under a PI loop): ``tests/diagnose_truth_impact.py``, ``tests/diagnose_truth2_impact.py`` and
+  ``tests/diagnose_truth3_impact.py``; their jobs free the coating's stiffness on the experiments that touch the
+  object unless ``--coating fixed``;
 * ``haptic`` (the PHANToM's frequency response with a user): ``tests/diagnose_truth_haptic.py`` and
-  ``tests/diagnose_truth2_haptic.py`` (built without the project's transfer-function code).
+  ``tests/diagnose_truth2_haptic.py`` (built without the project's transfer-function code; truth set ``2w``: the
+  same records estimated by Welch H1 instead of at the multisine's lines).
 
-The effects drawn are "none" and those the experiment shows (docs/guide/diagnose.md, "Which experiment shows which
-effect"), unless ``--effects`` names others. The run's seed is drawn from the operating system unless ``--seed``
-is given (to re-run a printed draw); every case's seed derives from it and is printed with its row. Counts: named
-right per effect with Wilson 95 % intervals, false alarms on "none", named right on the effects the experiment
-shows and the gap above the noise removed when named (the targets of issue 32: >= 85 %, <= 5 %, >= 80 %).
-``--validation`` writes each experiment's counts into its section of docs/validation.md, stamped with the commit
-and the seed.
+A truth an experiment lacks is skipped. The effects drawn are "none" and those the experiment shows
+(docs/guide/diagnose.md, "Which experiment shows which effect"), unless ``--effects`` names others. The run's seed
+is drawn from the operating system unless ``--seed`` is given (to re-run a printed draw); every case's seed derives
+from it and is printed with its row; ``--rows`` appends every row to a JSON-lines file. Counts: named right per
+effect with Wilson 95 % intervals, false alarms on "none", named right on the effects the experiment shows and the
+gap above the noise removed when named (the targets of issue 32: >= 85 %, <= 5 %, >= 80 %). ``--validation``
+writes each experiment's counts into its section of docs/validation.md, stamped with the commit and the seed.
 
 Run: python benchmarks/diagnose.py --job examples/diagnose_static.toml [--workers W] [--no-build]
 Diagnoses a job file as ``cosim diagnose`` does (FMUs built and re-run unless --no-build) and prints the wall time of
@@ -34,6 +35,7 @@ each stage of the workflow (nested stages indented), the replays run in this pro
 
 import argparse
 import functools
+import json
 import os
 import resource
 import secrets
@@ -133,33 +135,59 @@ def diagnose_staircase2(effect, seed, folder, workers):
 
 
 def _gripper(experiment, function):
-    return lambda effect, seed, folder, workers: function(effect, seed, folder, experiment, workers)
+    return lambda effect, seed, folder, workers, coating: function(effect, seed, folder, experiment, workers,
+                                                                   free_coating=coating == "free")
 
 
-# experiment -> (the effects it shows, {truth: case function (effect, seed, folder, workers) -> row}, default
-# Dask workers: the haptic fits are fast enough in process)
+def _truth3(effect, seed, folder, experiment, workers, free_coating):
+    from diagnose_truth3_impact import diagnose_case_impact3
+
+    return diagnose_case_impact3(effect, seed, folder, experiment, workers, free_coating=free_coating)
+
+
+def _welch(effect, seed, folder, workers):
+    return diagnose_case_haptic2(effect, seed, folder, workers, estimator="welch")
+
+
+def _any_coating(function):
+    """A case function of an experiment without a coating, taking (and ignoring) the coating option."""
+    return lambda effect, seed, folder, workers, coating: function(effect, seed, folder, workers)
+
+
+# experiment -> (the effects it shows, {truth: case function (effect, seed, folder, workers, coating) -> row},
+# default Dask workers: the haptic fits are fast enough in process)
 EXPERIMENTS = {
-    "staircase": (SHOWN_ON_STAIRCASE, {1: diagnose_staircase1, 2: diagnose_staircase2}, 2),
-    **{name: (SHOWN_BY[name], {1: _gripper(name, diagnose_case_impact1), 2: _gripper(name, diagnose_case_impact2)}, 2)
+    "staircase": (SHOWN_ON_STAIRCASE, {"1": _any_coating(diagnose_staircase1), "2": _any_coating(diagnose_staircase2)},
+                  2),
+    **{name: (SHOWN_BY[name], {"1": _gripper(name, diagnose_case_impact1), "2": _gripper(name, diagnose_case_impact2),
+                               "3": _gripper(name, _truth3)}, 2)
        for name in ("impact", "slide", "speed")},
-    "haptic": (SHOWN_ON_HAPTIC, {1: diagnose_case_haptic1, 2: diagnose_case_haptic2}, 0),
+    "haptic": (SHOWN_ON_HAPTIC, {"1": _any_coating(diagnose_case_haptic1), "2": _any_coating(diagnose_case_haptic2),
+                                 "2w": _any_coating(_welch)}, 0),
 }
+TRUTHS = ("1", "2", "2w", "3")
 
 
-def draw_rows(experiment, truths, effects, cases, seed, workers):
-    """Diagnose ``cases`` drawn cases of each effect of each truth of ``experiment``; returns {truth: [row, ...]}."""
+def draw_rows(experiment, truths, effects, cases, seed, workers, coating="free", rows_file=None):
+    """Diagnose ``cases`` drawn cases of each effect of each truth of ``experiment`` (those it lacks skipped);
+    returns {truth: [row, ...]}, each row also appended to ``rows_file`` (JSON lines) when given. The truths share
+    each case's seed: a paired comparison (the gripper truths draw the same baseline from it)."""
     _, functions, default_workers = EXPERIMENTS[experiment]
     workers = default_workers if workers is None else workers
     stream = np.random.default_rng([seed, list(EXPERIMENTS).index(experiment)])  # one stream an experiment
-    seeds = stream.integers(0, 2 ** 31, size=(cases, len(truths), len(effects)))
-    rows = {t: [] for t in truths}
+    seeds = stream.integers(0, 2 ** 31, size=(cases, len(effects)))
+    rows = {t: [] for t in truths if t in functions}
     for k in range(cases):
-        for a, truth in enumerate(truths):
+        for truth in rows:
             for b, effect in enumerate(effects):
-                case_seed = int(seeds[k, a, b])
+                case_seed = int(seeds[k, b])
                 with tempfile.TemporaryDirectory() as folder:
-                    row = functions[truth](effect, case_seed, folder, workers)
+                    row = functions[truth](effect, case_seed, folder, workers, coating)
+                row = {**row, "experiment": experiment, "truth_set": truth, "run_seed": seed, "coating": coating}
                 rows[truth].append(row)
+                if rows_file:
+                    with open(rows_file, "a", encoding="utf-8") as out:
+                        out.write(json.dumps(row) + "\n")
                 print(f"{experiment} truth {truth} case {k} {effect:24s} seed {case_seed:10d} named {row['named']:24s} "
                       f"RMSE {row['rmse_before']:.4g} -> {row['rmse_after']:.4g} (truth's noise {row['noise']:.3g}), gap "
                       f"removed {100 * row['gap_removed']:5.1f} %, {row['seconds']:.0f} s", flush=True)
@@ -197,7 +225,7 @@ def run_experiment(experiment, args, seed):
     shown = EXPERIMENTS[experiment][0]
     effects = args.effects or ["none", *shown]
     start = time.time()
-    rows = draw_rows(experiment, args.truths, effects, args.cases, seed, args.workers)
+    rows = draw_rows(experiment, args.truths, effects, args.cases, seed, args.workers, args.coating, args.rows)
     table, notes = count_table(rows, shown)
     print(f"\n{experiment}: {time.time() - start:.0f} s")
     for row in table:
@@ -217,7 +245,11 @@ def main(argv=None):
                         help="experiments to draw cases of (default: all)")
     parser.add_argument("--cases", type=int, default=3, help="cases per experiment, truth and effect")
     parser.add_argument("--seed", type=int, help="the run's seed (default: drawn from the operating system)")
-    parser.add_argument("--truths", type=int, nargs="+", choices=(1, 2), default=[1, 2])
+    parser.add_argument("--truths", nargs="+", choices=TRUTHS, default=["1", "2", "3"],
+                        help="truths to draw cases of (default 1 2 3; 2w: the haptic second truth by Welch H1)")
+    parser.add_argument("--coating", choices=("free", "fixed"), default="free",
+                        help="the gripper jobs' coating stiffness on the experiments that touch the object")
+    parser.add_argument("--rows", type=Path, help="append every row to this JSON-lines file")
     parser.add_argument("--effects", nargs="+", help="hidden effects (default: none and those the experiment shows)")
     parser.add_argument("--workers", type=int,
                         help="Dask workers (default: the job's; for drawn cases 2, the haptic ones 0)")

@@ -258,19 +258,3 @@ def count_rows(rows, shown=SHOWN_ON_STAIRCASE):
                       "named_right_shown": named, "shown_cases": len(shown_rows),
                       "named_right_interval": wilson(named, len(shown_rows))}
     return out
-
-
-if __name__ == "__main__":  # python tests/diagnose_truth2.py [EFFECT ...]: diagnose one drawn case of each
-    import json
-    import sys
-    import tempfile
-
-    seeds = np.random.SeedSequence().generate_state(len(TRUTH2_EFFECTS))
-    wanted = sys.argv[1:] or TRUTH2_EFFECTS
-    rows = []
-    for effect, seed in zip(TRUTH2_EFFECTS, seeds):
-        if effect in wanted:
-            with tempfile.TemporaryDirectory() as scratch:
-                rows.append(diagnose_case2(effect, int(seed), scratch))
-            print(json.dumps(rows[-1]), flush=True)
-    print(json.dumps(count_rows(rows), indent=1))

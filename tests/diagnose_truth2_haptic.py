@@ -42,12 +42,10 @@ multisine have independent errors, unlike Hann-Welch bins, which the workflow's 
 ``estimator="welch"`` (truth set "2w" of the evaluation) estimates the same record by scipy's Welch H1 (Hann 4096,
 50 %) to tell the estimator's part of the figures from the plants'.
 
-Evaluation: ``python tests/diagnose_truth2_haptic.py --cases N --truths 1 2 2w --out rows.jsonl`` diagnoses N
-drawn cases of each effect of each truth set with the whole library of Haptic.Device7 offered (the job of
-tests/test_diagnose_haptic.py, copied) and prints the rows and the counts; ``--count rows.jsonl`` counts saved rows.
+Evaluation: ``python benchmarks/diagnose.py --experiments haptic --truths 1 2 2w --cases N --rows rows.jsonl``
+diagnoses N drawn cases of each effect of each truth set with the whole library of Haptic.Device7 offered.
 """
 
-import json
 import time
 from functools import lru_cache
 from pathlib import Path
@@ -308,56 +306,3 @@ def diagnose_case_haptic1(effect, seed, folder, workers=0):
 
     frame, truth = make_case(effect, np.random.default_rng(seed))
     return diagnose_frame_haptic(frame, truth, seed, folder, 1e-5, workers)
-
-
-def _main(argv=None):
-    """python tests/diagnose_truth2_haptic.py [--cases N] [--truths 1 2] [--out rows.jsonl] [--count FILE]"""
-    import argparse
-    import sys
-    import tempfile
-
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from diagnose_truth2 import count_rows
-
-    parser = argparse.ArgumentParser(description=_main.__doc__)
-    parser.add_argument("--cases", type=int, default=1, help="drawn cases per effect per truth")
-    parser.add_argument("--truths", nargs="+", default=["1", "2"], choices=["1", "2", "2w"],
-                        help="1: the first truth; 2: the second; 2w: the second estimated by Welch H1")
-    parser.add_argument("--effects", nargs="+", default=list(TRUTH2_EFFECTS))
-    parser.add_argument("--out", type=Path, help="append each row to this JSON-lines file")
-    parser.add_argument("--count", type=Path, help="only count the rows of this JSON-lines file")
-    args = parser.parse_args(argv)
-    if args.count:
-        rows = [json.loads(line) for line in args.count.read_text().splitlines() if line.strip()]
-        for k in sorted({r["truth_set"] for r in rows}):
-            mine = [r for r in rows if r["truth_set"] == k]
-            print(f"truth {k}: median {np.median([r['seconds'] for r in mine]):.1f} s per case")
-            print(json.dumps(count_rows(mine, shown=SHOWN), indent=1))
-        return
-    entropy = np.random.SeedSequence().entropy
-    print(f"run seed (SeedSequence entropy): {entropy}", flush=True)
-    seeds = iter(int(s) for s in np.random.SeedSequence(entropy).generate_state(
-        args.cases * len(args.effects) * len(args.truths)))
-    rows = []
-    for _ in range(args.cases):
-        for effect in args.effects:
-            for k in args.truths:
-                with tempfile.TemporaryDirectory() as scratch:
-                    if k == "1":
-                        row = diagnose_case_haptic1(effect, next(seeds), scratch)
-                    else:
-                        row = diagnose_case_haptic2(effect, next(seeds), scratch,
-                                                    estimator="welch" if k == "2w" else "lines")
-                row = {"truth_set": k, "run_seed": str(entropy), **row}
-                rows.append(row)
-                print(json.dumps(row), flush=True)
-                if args.out:
-                    with args.out.open("a") as fh:
-                        fh.write(json.dumps(row) + "\n")
-    for k in args.truths:
-        print(f"truth {k}:", json.dumps(count_rows([r for r in rows if r["truth_set"] == k], shown=SHOWN),
-                                        indent=1))
-
-
-if __name__ == "__main__":
-    _main()

@@ -55,7 +55,7 @@ from numba import njit
 from diagnose_truth2 import cogging_table
 from diagnose_truth_impact import (CONDITION, COUNTS, CURRENT_NOISE, FORCE_NOISE, I_STEP, K_IW, K_PW, PLACEMENT,
                                    RATE_HZ, SLIDE_GAP0, SLIDE_PROFILE, SLIDE_RATE_HZ, SPEED_PROFILE, T_STEP, DURATION,
-                                   EXPERIMENTS, draw_baseline)
+                                   _experiment, draw_baseline)
 
 __all__ = ["TRUTH2_IMPACT_EFFECTS", "SHOWN_BY", "simulate", "make_case_impact2", "effect_signal2",
            "diagnose_case_impact2", "diagnose_case_impact1", "library"]
@@ -156,6 +156,15 @@ def _bristle(z, speed, sigma0, level):
 
 
 @njit(cache=True)
+def q_current(speed_mode, given, w, integral, dt):
+    """A step's q current [A] and the speed loop's integral after it: the given current, or on the speed run the
+    PI speed loop's output (gains ``K_PW``, ``K_IW``) on the speed reference ``given`` [rad/s]."""
+    if not speed_mode:
+        return given, integral
+    return K_PW * (given - w) + K_IW * integral, integral + dt * (given - w)
+
+
+@njit(cache=True)
 def _load_cell_step(y, dy, force, w_lc, zeta_lc):
     """The second-order load cell ``y'' = w_lc^2 (force - y) - 2 zeta_lc w_lc y'`` one step on (semi-implicit
     Euler): its reading and rate."""
@@ -179,11 +188,7 @@ def _integrate(inputs, speed_mode, steps_per_sample, eta, T_c0, play, gap0, t_co
     theta = w = x = v = z_m = z_g = t_b = delta = q1 = q2 = y_lc = dy_lc = F_c = integral = 0.0
     for k in range(n * steps_per_sample):
         j = k // steps_per_sample
-        if speed_mode:
-            i_q = K_PW * (inputs[j] - w) + K_IW * integral
-            integral += DT * (inputs[j] - w)
-        else:
-            i_q = inputs[j]
+        i_q, integral = q_current(speed_mode, inputs[j], w, integral, DT)
         if k % steps_per_sample == 0:
             out[j, 0], out[j, 1], out[j, 2], out[j, 3], out[j, 4] = y_lc, F_c, theta, i_q, x
         # contact: coating in series with the finger/object springs
@@ -219,13 +224,11 @@ def _integrate(inputs, speed_mode, steps_per_sample, eta, T_c0, play, gap0, t_co
     return out
 
 
-def simulate(truth, experiment="impact", gap0=None, profile=None):
-    """One noise-free record of ``experiment`` for the parameters ``truth`` (a dict from
-    :func:`make_case_impact2`; ``eta_g`` and ``T_c0`` are enough for the baseline), the object at ``gap0`` [m] of
-    travel (default: the experiment's). Returns (time [s], input, load-cell reading [N] with its offset, contact
-    force [N], motor angle [rad], q current [A], jaw travel [m]): the input is the current [A] per sample, or for
-    the speed run the speed reference [rad/s]. ``profile``: (time [s], input) corners joined by straight lines in
-    place of the experiment's input (for the tests), at the experiment's rate and over its last corner."""
+def experiment_input(experiment, gap0=None, profile=None):
+    """The input every gripper truth plays in ``experiment``: (the object's travel ``gap0`` [m], default the
+    experiment's; the sample rate [Hz]; the sample times [s]; the input per sample, the q current [A] or on the
+    speed run the speed reference [rad/s]). ``profile``: (time [s], input) corners joined by straight lines in
+    place of the experiment's input, over its last corner."""
     _experiment(experiment)
     gap0 = (CONDITION["gap0"] if experiment == "impact" else SLIDE_GAP0) if gap0 is None else gap0
     rate = RATE_HZ if experiment == "impact" else SLIDE_RATE_HZ
@@ -237,6 +240,59 @@ def simulate(truth, experiment="impact", gap0=None, profile=None):
         given = np.where(time >= T_STEP - 1e-12, I_STEP, 0.0)
     else:
         given = np.interp(time, *zip(*(SPEED_PROFILE if experiment == "speed" else SLIDE_PROFILE)))
+    return gap0, rate, time, given
+
+
+def measured_records(simulate, truth, rng, noise, trials, experiment):
+    """The records a gripper truth's ``simulate`` gives for ``truth``, measured as the first truth's ``make_case``
+    measures them: each (time, input, measured channel, measured angle, {"gap0": travel [m]}); the load-cell
+    reading with ``noise`` [N] at 100 Hz (NaN between its samples on the slide), or on the speed run the current
+    with ``CURRENT_NOISE``; the angle in whole encoder counts (truncated). Trial 0 has the object at the
+    experiment's distance, further trials within ``PLACEMENT`` of it."""
+    _experiment(experiment)
+    records = []
+    for k in range(trials):
+        placed = (CONDITION["gap0"] if experiment == "impact" else SLIDE_GAP0) + \
+            (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
+        t, given, reading, _, theta, current, _ = simulate(truth, experiment, placed)
+        angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
+        if experiment == "speed":
+            records.append((t, given, current + rng.normal(0.0, CURRENT_NOISE, len(t)), angle, {"gap0": placed}))
+            continue
+        sampled = np.arange(len(t)) % (int(round(SLIDE_RATE_HZ / RATE_HZ)) if experiment == "slide" else 1) == 0
+        measured = np.full(len(t), np.nan)
+        measured[sampled] = reading[sampled] + rng.normal(0.0, noise, int(sampled.sum()))
+        records.append((t, given, measured, angle, {"gap0": placed}))
+    return records
+
+
+def hidden_effect_signal(simulate, case, experiment):
+    """RMS change the hidden effect alone makes to a case's noise-free records under a gripper truth's
+    ``simulate`` (the truth with the effect less the truth without it, same ``eta_g``, ``T_c0``, object
+    positions): (compared channel, motor angle [rad]); the compared channel is the load cell at its samples [N],
+    or the current [A] on the speed run. Zero for ``none``."""
+    records, truth = case
+    if truth["effect"] == "none":
+        return 0.0, 0.0
+    base = {"eta_g": truth["eta_g"], "T_c0": truth["T_c0"]}
+    column = 5 if experiment == "speed" else 2
+    channel, angle = [], []
+    for record in records:
+        run_1, run_0 = simulate(truth, experiment, record[4]["gap0"]), simulate(base, experiment, record[4]["gap0"])
+        channel.append((run_1[column] - run_0[column])[np.isfinite(record[2])])
+        angle.append(run_1[4] - run_0[4])
+    return (float(np.sqrt(np.mean(np.concatenate(channel) ** 2))),
+            float(np.sqrt(np.mean(np.concatenate(angle) ** 2))))
+
+
+def simulate(truth, experiment="impact", gap0=None, profile=None):
+    """One noise-free record of ``experiment`` for the parameters ``truth`` (a dict from
+    :func:`make_case_impact2`; ``eta_g`` and ``T_c0`` are enough for the baseline), the object at ``gap0`` [m] of
+    travel (default: the experiment's). Returns (time [s], input, load-cell reading [N] with its offset, contact
+    force [N], motor angle [rad], q current [A], jaw travel [m]): the input is the current [A] per sample, or for
+    the speed run the speed reference [rad/s]. ``profile``: (time [s], input) corners joined by straight lines in
+    place of the experiment's input (for the tests), at the experiment's rate and over its last corner."""
+    gap0, rate, time, given = experiment_input(experiment, gap0, profile)
     c, t = CONDITION, truth
     k_rel = t.get("k_rel", 0.0) * c["k_P"]
     cog = cogging_table(t["T_cog"], t["phase_cog"])[1] if "T_cog" in t else np.zeros(0)
@@ -248,12 +304,6 @@ def simulate(truth, experiment="impact", gap0=None, profile=None):
                      t.get("F_sj", F_GUIDE), t.get("v_s", V_S_G), t.get("mu_F", 0.0), np.asarray(cog, dtype=float),
                      2 * np.pi / 24, t.get("f_lc", F_LC_NOMINAL), t.get("zeta_lc", ZETA_LC_NOMINAL))
     return time, given, out[:, 0] + t.get("F_off", 0.0), out[:, 1], out[:, 2], out[:, 3], out[:, 4]
-
-
-def _experiment(name):
-    """Check that ``name`` is one of the first truth's experiments."""
-    if name not in EXPERIMENTS:
-        raise ValueError(f"experiment must be one of {', '.join(EXPERIMENTS)}; got {name!r}")
 
 
 def draw_truth(effect, rng):
@@ -281,45 +331,14 @@ def draw_truth(effect, rng):
 
 def make_case_impact2(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
     """A random hidden-effect case of this truth in the first truth's structure (``make_case`` of
-    diagnose_truth_impact.py): (records, truth dict), each record (time, input, measured channel, measured
-    angle, {"gap0": travel [m]}); the force with ``noise`` [N] (NaN between the load cell's 100 Hz samples on the
-    slide), or on the speed run the current with ``CURRENT_NOISE``; the angle in whole encoder counts (truncated).
-    Trial 0 has the object at the experiment's distance, further trials within ``PLACEMENT`` of it."""
+    diagnose_truth_impact.py): (records, truth dict), the records as :func:`measured_records` gives them."""
     truth = draw_truth(effect, rng)
-    _experiment(experiment)
-    records = []
-    for k in range(trials):
-        placed = (CONDITION["gap0"] if experiment == "impact" else SLIDE_GAP0) + \
-            (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
-        t, given, force, _, theta, current, _ = simulate(truth, experiment, placed)
-        angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
-        if experiment == "speed":
-            records.append((t, given, current + rng.normal(0.0, CURRENT_NOISE, len(t)), angle, {"gap0": placed}))
-            continue
-        sampled = np.arange(len(t)) % (int(round(SLIDE_RATE_HZ / RATE_HZ)) if experiment == "slide" else 1) == 0
-        measured = np.full(len(t), np.nan)
-        measured[sampled] = force[sampled] + rng.normal(0.0, noise, int(sampled.sum()))
-        records.append((t, given, measured, angle, {"gap0": placed}))
-    return records, truth
+    return measured_records(simulate, truth, rng, noise, trials, experiment), truth
 
 
 def effect_signal2(case, experiment="impact"):
-    """RMS change the hidden effect alone makes to the case's noise-free records (the truth with the effect less
-    the truth without it, same ``eta_g``, ``T_c0``, object positions): (compared channel, motor angle [rad]); the
-    compared channel is the load cell [N], or the current [A] on the speed run. Zero for ``none``."""
-    records, truth = case
-    if truth["effect"] == "none":
-        return 0.0, 0.0
-    base = {"eta_g": truth["eta_g"], "T_c0": truth["T_c0"]}
-    column = 5 if experiment == "speed" else 2
-    channel, angle = [], []
-    for record in records:
-        run_1, run_0 = simulate(truth, experiment, record[4]["gap0"]), simulate(base, experiment, record[4]["gap0"])
-        keep = np.isfinite(record[2])
-        channel.append((run_1[column] - run_0[column])[keep])
-        angle.append(run_1[4] - run_0[4])
-    return (float(np.sqrt(np.mean(np.concatenate(channel) ** 2))),
-            float(np.sqrt(np.mean(np.concatenate(angle) ** 2))))
+    """RMS change the hidden effect alone makes to the case's noise-free records (:func:`hidden_effect_signal`)."""
+    return hidden_effect_signal(simulate, case, experiment)
 
 
 # -- the evaluation: diagnose drawn cases of both truths and count them side by side -------------------------------
@@ -336,10 +355,10 @@ def library(experiment):
     return applicable(SOURCE.read_text(encoding="utf-8"), MODELS[experiment])
 
 
-def diagnose_records(case, seed, folder, experiment, workers=2, max_nfev=20):
-    """Diagnose ``case`` ((records, truth) of either truth) with the first truth's ``write_job`` offering the
-    whole library of the experiment's model, no FMU build. Returns one row with the keys of
-    ``diagnose_truth2.diagnose_frame`` (``noise``: the compared channel's noise sd)."""
+def diagnose_records(case, seed, folder, experiment, workers=2, max_nfev=20, free_coating=True):
+    """Diagnose ``case`` ((records, truth) of any truth) with the first truth's ``write_job`` offering the
+    whole library of the experiment's model (``free_coating``: its coating's stiffness free), no FMU build. Returns
+    one row with the keys of ``diagnose_truth2.diagnose_frame`` (``noise``: the compared channel's noise sd)."""
     import time
     from pathlib import Path
 
@@ -351,78 +370,27 @@ def diagnose_records(case, seed, folder, experiment, workers=2, max_nfev=20):
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     truth = case[1]
-    job = load_diagnose_job(write_job(folder, SOURCE, case, library(experiment), workers, max_nfev, experiment))
+    job = load_diagnose_job(write_job(folder, SOURCE, case, library(experiment), workers, max_nfev, experiment,
+                                      free_coating))
     start = time.perf_counter()
     s = run_diagnosis(job, progress=False, build=False).to_json()
     return diagnosis_row(s, truth, seed, CURRENT_NOISE if experiment == "speed" else FORCE_NOISE,
                          time.perf_counter() - start)
 
 
-def diagnose_case_impact2(effect, seed, folder, experiment="impact", workers=2):
+def diagnose_case_impact2(effect, seed, folder, experiment="impact", workers=2, free_coating=True):
     """Diagnose this truth's case (``effect``, ``seed``) of ``experiment``; one row (:func:`diagnose_records`)."""
     case = make_case_impact2(effect, np.random.default_rng(seed), experiment=experiment)
-    return {**diagnose_records(case, seed, folder, experiment, workers), "experiment": experiment,
+    return {**diagnose_records(case, seed, folder, experiment, workers, free_coating=free_coating),
+            "experiment": experiment,
             "truth_model": 2, "effect_signal": effect_signal2(case, experiment)}
 
 
-def diagnose_case_impact1(effect, seed, folder, experiment="impact", workers=2):
+def diagnose_case_impact1(effect, seed, folder, experiment="impact", workers=2, free_coating=True):
     """The same row for the first truth's case (``diagnose_truth_impact.make_case``), for the side-by-side count."""
     from diagnose_truth_impact import effect_signal, make_case
 
     case = make_case(effect, np.random.default_rng(seed), experiment=experiment)
-    return {**diagnose_records(case, seed, folder, experiment, workers), "experiment": experiment,
+    return {**diagnose_records(case, seed, folder, experiment, workers, free_coating=free_coating),
+            "experiment": experiment,
             "truth_model": 1, "effect_signal": effect_signal(case, experiment)}
-
-
-# The run of the issue: effects per experiment in priority order (docs/guide/diagnose.md: which experiment shows
-# which effect, and "none" for the false alarms); loadcell_filter on the impact is extra (shown by the staircase).
-PLAN = (("impact", ("none", "gear_play", "contact_damping", "coating_relaxation", "load_dependent_friction")),
-        ("speed", ("none", "cogging")), ("slide", ("none", "stiction")))
-
-
-def main(argv=None):
-    """Diagnose ``--cases`` drawn cases of each planned effect, both truths, appending one JSON row per line to
-    ``--rows``; the seeds come from the OS and are printed. Ends with the counts per experiment and truth."""
-    import argparse
-    import json
-    import tempfile
-
-    from diagnose_truth2 import count_rows
-
-    parser = argparse.ArgumentParser(description=main.__doc__)
-    parser.add_argument("--cases", type=int, default=1)
-    parser.add_argument("--experiments", nargs="*", default=[e for e, _ in PLAN])
-    parser.add_argument("--truths", nargs="*", type=int, default=[2, 1])
-    parser.add_argument("--rows", default="out/truth2_impact_rows.jsonl")
-    parser.add_argument("--workers", type=int, default=2)
-    args = parser.parse_args(argv)
-    entropy = np.random.SeedSequence().entropy
-    print(f"SeedSequence entropy (from the OS): {entropy}", flush=True)
-    seeds = iter(np.random.SeedSequence(entropy).generate_state(10000))
-    rows = []
-    for k in range(args.cases):
-        for experiment, effects in PLAN:
-            if experiment not in args.experiments:
-                continue
-            for effect in effects:
-                seed = int(next(seeds))
-                for truth in args.truths:
-                    diagnose = diagnose_case_impact2 if truth == 2 else diagnose_case_impact1
-                    with tempfile.TemporaryDirectory() as folder:
-                        row = diagnose(effect, seed, folder, experiment, args.workers)
-                    rows.append(row)
-                    with open(args.rows, "a", encoding="utf-8") as f:
-                        f.write(json.dumps(row) + "\n")
-                    print(f"case {k} {experiment:6s} truth {truth} {effect:24s} seed {seed:10d} named "
-                          f"{row['named']:24s} gap removed {100 * row['gap_removed']:6.1f} % "
-                          f"RMSE {row['rmse_before']:.4g} -> {row['rmse_after']:.4g} {row['seconds']:.0f} s",
-                          flush=True)
-    for experiment in args.experiments:
-        for truth in args.truths:
-            mine = [r for r in rows if r["experiment"] == experiment and r["truth_model"] == truth]
-            if mine:
-                print(experiment, "truth", truth, json.dumps(count_rows(mine, SHOWN_BY[experiment]), indent=1))
-
-
-if __name__ == "__main__":  # PYTHONPATH=.:tests python tests/diagnose_truth2_impact.py --cases 3
-    main()
