@@ -1,7 +1,7 @@
 """Counts of the discrepancy workflow on drawn cases of independent truths of each experiment, or a job's stage times.
 
 Run: python benchmarks/diagnose.py [--experiments E ...] [--cases N] [--seed S] [--truths 1 2 ...] [--effects ...]
-                                   [--coating free|fixed] [--rows FILE] [--workers W] [--validation]
+                                   [--rows FILE] [--workers W] [--validation]
 Each case hides one effect, or none, in a truth written independently of the Modelica plant and its candidates,
 and is diagnosed by the experiment's baseline model with the whole effect library that applies to it offered.
 Per experiment (``--experiments``, default all), truth 1 is the one the workflow was developed against; truths 2
@@ -13,8 +13,7 @@ truth 2's results had been seen, to judge the changes made in response to them):
   gear loss, a compliant mesh with backlash, LuGre guides, a second-order load cell);
 * ``impact``, ``slide``, ``speed`` (the current-step impact; stops and restarts against the jaw guides; a slow
   speed run under a PI loop): ``tests/diagnose_truth_impact.py``, ``tests/diagnose_truth2_impact.py`` and
-  ``tests/diagnose_truth3_impact.py``; their jobs free the coating's stiffness on the experiments that touch the
-  object unless ``--coating fixed``;
+  ``tests/diagnose_truth3_impact.py``;
 * ``haptic`` (the PHANToM's frequency response with a user): ``tests/diagnose_truth_haptic.py`` and
   ``tests/diagnose_truth2_haptic.py`` (built without the project's transfer-function code; truth set ``2w``: the
   same records estimated by Welch H1 instead of at the multisine's lines).
@@ -135,40 +134,32 @@ def diagnose_staircase2(effect, seed, folder, workers):
 
 
 def _gripper(experiment, function):
-    return lambda effect, seed, folder, workers, coating: function(effect, seed, folder, experiment, workers,
-                                                                   free_coating=coating == "free")
+    return lambda effect, seed, folder, workers: function(effect, seed, folder, experiment, workers)
 
 
-def _truth3(effect, seed, folder, experiment, workers, free_coating):
+def _truth3(effect, seed, folder, experiment, workers):
     from diagnose_truth3_impact import diagnose_case_impact3
 
-    return diagnose_case_impact3(effect, seed, folder, experiment, workers, free_coating=free_coating)
+    return diagnose_case_impact3(effect, seed, folder, experiment, workers)
 
 
 def _welch(effect, seed, folder, workers):
     return diagnose_case_haptic2(effect, seed, folder, workers, estimator="welch")
 
 
-def _any_coating(function):
-    """A case function of an experiment without a coating, taking (and ignoring) the coating option."""
-    return lambda effect, seed, folder, workers, coating: function(effect, seed, folder, workers)
-
-
-# experiment -> (the effects it shows, {truth: case function (effect, seed, folder, workers, coating) -> row},
+# experiment -> (the effects it shows, {truth: case function (effect, seed, folder, workers) -> row},
 # default Dask workers: the haptic fits are fast enough in process)
 EXPERIMENTS = {
-    "staircase": (SHOWN_ON_STAIRCASE, {"1": _any_coating(diagnose_staircase1), "2": _any_coating(diagnose_staircase2)},
-                  2),
+    "staircase": (SHOWN_ON_STAIRCASE, {"1": diagnose_staircase1, "2": diagnose_staircase2}, 2),
     **{name: (SHOWN_BY[name], {"1": _gripper(name, diagnose_case_impact1), "2": _gripper(name, diagnose_case_impact2),
                                "3": _gripper(name, _truth3)}, 2)
        for name in ("impact", "slide", "speed")},
-    "haptic": (SHOWN_ON_HAPTIC, {"1": _any_coating(diagnose_case_haptic1), "2": _any_coating(diagnose_case_haptic2),
-                                 "2w": _any_coating(_welch)}, 0),
+    "haptic": (SHOWN_ON_HAPTIC, {"1": diagnose_case_haptic1, "2": diagnose_case_haptic2, "2w": _welch}, 0),
 }
 TRUTHS = ("1", "2", "2w", "3")
 
 
-def draw_rows(experiment, truths, effects, cases, seed, workers, coating="free", rows_file=None):
+def draw_rows(experiment, truths, effects, cases, seed, workers, rows_file=None):
     """Diagnose ``cases`` drawn cases of each effect of each truth of ``experiment`` (those it lacks skipped);
     returns {truth: [row, ...]}, each row also appended to ``rows_file`` (JSON lines) when given. The truths share
     each case's seed: a paired comparison (the gripper truths draw the same baseline from it)."""
@@ -182,8 +173,8 @@ def draw_rows(experiment, truths, effects, cases, seed, workers, coating="free",
             for b, effect in enumerate(effects):
                 case_seed = int(seeds[k, b])
                 with tempfile.TemporaryDirectory() as folder:
-                    row = functions[truth](effect, case_seed, folder, workers, coating)
-                row = {**row, "experiment": experiment, "truth_set": truth, "run_seed": seed, "coating": coating}
+                    row = functions[truth](effect, case_seed, folder, workers)
+                row = {**row, "experiment": experiment, "truth_set": truth, "run_seed": seed}
                 rows[truth].append(row)
                 if rows_file:
                     with open(rows_file, "a", encoding="utf-8") as out:
@@ -225,7 +216,7 @@ def run_experiment(experiment, args, seed):
     shown = EXPERIMENTS[experiment][0]
     effects = args.effects or ["none", *shown]
     start = time.time()
-    rows = draw_rows(experiment, args.truths, effects, args.cases, seed, args.workers, args.coating, args.rows)
+    rows = draw_rows(experiment, args.truths, effects, args.cases, seed, args.workers, args.rows)
     table, notes = count_table(rows, shown)
     print(f"\n{experiment}: {time.time() - start:.0f} s")
     for row in table:
@@ -247,8 +238,6 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, help="the run's seed (default: drawn from the operating system)")
     parser.add_argument("--truths", nargs="+", choices=TRUTHS, default=["1", "2", "3"],
                         help="truths to draw cases of (default 1 2 3; 2w: the haptic second truth by Welch H1)")
-    parser.add_argument("--coating", choices=("free", "fixed"), default="free",
-                        help="the gripper jobs' coating stiffness on the experiments that touch the object")
     parser.add_argument("--rows", type=Path, help="append every row to this JSON-lines file")
     parser.add_argument("--effects", nargs="+", help="hidden effects (default: none and those the experiment shows)")
     parser.add_argument("--workers", type=int,

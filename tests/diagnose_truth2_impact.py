@@ -355,10 +355,10 @@ def library(experiment):
     return applicable(SOURCE.read_text(encoding="utf-8"), MODELS[experiment])
 
 
-def diagnose_records(case, seed, folder, experiment, workers=2, max_nfev=20, free_coating=True):
+def diagnose_records(case, seed, folder, experiment, workers=2, max_nfev=20):
     """Diagnose ``case`` ((records, truth) of any truth) with the first truth's ``write_job`` offering the
-    whole library of the experiment's model (``free_coating``: its coating's stiffness free), no FMU build. Returns
-    one row with the keys of ``diagnose_truth2.diagnose_frame`` (``noise``: the compared channel's noise sd)."""
+    whole library of the experiment's model, no FMU build. Returns one row with the keys of
+    ``diagnose_truth2.diagnose_frame`` (``noise``: the compared channel's noise sd)."""
     import time
     from pathlib import Path
 
@@ -370,27 +370,24 @@ def diagnose_records(case, seed, folder, experiment, workers=2, max_nfev=20, fre
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     truth = case[1]
-    job = load_diagnose_job(write_job(folder, SOURCE, case, library(experiment), workers, max_nfev, experiment,
-                                      free_coating))
+    job = load_diagnose_job(write_job(folder, SOURCE, case, library(experiment), workers, max_nfev, experiment))
     start = time.perf_counter()
     s = run_diagnosis(job, progress=False, build=False).to_json()
     return diagnosis_row(s, truth, seed, CURRENT_NOISE if experiment == "speed" else FORCE_NOISE,
                          time.perf_counter() - start)
 
 
-def diagnose_case_impact2(effect, seed, folder, experiment="impact", workers=2, free_coating=True):
+def diagnose_case_impact2(effect, seed, folder, experiment="impact", workers=2):
     """Diagnose this truth's case (``effect``, ``seed``) of ``experiment``; one row (:func:`diagnose_records`)."""
     case = make_case_impact2(effect, np.random.default_rng(seed), experiment=experiment)
-    return {**diagnose_records(case, seed, folder, experiment, workers, free_coating=free_coating),
-            "experiment": experiment,
+    return {**diagnose_records(case, seed, folder, experiment, workers), "experiment": experiment,
             "truth_model": 2, "effect_signal": effect_signal2(case, experiment)}
 
 
-def diagnose_case_impact1(effect, seed, folder, experiment="impact", workers=2, free_coating=True):
+def diagnose_case_impact1(effect, seed, folder, experiment="impact", workers=2):
     """The same row for the first truth's case (``diagnose_truth_impact.make_case``), for the side-by-side count."""
     from diagnose_truth_impact import effect_signal, make_case
 
     case = make_case(effect, np.random.default_rng(seed), experiment=experiment)
-    return {**diagnose_records(case, seed, folder, experiment, workers, free_coating=free_coating),
-            "experiment": experiment,
+    return {**diagnose_records(case, seed, folder, experiment, workers), "experiment": experiment,
             "truth_model": 1, "effect_signal": effect_signal(case, experiment)}

@@ -371,10 +371,9 @@ def effect_signal3(case, experiment="impact"):
     return hidden_effect_signal(simulate, case, experiment)
 
 
-def diagnose_case_impact3(effect, seed, folder, experiment="impact", workers=2, free_coating=True):
+def diagnose_case_impact3(effect, seed, folder, experiment="impact", workers=2):
     """Diagnose this truth's case (``effect``, ``seed``) of ``experiment`` with the whole library of the
-    experiment's model (``diagnose_truth2_impact.diagnose_records``, ``free_coating`` passed on); one row,
-    ``truth_model`` 3."""
+    experiment's model (``diagnose_truth2_impact.diagnose_records``); one row, ``truth_model`` 3."""
     case = make_case_impact3(effect, np.random.default_rng(seed), experiment=experiment)
-    return {**diagnose_records(case, seed, folder, experiment, workers, free_coating=free_coating),
+    return {**diagnose_records(case, seed, folder, experiment, workers),
             "experiment": experiment, "truth_model": 3, "effect_signal": effect_signal3(case, experiment)}

@@ -75,12 +75,6 @@ PHI_DAHL = 1e-3                                   # rad, presliding angle of the
 # Free down to 0.1 mrad, phi_b bent a detent torque's rest angles away; free on the slide, it traded with the
 # guides' sliding friction F_cj, so the slide keeps eta_g and T_c0 only (docs/dev/diagnose-history.md, ninth round).
 PHI_B_START = 1e-3                                # rad
-# With ``free_coating`` (write_job), the jobs of the experiments that touch the object also free the coating's
-# first-region stiffness k_P (within a factor three of the condition's). A coating's stiffness under an impact is
-# the least certain constant of the contact (rubber-like layers stiffen with rate and load); held fixed, its error,
-# or a law of another form than the Modelica's two linear regions, was taken up by candidates that bend the same
-# part of the record (docs/dev/diagnose-truth2-impact.md, "Why the second truth scores lower"). Decided before the
-# third truth (tests/diagnose_truth3_impact.py) was run, and judged on it (docs/dev/diagnose-model-form.md).
 N_COG = 24                                        # cogging periods per revolution (motor geometry, as the Modelica's)
 PLACEMENT = 1e-4                                  # m: scatter of the object's position over repeated trials
 # The slide (``experiment="slide"``), an attempt to show the guides' breakaway: 0.3 A moves the jaws a little,
@@ -352,16 +346,15 @@ max_nfev = {max_nfev}
 """
 
 
-def write_job(folder, source, case, effects, workers=0, max_nfev=20, experiment="impact", free_coating=True):
+def write_job(folder, source, case, effects, workers=0, max_nfev=20, experiment="impact"):
     """Write ``case`` (from :func:`make_case`) as data.csv (data0.csv, data1.csv, ...: one per record, with its
     object position in data.records) and the diagnosis job for it into ``folder``; returns the job path. The
     slide and the speed run are staircase jobs (every sample compared, holds of at least 0.1 s), the impact an
     impact job; the speed run's model is ``Gripper.GripperSpeedControlled`` (input ``w_ref``, compared ``i_q``),
     the others' ``Gripper.GripperCurrentDriven`` (input ``i_ref``, compared ``F_g``). Noise floors: 0.1 N under
     the force estimate, 2 mA under the current's, one encoder count under the angle's (the truncated counts are
-    not a zero-mean noise: their bias of half a count is part of the floor). Free: ``eta_g``, ``T_c0``, on the
-    impact ``phi_b``, and with ``free_coating`` on the experiments that touch the object (impact, slide) the
-    coating's stiffness ``k_P`` (the comment below ``PHI_B_START`` says why)."""
+    not a zero-mean noise: their bias of half a count is part of the floor). Free: ``eta_g``, ``T_c0`` and, on
+    the impact, ``phi_b``."""
     import pandas as pd
 
     _experiment(experiment)
@@ -374,9 +367,8 @@ def write_job(folder, source, case, effects, workers=0, max_nfev=20, experiment=
     data = f'path = "{names[0]}"' if len(records) == 1 else "records = [" + ", ".join(
         f'{{ path = "{name}", parameters = {{ gap0 = {r[4]["gap0"]!r} }} }}' for name, r in zip(names, records)) + "]"
     impact = experiment == "impact"
-    coating = free_coating and not speed
-    fixed = {**{k: v for k, v in CONDITION.items() if not (coating and k == "k_P")}, "play": PLAY_NOMINAL,
-             **({} if impact else {"gap0": SLIDE_GAP0}), **({"K_pw": K_PW, "K_iw": K_IW} if speed else {})}
+    fixed = {**CONDITION, "play": PLAY_NOMINAL, **({} if impact else {"gap0": SLIDE_GAP0}),
+             **({"K_pw": K_PW, "K_iw": K_IW} if speed else {})}
     parameters = "{ " + ", ".join(f"{k} = {v!r}" for k, v in fixed.items()) + " }"
     path = folder / "job.toml"
     path.write_text(JOB.format(source=source.as_posix(), parameters=parameters, data=data,
@@ -384,6 +376,5 @@ def write_job(folder, source, case, effects, workers=0, max_nfev=20, experiment=
                                channel=channel, kind="impact" if impact else "staircase",
                                hold="" if impact else "\nmin_hold_s = 0.1", duration=records[0][0][-1],
                                floor=0.002 if speed else 0.1, angle_floor=2 * np.pi / COUNTS, max_nfev=max_nfev)
-                    + free_and_candidates(0.68, 7.88e-3, effects, workers, phi_b=PHI_B_START if impact else None,
-                                          k_P=CONDITION["k_P"] if coating else None))
+                    + free_and_candidates(0.68, 7.88e-3, effects, workers, phi_b=PHI_B_START if impact else None))
     return path

@@ -86,6 +86,21 @@ def test_noise_alone_is_within_noise_and_a_qualified_candidate_is_named():
     assert named.outcome == "named" and named.effect == "cogging" and named.plausible == []
 
 
+def test_a_gap_left_after_the_named_effect_is_in_the_verdict():
+    """A named effect after which segments stay above the noise, with a mean square beyond chance, is named with
+    the gap that remains and where it is largest; one that leaves the noise is named alone."""
+    decision, _ = _decide([_candidate("cogging", 0.9, 50.0)], bias_on=(3,), bias=3.0)
+    row = decision.rows[3]
+    left = [SimpleNamespace(segment=row["segment"], t0=row["t0"], t1=row["t1"], significant_after=True,
+                            sigmas=6.0, rmse_before=3.0, rmse_after=2.0)]
+    verdict = _verdict(_job(), decision, left, ms_after=4.0)
+    assert verdict.startswith("missing effect: cogging") and "a gap of 2.0 noise levels remains" in verdict
+    assert f"largest in {row['segment']}" in verdict and "4.0 noise levels" in verdict
+    assert _verdict(_job(), decision, left, ms_after=1.0) == _verdict(_job(), decision)
+    assert _verdict(_job(), decision, [SimpleNamespace(**{**vars(left[0]), "significant_after": False})], 4.0) == \
+        _verdict(_job(), decision)
+
+
 def test_plausible_but_not_identifiable():
     """Without a winner: a score of at least min_gap_removed/2 with ΔBIC > 0 is plausible, best first; ΔBIC <= 0
     or a lower score is not; with a winner only its rivals are; without a gap nothing is."""

@@ -707,11 +707,21 @@ def show(job, samples, noise, scores, decision, folder, build=True, out=None):
 
 # -- the result -----------------------------------------------------------------------------------------------------
 
-def _verdict(job, decision):
-    """The first line of the answer: the effect named, the gap no candidate explains (its size and where it is
-    largest), or a baseline within the noise."""
+def _verdict(job, decision, segments=(), ms_after=0.0):
+    """The first line of the answer: the effect named (and, when a gap remains after it by the rule that finds
+    the baseline's, that gap), the gap no candidate explains (its size and where it is largest), or a baseline
+    within the noise; ``segments``: the :class:`SegmentRow` table before and after the winner, ``ms_after``: the
+    winner's mean square in noise levels squared."""
     if decision.winner is not None:
-        return f"missing effect: {decision.effect} ({_title(decision.effect)})"
+        named = f"missing effect: {decision.effect} ({_title(decision.effect)})"
+        left = [r for r in segments if r.significant_after]
+        if not left or ms_after <= decision.chance:
+            return named
+        top = max(left, key=_levels_after)
+        return (f"{named}; after it, a gap of {np.sqrt(ms_after):.1f} noise levels remains that no effect in the "
+                f"library explains (largest in {top.segment}, {_span(job, {'t0': top.t0, 't1': top.t1})}: "
+                f"{_levels_after(top):.1f} noise levels): it explains part of the gap, the rest needs another effect "
+                "or a model of another form")
     if decision.gap_found:
         top = decision.where[0]
         return (f"a gap of {decision.gap_levels:.1f} noise levels remains that no effect in the library explains "
@@ -753,7 +763,8 @@ def _diagnosis(job, samples, noise, split, scores, decision, shown, advice=()):
         records=tuple(RecordSummary(path=str(path), parameters=trial, samples=len(r.time), compared=int(p.sum()),
                                     time_shift=shift)
                       for (path, trial), (r, _), shift, p in zip(job.records, s.records, s.shifts, s.sampled)),
-        effect=decision.effect, verdict=_verdict(job, decision), also_explained_by=decision.rivals,
+        effect=decision.effect, verdict=_verdict(job, decision, segments, ms_after),
+        also_explained_by=decision.rivals,
         kind=job.kind, signals=s.channels, units=s.units,
         inputs=[] if frequency else [u.name for u in model.inputs],
         input_units=[] if frequency else [u.unit for u in model.inputs],
