@@ -53,9 +53,11 @@ import numpy as np
 from numba import njit
 
 from diagnose_truth2 import cogging_table
-from diagnose_truth_impact import (CONDITION, COUNTS, CURRENT_NOISE, FORCE_NOISE, I_STEP, K_IW, K_PW, PLACEMENT,
-                                   RATE_HZ, SLIDE_GAP0, SLIDE_PROFILE, SLIDE_RATE_HZ, SPEED_PROFILE, T_STEP, DURATION,
-                                   _experiment, draw_baseline)
+# the paper's values (docs/models/gripper.md) come from the first truth
+from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, CURRENT_NOISE, DURATION, F_GUIDE, FORCE_NOISE, I_STEP,
+                                   J_M, J_P, K_F, K_IW, K_PW, K_T, M_JF, OMEGA_MAX, PLAY_NOMINAL, R_P, RATE_HZ, RATIO,
+                                   SLIDE_GAP0, SLIDE_PROFILE, SLIDE_RATE_HZ, SPEED_PROFILE, T_MAX, T_STEP,
+                                   _experiment, draw_baseline, hidden_effect_signal, measured_records)
 
 __all__ = ["TRUTH2_IMPACT_EFFECTS", "SHOWN_BY", "simulate", "make_case_impact2", "effect_signal2",
            "diagnose_case_impact2", "diagnose_case_impact1", "library"]
@@ -66,14 +68,6 @@ TRUTH2_IMPACT_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxa
 SHOWN_BY = {"impact": ("gear_play", "contact_damping", "coating_relaxation", "load_dependent_friction"),
             "slide": ("stiction",), "speed": ("cogging",)}
 
-# the paper's values (as the first truth; docs/models/gripper.md)
-K_T, J_M, B_R = 0.0393939394, 1.01e-5, 1.01e-5    # N.m/A, kg.m2, N.m.s/rad
-RATIO, T_MAX, OMEGA_MAX = 28.0, 0.13, 628.3185    # 1, N.m, rad/s
-PLAY_NOMINAL = math.radians(0.8)                  # rad, total play
-R_P, J_P, M_JF = 0.008957, 7.94e-7, 0.08          # m, kg.m2, kg
-C_GREASE = 4 * 0.2 * 2e-4 / 5e-5                  # N.s/m, eq. (11)
-F_GUIDE = 0.0785                                  # N, sliding guide friction per jaw
-K_F = 1.46e6                                      # N/m, finger
 DT = 1e-5                                         # s
 # this truth's own elements
 K_MESH, C_MESH = 1000.0, 0.05                     # N.m/rad, N.m.s/rad: mesh shaft at the gear output
@@ -241,48 +235,6 @@ def experiment_input(experiment, gap0=None, profile=None):
     else:
         given = np.interp(time, *zip(*(SPEED_PROFILE if experiment == "speed" else SLIDE_PROFILE)))
     return gap0, rate, time, given
-
-
-def measured_records(simulate, truth, rng, noise, trials, experiment):
-    """The records a gripper truth's ``simulate`` gives for ``truth``, measured as the first truth's ``make_case``
-    measures them: each (time, input, measured channel, measured angle, {"gap0": travel [m]}); the load-cell
-    reading with ``noise`` [N] at 100 Hz (NaN between its samples on the slide), or on the speed run the current
-    with ``CURRENT_NOISE``; the angle in whole encoder counts (truncated). Trial 0 has the object at the
-    experiment's distance, further trials within ``PLACEMENT`` of it."""
-    _experiment(experiment)
-    records = []
-    for k in range(trials):
-        placed = (CONDITION["gap0"] if experiment == "impact" else SLIDE_GAP0) + \
-            (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
-        t, given, reading, _, theta, current, _ = simulate(truth, experiment, placed)
-        angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
-        if experiment == "speed":
-            records.append((t, given, current + rng.normal(0.0, CURRENT_NOISE, len(t)), angle, {"gap0": placed}))
-            continue
-        sampled = np.arange(len(t)) % (int(round(SLIDE_RATE_HZ / RATE_HZ)) if experiment == "slide" else 1) == 0
-        measured = np.full(len(t), np.nan)
-        measured[sampled] = reading[sampled] + rng.normal(0.0, noise, int(sampled.sum()))
-        records.append((t, given, measured, angle, {"gap0": placed}))
-    return records
-
-
-def hidden_effect_signal(simulate, case, experiment):
-    """RMS change the hidden effect alone makes to a case's noise-free records under a gripper truth's
-    ``simulate`` (the truth with the effect less the truth without it, same ``eta_g``, ``T_c0``, object
-    positions): (compared channel, motor angle [rad]); the compared channel is the load cell at its samples [N],
-    or the current [A] on the speed run. Zero for ``none``."""
-    records, truth = case
-    if truth["effect"] == "none":
-        return 0.0, 0.0
-    base = {"eta_g": truth["eta_g"], "T_c0": truth["T_c0"]}
-    column = 5 if experiment == "speed" else 2
-    channel, angle = [], []
-    for record in records:
-        run_1, run_0 = simulate(truth, experiment, record[4]["gap0"]), simulate(base, experiment, record[4]["gap0"])
-        channel.append((run_1[column] - run_0[column])[np.isfinite(record[2])])
-        angle.append(run_1[4] - run_0[4])
-    return (float(np.sqrt(np.mean(np.concatenate(channel) ** 2))),
-            float(np.sqrt(np.mean(np.concatenate(angle) ** 2))))
 
 
 def simulate(truth, experiment="impact", gap0=None, profile=None):

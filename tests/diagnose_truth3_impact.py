@@ -49,10 +49,10 @@ import math
 import numpy as np
 from numba import njit
 
-from diagnose_truth2_impact import (diagnose_records, experiment_input, hidden_effect_signal, measured_records,
-                                    q_current)
+from diagnose_truth2_impact import diagnose_records, experiment_input, q_current
 from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, F_GUIDE, FORCE_NOISE, J_M, J_P, K_F, K_T, M_JF,
-                                   N_COG, OMEGA_MAX, PLAY_NOMINAL, R_P, RATE_HZ, RATIO, T_MAX, draw_baseline)
+                                   N_COG, OMEGA_MAX, PLAY_NOMINAL, R_P, RATE_HZ, RATIO, T_MAX, draw_baseline,
+                                   hidden_effect_signal, measured_records)
 
 __all__ = ["TRUTH3_IMPACT_EFFECTS", "simulate", "draw_truth", "make_case_impact3", "effect_signal3",
            "diagnose_case_impact3"]
@@ -360,14 +360,14 @@ def draw_truth(effect, rng):
 
 def make_case_impact3(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
     """A random hidden-effect case of this truth in the first truth's structure (``make_case`` there): (records,
-    truth dict), the records measured as ``diagnose_truth2_impact.measured_records`` does."""
+    truth dict), the records measured as ``diagnose_truth_impact.measured_records`` does."""
     truth = draw_truth(effect, rng)
     return measured_records(simulate, truth, rng, noise, trials, experiment), truth
 
 
 def effect_signal3(case, experiment="impact"):
     """RMS change the hidden effect alone makes to the case's noise-free records
-    (``diagnose_truth2_impact.hidden_effect_signal``)."""
+    (``diagnose_truth_impact.hidden_effect_signal``)."""
     return hidden_effect_signal(simulate, case, experiment)
 
 

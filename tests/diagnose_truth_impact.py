@@ -46,7 +46,7 @@ import numpy as np
 from diagnose_truth import free_and_candidates
 
 __all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "draw_baseline", "make_case",
-           "effect_signal", "write_job"]
+           "effect_signal", "measured_records", "hidden_effect_signal", "write_job"]
 
 TRUTH_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction", "cogging",
                  "load_dependent_friction")
@@ -252,43 +252,63 @@ def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
         truth["T_cog"], truth["phase_cog"] = float(rng.uniform(1.5e-3, 4e-3)), float(rng.uniform(-np.pi, np.pi))
         truth["T_cog2"] = float(truth["T_cog"] * rng.uniform(0.1, 0.3))
         truth["phase_cog2"] = float(rng.uniform(-np.pi, np.pi))
-    kw = _simulate_arguments(truth)
+    return measured_records(_record, truth, rng, noise, trials, experiment), truth
+
+
+def effect_signal(case, experiment="impact"):
+    """How much the hidden effect alone changes the case's records (:func:`hidden_effect_signal`): an upper bound
+    on the evidence a diagnosis can find, since the baseline's free parameters may absorb part of it."""
+    return hidden_effect_signal(_record, case, experiment)
+
+
+def _record(truth, experiment, gap0):
+    """One noise-free record of ``experiment`` for a truth dict from :func:`make_case`, the object at ``gap0`` [m],
+    in the form the other truths' ``simulate`` gives it: (time [s], input, load-cell reading [N] (ideal: the
+    contact force), contact force [N], motor angle [rad], q current [A], None: the jaw travel is not kept)."""
+    t, i, force, theta = _run(experiment, gap0, _simulate_arguments(truth))
+    given = np.interp(t, *zip(*SPEED_PROFILE)) if experiment == "speed" else i
+    return t, given, force, force, theta, i, None
+
+
+def measured_records(simulate, truth, rng, noise, trials, experiment):
+    """The records a gripper truth's ``simulate`` (truth dict, experiment, travel [m] -> (time, input, load-cell
+    reading, contact force, motor angle, q current, jaw travel)) gives for ``truth``, measured on the test bench:
+    each (time, input, measured channel, measured angle, {"gap0": travel [m]}); the load-cell reading with
+    ``noise`` [N] at 100 Hz (NaN between its samples on the slide), or on the speed run the current with
+    ``CURRENT_NOISE``; the angle in whole encoder counts (truncated). Trial 0 has the object at the experiment's
+    distance, further trials within ``PLACEMENT`` of it."""
     _experiment(experiment)
     records = []
     for k in range(trials):
         placed = (CONDITION["gap0"] if experiment == "impact" else SLIDE_GAP0) + \
             (rng.uniform(-PLACEMENT, PLACEMENT) if k else 0.0)
-        t, i, F, theta = _run(experiment, placed, kw)
+        t, given, reading, _, theta, current, _ = simulate(truth, experiment, placed)
         angle = np.floor(theta * COUNTS / (2 * np.pi)) * (2 * np.pi / COUNTS)
         if experiment == "speed":
-            records.append((t, np.interp(t, *zip(*SPEED_PROFILE)), i + rng.normal(0.0, CURRENT_NOISE, len(t)),
-                            angle, {"gap0": placed}))
+            records.append((t, given, current + rng.normal(0.0, CURRENT_NOISE, len(t)), angle, {"gap0": placed}))
             continue
         sampled = np.arange(len(t)) % (int(round(SLIDE_RATE_HZ / RATE_HZ)) if experiment == "slide" else 1) == 0
-        force = np.full(len(t), np.nan)  # the load cell's samples
-        force[sampled] = F[sampled] + rng.normal(0.0, noise, int(sampled.sum()))
-        records.append((t, i, force, angle, {"gap0": placed}))
-    return records, truth
+        measured = np.full(len(t), np.nan)
+        measured[sampled] = reading[sampled] + rng.normal(0.0, noise, int(sampled.sum()))
+        records.append((t, given, measured, angle, {"gap0": placed}))
+    return records
 
 
-def effect_signal(case, experiment="impact"):
-    """How much the hidden effect alone changes the case's records: the RMS over every record of the noise-free
-    truth with the effect less the truth without it (the same ``eta_g``, ``T_c0`` and object positions), as
-    (force [N], motor angle [rad]); for the speed run (current [A], motor angle [rad]). An upper bound on the
-    evidence a diagnosis can find: the baseline's free parameters may absorb part of it. Zero for ``none``."""
+def hidden_effect_signal(simulate, case, experiment):
+    """RMS change the hidden effect alone makes to a case's noise-free records under a gripper truth's
+    ``simulate`` (the truth with the effect less the truth without it, same ``eta_g``, ``T_c0``, object
+    positions): (compared channel, motor angle [rad]); the compared channel is the load cell at its samples [N],
+    or the current [A] on the speed run. Zero for ``none``."""
     records, truth = case
     if truth["effect"] == "none":
         return 0.0, 0.0
-    _experiment(experiment)
-    with_effect = _simulate_arguments(truth)
-    without = _simulate_arguments({"eta_g": truth["eta_g"], "T_c0": truth["T_c0"]})
-    column = 1 if experiment == "speed" else 2  # the compared channel beside the angle in simulate's result
+    base = {"eta_g": truth["eta_g"], "T_c0": truth["T_c0"]}
+    column = 5 if experiment == "speed" else 2
     channel, angle = [], []
     for record in records:
-        run_1 = _run(experiment, record[4]["gap0"], with_effect)
-        run_0 = _run(experiment, record[4]["gap0"], without)
-        channel.append(run_1[column] - run_0[column])
-        angle.append(run_1[3] - run_0[3])
+        run_1, run_0 = simulate(truth, experiment, record[4]["gap0"]), simulate(base, experiment, record[4]["gap0"])
+        channel.append((run_1[column] - run_0[column])[np.isfinite(record[2])])
+        angle.append(run_1[4] - run_0[4])
     return (float(np.sqrt(np.mean(np.concatenate(channel) ** 2))),
             float(np.sqrt(np.mean(np.concatenate(angle) ** 2))))
 

@@ -14,8 +14,9 @@ from scipy import signal
 
 import diagnose_truth2_impact as truth2
 from diagnose_truth import quasi_static_force
-from diagnose_truth2_impact import (B_R, C_GREASE, CONDITION, COUNTS, DT, F_GUIDE, K_T, OMEGA_MAX, PLAY_NOMINAL,
-                                    R_P, RATIO, STRIBECK_M, T_MAX, simulate)
+from diagnose_truth2_impact import DT, STRIBECK_M, simulate
+from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, COUNTS, F_GUIDE, K_T, OMEGA_MAX, PLAY_NOMINAL, R_P,
+                                   RATIO, T_MAX)
 
 SEED = 2105753328
 DRAWS = [truth2.draw_truth("none", rng) for rng in [np.random.default_rng(SEED)] for _ in range(3)]
