@@ -714,18 +714,18 @@ def _verdict(job, decision, segments=(), ms_after=0.0):
     winner's mean square in noise levels squared."""
     if decision.winner is not None:
         named = f"missing effect: {decision.effect} ({_title(decision.effect)})"
-        left = [r for r in segments if r.significant_after]
+        left = _left_after(segments)
         if not left or ms_after <= decision.chance:
             return named
-        top = max(left, key=_levels_after)
+        top = left[0]
         return (f"{named}; after it, a gap of {np.sqrt(ms_after):.1f} noise levels remains that no effect in the "
-                f"library explains (largest in {top.segment}, {_span(job, {'t0': top.t0, 't1': top.t1})}: "
+                f"library explains (largest in {top.segment}, {_span(job, top.t0, top.t1)}: "
                 f"{_levels_after(top):.1f} noise levels): it explains part of the gap, the rest needs another effect "
                 "or a model of another form")
     if decision.gap_found:
         top = decision.where[0]
         return (f"a gap of {decision.gap_levels:.1f} noise levels remains that no effect in the library explains "
-                f"(largest in {top['segment']}, {_span(job, top)}: {top['sigmas']:.1f} noise levels)")
+                f"(largest in {top['segment']}, {_span(job, top['t0'], top['t1'])}: {top['sigmas']:.1f} noise levels)")
     if decision.outcome == "diffuse gap":
         return (f"no effect named: a diffuse gap of {decision.gap_levels:.1f} noise levels RMS remains (mean square "
                 f"{decision.mean_square:.3g} noise levels squared, chance up to {decision.chance:.3g}), with no "
@@ -847,11 +847,12 @@ def advise(job, samples, noise, split, scores, decision, folder):
     return out
 
 
-def _span(job, where):
-    """A segment's extent as words: time for a time series, frequency for a frequency response."""
+def _span(job, t0, t1):
+    """A segment's extent (from ``t0`` to ``t1``) as words: time for a time series, frequency for a frequency
+    response."""
     if job.kind == "frequency":
-        return f"{where['t0']:.3g}-{where['t1']:.3g} Hz"
-    return f"t = {where['t0']:.4g}-{where['t1']:.4g} s"
+        return f"{t0:.3g}-{t1:.3g} Hz"
+    return f"t = {t0:.4g}-{t1:.4g} s"
 
 
 def _shows(entry):
@@ -867,6 +868,11 @@ def _shows(entry):
     return text + f" (change not computed: {shown['why']})"
 
 
+def _left_after(segments):
+    """The segments (:class:`SegmentRow`) still above the noise after the winner, largest residual first."""
+    return sorted((r for r in segments if r.significant_after), key=_levels_after, reverse=True)
+
+
 def _levels_after(row):
     """A segment's residual after the winner in noise levels (its noise level is rmse_before / sigmas; a segment
     the baseline fitted exactly, sigmas 0, gives no noise level and counts as 0)."""
@@ -880,13 +886,13 @@ def answer(job, samples, decision, advice, segments, ms_after, gap_removed, cand
     significant = sum(r["significant"] for r in d.rows)
     if d.winner is not None:
         w = d.winner
-        left = [r for r in segments if r.significant_after]
+        left = _left_after(segments)
         evidence = (f"{w.effect} removes {100 * w.score:.0f} % of the baseline's gap on held-out segments "
                     f"(ΔBIC {w.delta_bic:.1f}); refitted on every segment it removes {100 * gap_removed:.0f} % of "
                     f"the gap above the noise ({d.gap_levels:.1f} -> {np.sqrt(max(ms_after, 0.0)):.1f} noise levels)")
         if left:
             evidence += (f"; {len(left)} segment(s) stay above {job.gap_sigmas:g} noise levels, largest "
-                         f"{max(left, key=_levels_after).segment}")
+                         f"{left[0].segment}")
         step = (f"add {w.effect} to the model: the variant is in OUT/modelica and OUT/variant.diff; calibrate it "
                 f"with its parameters free")
         if advice:
@@ -894,8 +900,8 @@ def answer(job, samples, decision, advice, segments, ms_after, gap_removed, cand
         return evidence, step
     if d.gap_found:
         best = max(candidates, key=lambda c: c.score, default=None)
-        where = "; ".join(f"{w['segment']} ({_span(job, w)}): {w['sigmas']:.1f} noise levels, shape {w['shape']}, "
-                          f"mean residual {w['bias']:+.3g}{unit}" for w in d.where[:3])
+        where = "; ".join(f"{w['segment']} ({_span(job, w['t0'], w['t1'])}): {w['sigmas']:.1f} noise levels, "
+                          f"shape {w['shape']}, mean residual {w['bias']:+.3g}{unit}" for w in d.where[:3])
         evidence = (f"the baseline's residual is {d.gap_levels:.1f} noise levels RMS (mean square {d.mean_square:.3g}"
                     f", chance up to {d.chance:.3g}); {significant} of {len(d.rows)} segments above "
                     f"{job.gap_sigmas:g} noise levels: {where}")
