@@ -12,12 +12,12 @@ __all__ = ["main"]
 
 def _cmd_build(args):
     from cosim.compile import build_all, build_fmu
+    from cosim.compile.library import library_path
 
-    if args.file is None:
-        if args.model is not None:
-            raise CosimError("--model needs a FILE: cosim build FILE.mo --model Pkg.Model")
+    if args.file is None and args.model is None:
         for line in build_all(models_toml=args.models, out_dir=args.out, force=args.force,
-                              fmi_version=args.fmi_version, source=args.source or None):
+                              fmi_version=args.fmi_version, source=args.source or None,
+                              modelica_path=args.modelica_path):
             print(line)
         return 0
     if args.model is None:
@@ -25,7 +25,8 @@ def _cmd_build(args):
     from cosim.compile.build import mark_fmu_folder
 
     path = build_fmu(args.file, args.model, out_dir=mark_fmu_folder(args.out or "fmus", check_only=True),
-                     fmi_version=args.fmi_version or 3, source=args.source)
+                     fmi_version=args.fmi_version or 3, source=args.source,
+                     modelica_path=library_path(args.modelica_path))
     mark_fmu_folder(path.parent)
     print(f"built {path}")
     return 0
@@ -37,13 +38,19 @@ def _add_build(sub):
         help="compile Modelica models to FMUs (FMI 3.0 or 2.0)",
         description=(
             "Compile Modelica to FMUs with Model Exchange and Co-Simulation (FMI 3.0 by default, FMI 2.0 with "
-            "--fmi-version 2). With FILE and --model, build that model to "
-            "OUT/<Model>.fmu. With no FILE, build every model listed in modelica/models.toml, skipping those "
-            "whose sources and compiler version are unchanged."
+            "--fmi-version 2). With FILE and --model, build that model to OUT/<Model>.fmu; with --model alone, "
+            "a model of a library on the library path (cosim build --model "
+            "Modelica.Mechanics.Rotational.Examples.First --modelica-path DIR). With neither, build every model "
+            "listed in modelica/models.toml, skipping those whose sources, libraries and compiler version are "
+            "unchanged. Libraries (the Modelica Standard Library, your own) are looked for in the --modelica-path "
+            "folders, then those of models.toml's libraries = [...], then those of the MODELICAPATH environment "
+            "variable (separated by ':' on Linux and macOS, ';' on Windows)."
         ),
     )
     p.add_argument("file", nargs="?", help="Modelica source file (.mo)")
     p.add_argument("--model", help="full name of the model to build, e.g. Gripper.GripperPlant")
+    p.add_argument("--modelica-path", action="append", default=[], metavar="DIR",
+                   help="a folder holding Modelica libraries, e.g. the one that holds Modelica/ (repeatable)")
     p.add_argument("--out", help="output directory (default: fmus/, or the one models.toml names); new, or one "
                                  "holding only FMUs and cosim's build files; only the FMUs built are replaced")
     p.add_argument("--models", default="modelica/models.toml", help="model list used when no FILE is given")

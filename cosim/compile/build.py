@@ -10,6 +10,7 @@ from cosim import __version__
 from cosim.compile.divisions import check_divisions
 from cosim.compile.export import DEFAULT_CS_STEP, METHODS, export_fmu
 from cosim.compile.frontend import load_flat_model
+from cosim.compile.library import library_fingerprint, library_path
 from cosim.compile.lower import lower_system
 from cosim.compile.translate import translate
 from cosim.errors import BuildError, ConfigError
@@ -21,7 +22,7 @@ _ENTRY_KEYS = {"name", "model", "source", "description", "fmi_version", "c_sourc
 _FMI_VERSIONS = (2, 3)
 
 
-def lower(path, model):
+def lower(path, model, modelica_path=()):
     """Parse, flatten and lower Modelica model ``model`` from file ``path`` to a :class:`LoweredModel`.
 
     This is the public, explicit form of the model (CasADi functions ``ode`` and ``out`` of x, u, p, t) that the
@@ -29,26 +30,30 @@ def lower(path, model):
 
     Parameters
     ----------
-    path : str or Path
-        The ``.mo`` file holding the model (rumoca also reads the other ``.mo`` files of its directory).
+    path : str or Path or None
+        The ``.mo`` file holding the model (rumoca also reads the other ``.mo`` files of its directory); None for
+        a model of a library on ``modelica_path``.
     model : str
         Full model name, e.g. ``Gripper.GripperPlant``.
+    modelica_path : sequence of Path, default ()
+        Folders holding the Modelica libraries the model uses (:func:`cosim.compile.library.library_path`).
 
     Returns
     -------
     LoweredModel
     """
-    return lower_system(translate(load_flat_model(path, model)))
+    return lower_system(translate(load_flat_model(path, model, modelica_path)))
 
 
 def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_version=3, source=False,
-              cs_step=DEFAULT_CS_STEP, cs_method="rk4"):
+              cs_step=DEFAULT_CS_STEP, cs_method="rk4", modelica_path=()):
     """Build Modelica model ``model`` of file ``path`` to ``out_dir/<name>.fmu``.
 
     Parameters
     ----------
-    path : str or Path
-        The ``.mo`` file holding the model (rumoca also reads the other ``.mo`` files of its directory).
+    path : str or Path or None
+        The ``.mo`` file holding the model (rumoca also reads the other ``.mo`` files of its directory); None for
+        a model of a library on ``modelica_path``.
     model : str
         Full model name, e.g. ``Gripper.GripperPlant``.
     out_dir : str or Path, default "fmus"
@@ -64,6 +69,8 @@ def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_versio
         Co-Simulation: the embedded solver's internal step (s), the start value of parameter ``_cs_step``.
     cs_method : {"rk4", "implicit_euler"}
         Co-Simulation: the embedded solver, the start value of parameter ``_cs_method``.
+    modelica_path : sequence of Path, default ()
+        Folders holding the Modelica libraries the model uses (:func:`cosim.compile.library.library_path`).
 
     Returns
     -------
@@ -79,7 +86,7 @@ def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_versio
     """
     if Path(out_dir).exists() and not Path(out_dir).is_dir():
         raise BuildError(f"{out_dir}: the output folder is an existing file; give --out a folder")
-    lowered = lower(path, model)
+    lowered = lower(path, model, modelica_path)
     check_divisions(lowered, path)
     name = name or model.rsplit(".", 1)[-1]
     return export_fmu(lowered, Path(out_dir) / f"{name}.fmu", description=description, cs_step=cs_step,
@@ -95,12 +102,14 @@ def _compiler_fingerprint():
     return digest.hexdigest()
 
 
-def _source_hash(source, model, options=""):
+def _source_hash(source, model, options="", roots=()):
     digest = hashlib.sha256(f"{model} {options}".encode())
     digest.update(_compiler_fingerprint().encode())
-    for mo in sorted(source.parent.glob("*.mo")):
+    for mo in sorted(source.parent.glob("*.mo")) if source is not None else ():
         digest.update(mo.name.encode())
         digest.update(mo.read_bytes())
+    if roots:
+        digest.update(library_fingerprint(roots).encode())
     return digest.hexdigest()
 
 
@@ -112,8 +121,9 @@ def _line_of(text, needle):
 
 
 def read_model_list(models_toml):
-    """Read ``models.toml``: a list of ``[[model]]`` tables with ``name``, ``model``, ``source`` and optional
-    ``description``, ``fmi_version`` (2 or 3), ``c_sources`` (bool), ``cs_step`` (s), ``cs_method``.
+    """Read ``models.toml``: a list of ``[[model]]`` tables with ``name``, ``model``, ``source`` (none for a
+    library's model) and optional ``description``, ``fmi_version`` (2 or 3), ``c_sources`` (bool), ``cs_step``
+    (s), ``cs_method``; and an optional top-level ``libraries``, folders holding Modelica libraries.
 
     Parameters
     ----------
@@ -123,7 +133,8 @@ def read_model_list(models_toml):
     Returns
     -------
     list of dict
-        Entries with ``source`` resolved against the file's directory.
+        Entries with ``source`` resolved against the file's directory (None when absent) and ``libraries``,
+        the list's library folders resolved likewise.
     """
     models_toml = Path(models_toml)
     if not models_toml.is_file():
@@ -134,15 +145,21 @@ def read_model_list(models_toml):
     except tomllib.TOMLDecodeError as err:
         raise ConfigError(f"{models_toml}: {err}") from err
     problems = []
-    extra = set(data) - {"model"}
+    extra = set(data) - {"model", "libraries"}
     for key in sorted(extra):
-        problems.append(f"{models_toml}:{_line_of(text, key)}: unknown key {key!r} (expected [[model]] tables)")
+        problems.append(f"{models_toml}:{_line_of(text, key)}: unknown key {key!r} (expected [[model]] tables "
+                        "and libraries = [...])")
+    libraries = data.get("libraries", [])
+    if not isinstance(libraries, list) or not all(isinstance(d, str) for d in libraries):
+        problems.append(f"{models_toml}:{_line_of(text, 'libraries')}: libraries must be a list of folders "
+                        f"(strings), not {libraries!r}")
+        libraries = []
     entries = []
     for k, entry in enumerate(data.get("model", [])):
         where = f"{models_toml}:{_line_of(text, entry.get('name', '@@')) or '?'}"
         for key in sorted(set(entry) - _ENTRY_KEYS):
             problems.append(f"{where}: model[{k}] has unknown key {key!r}; allowed: {', '.join(sorted(_ENTRY_KEYS))}")
-        for key in ("name", "model", "source"):
+        for key in ("name", "model"):
             if key not in entry:
                 problems.append(f"{where}: model[{k}] misses {key!r}")
         if entry.get("fmi_version", 3) not in _FMI_VERSIONS:
@@ -156,7 +173,9 @@ def read_model_list(models_toml):
             problems.append(f"{where}: model[{k}] cs_method must be one of {', '.join(METHODS)}, "
                             f"not {entry['cs_method']!r}")
         if not problems:
-            entries.append(dict(entry, source=models_toml.parent / entry["source"]))
+            source = models_toml.parent / entry["source"] if "source" in entry else None
+            entries.append(dict(entry, source=source,
+                                libraries=[models_toml.parent / folder for folder in libraries]))
     if problems:
         raise ConfigError("\n".join(problems))
     return entries
@@ -188,7 +207,8 @@ def mark_fmu_folder(out_dir, check_only=False):
     return mark_output(out_dir, "build", FMU_FOLDER_FILES)
 
 
-def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi_version=None, source=None):
+def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi_version=None, source=None,
+              modelica_path=()):
     """Build every model listed in ``models_toml``; yields one line of report per model.
 
     Parameters
@@ -202,22 +222,27 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi
         FMI version of every FMU; None: each entry's ``fmi_version`` (default 3).
     source : {None, True, False}
         Ship the C sources in every FMU; None: each entry's ``c_sources`` (default false).
+    modelica_path : sequence of Path, default ()
+        Library folders looked in before the list's ``libraries`` and ``MODELICAPATH``.
     """
     models_toml = Path(models_toml)
     out_dir = mark_fmu_folder(out_dir if out_dir else models_toml.resolve().parent.parent / "fmus", check_only=True)
     state_path = out_dir / _STATE_FILE
     state = json.loads(state_path.read_text()) if state_path.is_file() else {}
     for entry in read_model_list(models_toml):
+        roots = library_path(list(modelica_path) + entry["libraries"])
         fmu = out_dir / f"{entry['name']}.fmu"
         version = fmi_version or entry.get("fmi_version", 3)
         with_source = entry.get("c_sources", False) if source is None else source
         solver = {"cs_step": entry.get("cs_step", DEFAULT_CS_STEP), "cs_method": entry.get("cs_method", "rk4")}
-        digest = _source_hash(entry["source"], entry["model"], f"fmi{version} sources={with_source} {solver}")
+        digest = _source_hash(entry["source"], entry["model"], f"fmi{version} sources={with_source} {solver}",
+                              roots)
         if not force and fmu.is_file() and state.get(entry["name"]) == digest:
             yield f"{entry['name']}: up to date ({fmu})"
             continue
         build_fmu(entry["source"], entry["model"], out_dir=out_dir, name=entry["name"],
-                  description=entry.get("description", ""), fmi_version=version, source=with_source, **solver)
+                  description=entry.get("description", ""), fmi_version=version, source=with_source,
+                  modelica_path=roots, **solver)
         state[entry["name"]] = digest
         mark_fmu_folder(out_dir)
         state_path.write_text(json.dumps(state, indent=1, sort_keys=True))

@@ -35,7 +35,10 @@ def _walk(outputs):
 
 
 def _where(source, pattern):
-    """``(file, line)`` of the first match of ``pattern`` in the ``.mo`` files beside ``source``, model file first."""
+    """``(file, line)`` of the first match of ``pattern`` in the ``.mo`` files beside ``source``, model file first;
+    ``(None, None)`` for a model of a library (``source`` None)."""
+    if source is None:
+        return None, None
     source = Path(source)
     for mo in [source] + sorted(p for p in source.parent.glob("*.mo") if p != source):
         text = mo.read_text(encoding="utf-8")
@@ -51,8 +54,8 @@ def check_divisions(model, source):
     Parameters
     ----------
     model : LoweredModel
-    source : path-like
-        The model's ``.mo`` file, searched (with its folder's other files) for the line of the division.
+    source : path-like or None
+        The model's ``.mo`` file (None for a library's model), searched (with its folder's other files) for the line of the division.
 
     Raises
     ------

@@ -9,6 +9,7 @@ from pathlib import Path
 import rumoca
 
 from cosim.compile.der_expressions import rewrite_der_expressions
+from cosim.compile.library import describe_path, find_class_file, library_session
 from cosim.compile.source_text import locate_rumoca_error
 from cosim.errors import ModelicaError, StructureError
 from cosim.modelica_text import check_redeclares
@@ -67,15 +68,19 @@ def _first_diagnostic(diagnostics, default_file):
     return None
 
 
-def load_flat_model(path, model):
-    """Parse and flatten ``model`` from the Modelica file ``path`` with rumoca.
+def load_flat_model(path, model, modelica_path=()):
+    """Parse and flatten ``model`` with rumoca, from the Modelica file ``path`` or from a library.
 
     Parameters
     ----------
-    path : str or Path
-        A ``.mo`` file. rumoca also reads every other ``.mo`` file in its directory.
+    path : str or Path or None
+        A ``.mo`` file; rumoca also reads every other ``.mo`` file in its directory. None: the model is a class
+        of a library on ``modelica_path`` (``Modelica.Mechanics.Rotational.Examples.First``).
     model : str
         Full name of the model, e.g. ``Pkg.Model``.
+    modelica_path : sequence of Path, default ()
+        Folders holding the libraries the model uses (:func:`~cosim.compile.library.library_path`), e.g. the
+        folder that holds ``Modelica/``.
 
     Returns
     -------
@@ -84,36 +89,47 @@ def load_flat_model(path, model):
     Raises
     ------
     ModelicaError
-        Missing file, syntax error (with file:line), unknown model name.
+        Missing file, syntax error (with file:line), unknown model name, a class found in no library (named, with
+        the folders looked in).
     StructureError
         rumoca found the model unbalanced (more or fewer equations than unknowns).
     UnsupportedConstructError
         A ``redeclare`` form that rumoca would ignore without a word (:func:`~cosim.modelica_text.check_redeclares`).
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ModelicaError(f"no such Modelica file: {path}")
-    for mo in sorted(path.parent.glob("*.mo")):
-        read_text(mo, "Modelica source", error=ModelicaError)  # rumoca fails on non-UTF-8 with no location
-        found = _first_diagnostic(rumoca.validate(str(mo)), str(mo))
-        if found:
-            message, file, line = found
-            raise ModelicaError(message, file=file, line=line)
-    check_redeclares(path.read_text(encoding="utf-8"), str(path))
-    files = [path] + [mo for mo in sorted(path.parent.glob("*.mo")) if mo != path]
+    roots = tuple(Path(r) for r in modelica_path)
+    if path is None:
+        path = find_class_file(model, roots)
+        if path is None:
+            raise ModelicaError(f"no library holds {model.split('.', 1)[0]} (for the model {model}): looked in "
+                                f"{describe_path(roots)}")
+        files = [path]
+    else:
+        path = Path(path)
+        if not path.is_file():
+            raise ModelicaError(f"no such Modelica file: {path}")
+        for mo in sorted(path.parent.glob("*.mo")):
+            read_text(mo, "Modelica source", error=ModelicaError)  # rumoca fails on non-UTF-8 with no location
+            found = _first_diagnostic(rumoca.validate(str(mo)), str(mo))
+            if found:
+                message, file, line = found
+                raise ModelicaError(message, file=file, line=line)
+        check_redeclares(path.read_text(encoding="utf-8"), str(path))
+        files = [path] + [mo for mo in sorted(path.parent.glob("*.mo")) if mo != path]
     with tempfile.TemporaryDirectory(prefix="cosim-der-") as scratch:
         try:
-            ir = _load(path, model, files, Path(scratch))
+            ir = _load(path, model, files, Path(scratch), roots)
         except rumoca.RumocaError as err:
-            raise _front_end_error(err, path, model, files) from err
+            raise _front_end_error(err, path, model, files, roots) from err
     return FlatModel(name=model, path=path, ir=ir)
 
 
-def _load(path, model, files, scratch):
+def _load(path, model, files, scratch, roots):
     """rumoca's DAE IR of ``model``; when a file has ``der()`` of an expression, from rewritten copies of the
     directory's files (:func:`~cosim.compile.der_expressions.rewrite_der_expressions`), with the source map
-    naming the original files (the rewriting keeps every line)."""
-    rewritten = {mo: rewrite_der_expressions(mo.read_text(encoding="utf-8"), str(k)) for k, mo in enumerate(files)}
+    naming the original files (the rewriting keeps every line). A library's own files are loaded as they are."""
+    in_library = any(path.is_relative_to(root.resolve()) for root in roots)
+    rewritten = {} if in_library else {
+        mo: rewrite_der_expressions(mo.read_text(encoding="utf-8"), str(k)) for k, mo in enumerate(files)}
     if any(count for _, count in rewritten.values()):
         for mo, (text, _) in rewritten.items():
             (scratch / mo.name).write_text(text, encoding="utf-8")
@@ -122,8 +138,11 @@ def _load(path, model, files, scratch):
         source = path
     # No local names rumoca's Session or Model: they are unsendable PyO3 objects, and a frame a Dask worker's
     # profiler still holds when this returns would drop them on the profiler's thread (a RuntimeError printed
-    # by tornado, the objects leaked).
-    ir = rumoca.Session().load(str(source), model=model).to_dict("dae")
+    # by tornado, the objects leaked). A library session is kept by this thread (library.library_session).
+    if roots:
+        ir = library_session(roots).load(str(source), model=model).to_dict("dae")
+    else:
+        ir = rumoca.Session().load(str(source), model=model).to_dict("dae")
     if source != path:
         originals = {str(scratch / mo.name): str(mo) for mo in files}
         ir["source_map"]["files"] = [[file_id, originals.get(name, name), text]
@@ -131,8 +150,40 @@ def _load(path, model, files, scratch):
     return ir
 
 
-def _front_end_error(err, path, model, files):
+_UNRESOLVED_TYPE = re.compile(r"unresolved type reference: '(?P<name>[\w.]+)'")
+
+
+def _missing_class_error(text, files, roots):
+    """A class rumoca could not find (a library not on the path): named, with its first use and where cosim
+    looked; None when rumoca's error is not about one."""
+    found = _UNRESOLVED_TYPE.search(text)
+    if not found:
+        return None
+    name = found.group("name")
+    for mo in files:
+        line = _line_naming(mo, name)
+        if line:
+            file = str(mo)
+            break
+    else:
+        file, line = str(files[0]), None
+    folders = [str(files[0].parent)] + [str(r) for r in roots]
+    hint = "" if roots else (f"; {describe_path(roots)}")
+    return ModelicaError(f"class {name} not found: looked in {', '.join(folders)}{hint}", file=file, line=line)
+
+
+def _line_naming(mo, name):
+    for number, line in enumerate(mo.read_text(encoding="utf-8").splitlines(), 1):
+        if name in line:
+            return number
+    return None
+
+
+def _front_end_error(err, path, model, files, roots=()):
     text = str(err)
+    missing = _missing_class_error(text, files, roots)
+    if missing is not None:
+        return missing
     if "resolve/parse failed" in text or "not found" in text.lower():
         return ModelicaError(f"no model named {model!r} in {path.parent}", file=str(path))
     if "unbalanced" in text:

@@ -1,0 +1,179 @@
+"""Verify one Modelica Standard Library example against the Modelica Association's reference results: build it
+with cosim (rumoca front end, cosim's lowering and export), simulate the FMU with fmpy's own CVode over the
+reference's time span, and compare every comparison signal away from event instants.
+
+Used by benchmarks/msl.py (the whole table) and tests/test_msl.py (a fast subset and the regression list).
+The criterion is the one shared/msl/README.md proposes: a signal is verified when
+``max |y - y_ref| / max(range(y_ref), tiny) <= 2e-3`` at the reference's instants, instants near an event of the
+reference or of the simulation left out.
+"""
+
+import re
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+TOLERANCE = 2e-3
+"""Largest error of a verified signal, relative to the reference's range."""
+STAGES = ("rumoca", "lower", "export", "simulate", "signals", "compare", "verified")
+"""How far a model got: rumoca (parse, flatten) failed; cosim's lowering failed; the C export failed; the FMU
+failed at run time; comparison signals missing from the FMU; a signal off by more than TOLERANCE; verified."""
+
+__all__ = ["TOLERANCE", "STAGES", "Row", "reference_dir", "read_reference", "experiment", "verify", "compare"]
+
+
+@dataclass
+class Row:
+    """One model's outcome: the stage it reached, the worst signal, the cause of a failure in a sentence."""
+
+    model: str
+    stage: str = "rumoca"
+    worst_signal: str = ""
+    worst_error: float = float("nan")
+    cause: str = ""
+    seconds: float = 0.0
+    missing: list = field(default_factory=list)
+
+    def as_dict(self):
+        return asdict(self)
+
+
+def reference_dir(refs, model):
+    """The folder of ``model``'s reference results under ``refs`` (``Modelica/Blocks/Examples/PID_Controller``)."""
+    return Path(refs).joinpath(*model.split("."))
+
+
+def read_reference(folder):
+    """``(time, {signal: values}, names)`` of a reference folder's CSV and comparisonSignals.txt."""
+    folder = Path(folder)
+    names = [n.strip() for n in (folder / "comparisonSignals.txt").read_text().split() if n.strip() != "time"]
+    csv = next(folder.glob("*.csv"))
+    header = [h.strip().strip('"') for h in csv.open().readline().split(",")]
+    data = np.loadtxt(csv, delimiter=",", skiprows=1, ndmin=2)
+    columns = {name: data[:, k] for k, name in enumerate(header)}
+    return columns["time"], columns, names
+
+
+def _class_text(msl, model):
+    """The text of class ``model`` in the library's files (for its experiment annotation), or ''."""
+    parts = model.split(".")
+    here = Path(msl)
+    for k, part in enumerate(parts):
+        if (here / part).is_dir():
+            here = here / part
+            continue
+        files = [here / f"{part}.mo"] if (here / f"{part}.mo").is_file() else [here / "package.mo"]
+        name = parts[-1]
+        for mo in files:
+            if not mo.is_file():
+                continue
+            text = mo.read_text(encoding="utf-8", errors="replace")
+            start = re.search(rf"\b(?:model|block|class)\s+{re.escape(name)}\b", text)
+            end = re.search(rf"\bend\s+{re.escape(name)}\s*;", text[start.end():]) if start else None
+            if start and end:
+                return text[start.start():start.end() + end.end()]
+        return ""
+    package = here / "package.mo"
+    return package.read_text(encoding="utf-8", errors="replace") if package.is_file() else ""
+
+
+def experiment(msl, model):
+    """The experiment annotation's ``Tolerance`` of ``model`` (default 1e-6 when the annotation has none)."""
+    found = re.search(r"experiment\s*\((?P<body>[^)]*)\)", _class_text(msl, model))
+    tolerance = re.search(r"Tolerance\s*=\s*(?P<v>[-+0-9.eE]+)", found.group("body")) if found else None
+    return float(tolerance.group("v")) if tolerance else 1e-6
+
+
+def _event_times(t):
+    """Instants that appear twice in a result: events (values before and after)."""
+    t = np.asarray(t)
+    return np.unique(t[1:][np.diff(t) == 0])
+
+
+def compare(t_ref, y_ref, t_sim, y_sim, span):
+    """The largest error of ``y_sim`` against ``y_ref`` relative to the reference's range, at the reference's
+    instants that are not within a thousandth of the span of an event of either result."""
+    events = np.concatenate([_event_times(t_ref), _event_times(t_sim)])
+    keep = np.ones(len(t_ref), dtype=bool)
+    window = 1e-3 * span
+    for e in events:
+        keep &= np.abs(t_ref - e) > window
+    # Just after an event of the simulation the interpolation must use the value after it: the last occurrence.
+    order = np.arange(len(t_sim))
+    last = np.r_[np.diff(t_sim) != 0, True]
+    y_at = np.interp(t_ref[keep], t_sim[last], np.asarray(y_sim, dtype=float)[order[last]])
+    ref = y_ref[keep]
+    tiny = max(1e-10, 1e-6 * float(np.max(np.abs(y_ref)))) if len(y_ref) else 1e-10
+    scale = max(float(np.ptp(y_ref)), tiny)
+    return float(np.max(np.abs(y_at - ref)) / scale) if len(ref) else 0.0
+
+
+def _first_line(error):
+    text = str(error).strip().splitlines()
+    return f"{type(error).__name__}: {text[0] if text else ''}"[:400]
+
+
+def verify(model, msl, refs, fmi_type="ModelExchange", workdir=None):
+    """Build, simulate and compare ``model``; a :class:`Row` that says how far it got and why it stopped."""
+    import fmpy
+
+    from cosim.compile.export import export_fmu
+    from cosim.compile.frontend import load_flat_model
+    from cosim.compile.lower import lower_system
+    from cosim.compile.translate import translate
+    from cosim.errors import BuildError
+
+    row, start = Row(model), time.perf_counter()
+    t_ref, columns, names = read_reference(reference_dir(refs, model))
+    try:
+        flat = load_flat_model(None, model, [Path(msl)])
+    except Exception as error:  # noqa: BLE001 - every failure is a row of the table
+        row.cause = _first_line(error)
+        return _done(row, start)
+    row.stage = "lower"
+    try:
+        lowered = lower_system(translate(flat))
+        row.stage = "export"
+        with tempfile.TemporaryDirectory(dir=workdir) as out:
+            fmu = export_fmu(lowered, Path(out) / f"{model.rsplit('.', 1)[-1]}.fmu")
+            row.stage = "signals"
+            exposed = {v.name for v in fmpy.read_model_description(str(fmu)).modelVariables}
+            row.missing = [n for n in names if n not in exposed]
+            row.stage = "simulate"
+            span = float(t_ref[-1] - t_ref[0])
+            result = fmpy.simulate_fmu(
+                str(fmu), start_time=float(t_ref[0]), stop_time=float(t_ref[-1]), fmi_type=fmi_type,
+                relative_tolerance=min(experiment(msl, model), 1e-6), output_interval=span / 5000,
+                output=[n for n in names if n in exposed])
+    except Exception as error:  # noqa: BLE001
+        row.cause = _first_line(error)
+        if row.stage == "export" and not isinstance(error, BuildError):
+            row.stage = "lower"
+        return _done(row, start)
+    return _done(_judge(row, t_ref, columns, names, result, span), start)
+
+
+def _judge(row, t_ref, columns, names, result, span):
+    errors = {n: compare(t_ref, columns[n], result["time"], result[n], span) for n in names if n not in row.missing}
+    if errors:
+        row.worst_signal = max(errors, key=errors.get)
+        row.worst_error = errors[row.worst_signal]
+    missing = f"{len(row.missing)} of {len(names)} comparison signals not in the FMU: {', '.join(row.missing[:3])}"
+    if row.worst_error > TOLERANCE or not np.isfinite(row.worst_error):  # a wrong number outranks a missing one
+        row.stage = "compare"
+        row.cause = f"{row.worst_signal} off by {row.worst_error:.3g} of its range" + (
+            f"; {missing}" if row.missing else "")
+    elif row.missing:
+        row.stage = "signals"
+        row.cause = missing
+    else:
+        row.stage = "verified"
+    return row
+
+
+def _done(row, start):
+    row.seconds = time.perf_counter() - start
+    return row
