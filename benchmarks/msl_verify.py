@@ -54,7 +54,8 @@ def read_reference(folder):
     header = [h.strip().strip('"') for h in csv.open().readline().split(",")]
     data = np.loadtxt(csv, delimiter=",", skiprows=1, ndmin=2)
     columns = {name: data[:, k] for k, name in enumerate(header)}
-    return columns["time"], columns, names
+    time_column = next(name for name in header if name.lower() == "time")  # "time" or "Time"
+    return columns[time_column], columns, names
 
 
 def _class_text(msl, model):
@@ -111,9 +112,13 @@ def compare(t_ref, y_ref, t_sim, y_sim, span):
     return float(np.max(np.abs(y_at - ref)) / scale) if len(ref) else 0.0
 
 
-def _first_line(error):
+def _first_line(error, msl, model):
+    """The error's first line, without the library's folder and the model's name that every row would repeat."""
     text = str(error).strip().splitlines()
-    return f"{type(error).__name__}: {text[0] if text else ''}"[:400]
+    line = (text[0] if text else "").replace(str(Path(msl)) + "/", "")
+    for repeated in (f"Modelica/package.mo: {model}: ", f"{model} failed in ", f"{model}: "):
+        line = line.replace(repeated, "")
+    return f"{type(error).__name__}: {line}"[:400]
 
 
 def verify(model, msl, refs, fmi_type="ModelExchange", workdir=None):
@@ -131,7 +136,7 @@ def verify(model, msl, refs, fmi_type="ModelExchange", workdir=None):
     try:
         flat = load_flat_model(None, model, [Path(msl)])
     except Exception as error:  # noqa: BLE001 - every failure is a row of the table
-        row.cause = _first_line(error)
+        row.cause = _first_line(error, msl, model)
         return _done(row, start)
     row.stage = "lower"
     try:
@@ -149,7 +154,7 @@ def verify(model, msl, refs, fmi_type="ModelExchange", workdir=None):
                 relative_tolerance=min(experiment(msl, model), 1e-6), output_interval=span / 5000,
                 output=[n for n in names if n in exposed])
     except Exception as error:  # noqa: BLE001
-        row.cause = _first_line(error)
+        row.cause = _first_line(error, msl, model)
         if row.stage == "export" and not isinstance(error, BuildError):
             row.stage = "lower"
         return _done(row, start)
