@@ -18,6 +18,7 @@ from pathlib import Path
 
 import casadi as ca
 import fmpy
+import numpy as np
 
 from cosim import __version__
 from cosim.compile.units import base_unit
@@ -42,11 +43,16 @@ DEFAULT_CS_STEP = 1e-3
 """s: the internal step of the embedded solver when the model list gives none."""
 
 
+ALIAS_DEPTH = 8
+"""Levels of two observed expressions ``casadi.is_equal`` compares before it calls them different."""
+
+
 @dataclass(frozen=True)
 class _Layout:
     """Value references: 0 time, then parameters, inputs, states, derivatives, the outputs that are not states,
-    discrete variables, event indicators, the embedded solver's settings (``_cs_step``, ``_cs_method``), each a
-    contiguous block starting at the given reference."""
+    discrete variables, event indicators, the embedded solver's settings (``_cs_step``, ``_cs_method``), the
+    local variables (``observe``'s results; aliases share one reference), the calculated (dependent) parameters,
+    the constants, each a contiguous block starting at the given reference."""
 
     p: int
     u: int
@@ -56,26 +62,61 @@ class _Layout:
     d: int
     z: int
     cs: int
+    v: int
+    q: int
+    k: int
     end: int
     y_index: tuple  # position in out()'s result of each output of the y block
+    v_index: tuple = ()  # position in observe()'s result of each local of the v block
+    v_vr: tuple = ()  # value reference of each observed variable (an alias has its first variable's)
 
     @classmethod
     def of(cls, model):
         states = {x.name for x in model.states}
         y_index = tuple(k for k, y in enumerate(model.outputs) if y.name not in states)
+        first = _observed_aliases(model)
+        v_index = tuple(k for k, j in enumerate(first) if j == k)
         events = model.events
         sizes = [len(model.parameters), len(model.inputs), len(model.states), len(model.states), len(y_index),
-                 len(events.discretes) if events else 0, events.n_indicators if events else 0, 2]
+                 len(events.discretes) if events else 0, events.n_indicators if events else 0, 2, len(v_index),
+                 len(model.dependent), len(model.constant_variables)]
         starts = [1]
         for size in sizes:
             starts.append(starts[-1] + size)
-        return cls(*starts, y_index=y_index)
+        slot = {k: starts[8] + i for i, k in enumerate(v_index)}
+        return cls(*starts, y_index=y_index, v_index=v_index, v_vr=tuple(slot[j] for j in first))
 
     def output_vr(self, model, name):
         states = [x.name for x in model.states]
         if name in states:
             return self.x + states.index(name)
         return self.y + [model.outputs[k].name for k in self.y_index].index(name)
+
+
+def _observed_aliases(model):
+    """For each observed variable, the index of the first one with the same expression and unit (its own index
+    when none): they share one value reference, as FMI allows for variables that always have the same value.
+    The same expression: the same CasADi node, or equal to ALIAS_DEPTH levels (``casadi.is_equal``, which never
+    calls different expressions equal), compared among the variables with bitwise the same value at a random
+    point. A negated alias (a = -b) keeps its own reference. An MX ``observe`` (a Newton loop) is not compared:
+    each variable gets its own reference."""
+    n = len(model.observed)
+    first = list(range(n))
+    if n < 2 or not model.observe.is_a("SXFunction"):
+        return tuple(first)
+    _, args = _symbols(model.observe)
+    expr = model.observe.call(args)[0]
+    rng = np.random.default_rng(1)
+    values = np.array(model.observe(*[rng.uniform(0.5, 1.5, a.numel()) for a in args]), dtype=float).ravel()
+    buckets = {}
+    for k, var in enumerate(model.observed):
+        bucket = buckets.setdefault((var.unit, values[k].tobytes()), [])
+        same = next((j for j in bucket if ca.is_equal(expr[j], expr[k], ALIAS_DEPTH)), None)
+        if same is None:
+            bucket.append(k)
+        else:
+            first[k] = same
+    return tuple(first)
 
 
 def _symbols(f, n_memory=None):
@@ -124,7 +165,8 @@ def _c_functions(model):
     """The CasADi functions the C core calls, named cosim_ode, cosim_out, cosim_x0, cosim_indicators,
     cosim_update, cosim_terminal, cosim_initial, cosim_next_time (cosim_terminal: the update with terminal()
     true; one that changes nothing when the model does not use terminal()), then the derivatives
-    (:func:`_derivative_functions`)."""
+    (:func:`_derivative_functions`), then cosim_observe (the local variables) and cosim_calculated (the
+    dependent parameters), both f(x, u, p, t, m)."""
     events = model.events
     memory = 0 if events is None else None  # a continuous model's functions get an empty memory argument
     ode, out = _named(model.ode, "cosim_ode", memory), _named(model.out, "cosim_out", memory)
@@ -135,7 +177,15 @@ def _c_functions(model):
         functions += [_named(events.indicators, "cosim_indicators"), _named(events.update, "cosim_update"),
                       _terminal_pass(events), _named(events.initial, "cosim_initial"),
                       _named(events.next_time, "cosim_next_time")]
-    return functions + _derivative_functions(ode, out)
+    return functions + _derivative_functions(ode, out) + [_named(model.observe, "cosim_observe", memory),
+                                                         _calculated(model, memory)]
+
+
+def _calculated(model, memory):
+    """cosim_calculated(x, u, p, t, m): the dependent parameters from p (``model.calculate``)."""
+    sym, args = _symbols(model.ode, memory)
+    q = model.calculate.call([args[2]])[0] if model.dependent else sym(0, 1)
+    return ca.Function("cosim_calculated", args, [ca.densify(q)])
 
 
 def _terminal_pass(events):
@@ -171,6 +221,8 @@ def _data_header(model, layout, functions, identifier, token, cs_step, cs_method
         "N_Z": events.n_indicators if events else 0, "N_MSG": len(messages),
         "VR_P": layout.p, "VR_U": layout.u, "VR_X": layout.x, "VR_DX": layout.dx, "VR_Y": layout.y,
         "VR_D": layout.d, "VR_Z": layout.z, "VR_CS": layout.cs, "N_VR": layout.end,
+        "N_OBS": len(model.observed), "N_V": len(layout.v_index), "N_Q": len(model.dependent),
+        "N_K": len(model.constant_variables), "VR_V": layout.v, "VR_Q": layout.q, "VR_K": layout.k,
         "CS_STEP": repr(float(cs_step)), "CS_METHOD": METHODS.index(cs_method),
         "SZ_ARG": max(f.sz_arg() for f in functions), "SZ_RES": max(f.sz_res() for f in functions),
         "SZ_IW": max(f.sz_iw() for f in functions), "SZ_W": max(f.sz_w() for f in functions),
@@ -185,6 +237,9 @@ def _data_header(model, layout, functions, identifier, token, cs_step, cs_method
         _c_array("M_START", "double", [repr(float(v)) for v in memory_start]),
         _c_array("Y_INDEX", "int", [str(k) for k in layout.y_index]),
         _c_array("D_KIND", "int", [str(_KINDS[d.kind][1]) for d in discretes]),
+        _c_array("V_INDEX", "int", [str(k) for k in layout.v_index]),
+        _c_array("K_VALUE", "double", [repr(float(c.start)) for c in model.constant_variables]),
+        _c_array("K_KIND", "int", [str(_KINDS[c.kind][1]) for c in model.constant_variables]),
         _c_array("MESSAGES", "char *const", [_c_string(m) for m in messages]),
         "#endif", ""]
     return "\n".join(lines)
@@ -253,12 +308,46 @@ def _variables(root, model, layout, cs_step, cs_method):
         _float(variables, f"_eventIndicator{k + 1}", layout.z + k, causality="local", variability="continuous",
                initial="calculated", description="event indicator (a sign change is a state event)")
     _solver_settings(variables, layout, cs_step, cs_method)
+    _locals(variables, model, layout)
     return variables
+
+
+def _locals(variables, model, layout):
+    """The local variables (an alias is an ``Alias`` element of its first variable), the calculated parameters
+    and the constants (variability constant, their value as start)."""
+    elements = {}
+    for k, v in enumerate(model.observed):
+        vr = layout.v_vr[k]
+        if vr in elements:
+            ET.SubElement(elements[vr], "Alias", {"name": v.name, **({"description": v.description}
+                                                                       if v.description else {})})
+        else:
+            elements[vr] = _float(variables, v.name, vr, v, causality="local", variability="continuous",
+                                  initial="calculated")
+    for k, q in enumerate(model.dependent):
+        _float(variables, q.name, layout.q + k, q, causality="calculatedParameter", variability="tunable",
+               initial="calculated")
+    for k, c in enumerate(model.constant_variables):
+        attrs = {"name": c.name, "valueReference": str(layout.k + k), "causality": "local",
+                 "variability": "constant", "initial": "exact", "start": _constant_start(c)}
+        if c.description:
+            attrs["description"] = c.description
+        if c.unit and c.kind == "real":
+            attrs["unit"] = c.unit
+        ET.SubElement(variables, _KINDS[c.kind][0], attrs)
+
+
+def _constant_start(c):
+    """A constant's value as the start attribute of its type (FMI 2.0 and 3.0 write them alike)."""
+    if c.kind == "boolean":
+        return "true" if c.start else "false"
+    return repr(float(c.start)) if c.kind == "real" else str(int(c.start))
 
 
 def _structure(root, model, layout, functions):
     """ModelStructure: outputs, derivatives, initial unknowns and event indicators with their dependencies on
-    states and inputs (a discrete variable's are left implicit: it may depend on everything)."""
+    states and inputs (a discrete variable's are left implicit: it may depend on everything; a calculated
+    parameter's are the parameters it follows). Local variables have no entry."""
     structure = ET.SubElement(root, "ModelStructure")
     n = len(model.states)
     out_deps, ode_deps = _dependencies(functions[1], layout), _dependencies(functions[0], layout)
@@ -269,8 +358,11 @@ def _structure(root, model, layout, functions):
                  if d.causality == "output"]
     derivatives = [(layout.dx + k, ode_deps[k]) for k in range(n)]
     indicators = [(layout.z + k, z_deps[k]) for k in range(len(z_deps))]
+    q_deps = _dependencies(functions[-1], layout, parameters=True)
+    calculated = [(layout.q + k, q_deps[k]) for k in range(len(model.dependent))]
     for tag, entries in (("Output", outputs + discretes), ("ContinuousStateDerivative", derivatives),
-                         ("InitialUnknown", [o for o in outputs if o[0] >= layout.y] + discretes + derivatives),
+                         ("InitialUnknown", [o for o in outputs if o[0] >= layout.y] + discretes + derivatives
+                          + calculated),
                          ("EventIndicator", indicators)):
         for vr, deps in entries:
             attrs = {"valueReference": str(vr)}
@@ -353,7 +445,7 @@ def _scalar(variables, index, name, vr, vtype="Real", variable=None, **attrs):
         (typed if key in _TYPE_ATTRS_2 else own)[key] = value
     element = ET.SubElement(variables, "ScalarVariable", own)
     ET.SubElement(element, vtype, typed)
-    index[vr] = len(variables)
+    index.setdefault(vr, len(variables))  # an alias (a local sharing a reference) keeps its first variable's
     return element
 
 
@@ -385,13 +477,29 @@ def _variables_2(model, layout, cs_step, cs_method):
     _scalar(variables, index, "_cs_method", layout.cs + 1, "Integer", **fixed, start=str(METHODS.index(cs_method)),
             max=str(len(METHODS) - 1),
             description="Co-Simulation: embedded solver, 0 RK4, 1 implicit Euler (Newton, exact Jacobian)")
+    _locals_2(variables, index, model, layout)
     return variables, index
+
+
+def _locals_2(variables, index, model, layout):
+    """FMI 2.0: the local variables (an alias is a ScalarVariable with its first variable's reference), the
+    calculated parameters and the constants."""
+    for k, v in enumerate(model.observed):
+        _scalar(variables, index, v.name, layout.v_vr[k], variable=v, causality="local", variability="continuous",
+                initial="calculated")
+    for k, q in enumerate(model.dependent):
+        _scalar(variables, index, q.name, layout.q + k, variable=q, causality="calculatedParameter",
+                variability="tunable", initial="calculated")
+    for k, c in enumerate(model.constant_variables):
+        _scalar(variables, index, c.name, layout.k + k, _KINDS_2[c.kind], variable=c, causality="local",
+                variability="constant", initial="exact", start=_constant_start(c))
 
 
 def _structure_2(root, model, layout, functions, index):
     """ModelStructure of FMI 2.0: outputs and derivatives with their dependencies on states and inputs, initial
-    unknowns (calculated outputs, derivatives, discrete outputs) with theirs on states, inputs and parameters;
-    a discrete output's dependencies are left implicit (it may depend on everything)."""
+    unknowns (calculated outputs, derivatives, discrete outputs, calculated parameters) with theirs on states,
+    inputs and parameters; a discrete output's dependencies are left implicit (it may depend on everything).
+    Local variables have no entry."""
     def deps(vrs):
         return " ".join(str(i) for i in sorted(index[int(vr)] for vr in vrs.split()))
 
@@ -403,7 +511,9 @@ def _structure_2(root, model, layout, functions, index):
                  if d.causality == "output"]
     outputs = [(layout.output_vr(model, y.name), out_deps[k], out_init[k]) for k, y in enumerate(model.outputs)]
     derivatives = [(layout.dx + k, ode_deps[k], ode_init[k]) for k in range(len(model.states))]
-    initial = [o for o in outputs if o[0] >= layout.y] + discretes + derivatives
+    q_init = _dependencies(functions[-1], layout, parameters=True)
+    calculated = [(layout.q + k, None, q_init[k]) for k in range(len(model.dependent))]
+    initial = [o for o in outputs if o[0] >= layout.y] + discretes + derivatives + calculated
     structure = ET.SubElement(root, "ModelStructure")
     for tag, entries, which in (("Outputs", outputs + discretes, 1), ("Derivatives", derivatives, 1),
                                 ("InitialUnknowns", initial, 2)):
@@ -505,6 +615,7 @@ def export_fmu(model, fmu_path, description="", cs_step=DEFAULT_CS_STEP, cs_meth
         raise BuildError(f"FMU name {identifier!r} is not a valid C identifier")
     if fmi_version not in _TEMPLATES:
         raise BuildError(f"{model.name}: FMI version {fmi_version!r} is not supported (expected 2 or 3)")
+    _check_names(model)
     layout = _Layout.of(model)
     functions = _c_functions(model)
     token = "{" + str(uuid.uuid4()) + "}"
@@ -530,6 +641,22 @@ def export_fmu(model, fmu_path, description="", cs_step=DEFAULT_CS_STEP, cs_meth
         shutil.copyfile(archive, staging)
         os.replace(staging, fmu_path)
     return fmu_path
+
+
+def _check_names(model):
+    """Every variable the modelDescription names is named once (a name with two references could give two
+    values)."""
+    events = model.events
+    states = {x.name for x in model.states}
+    names = ["time", "_cs_step", "_cs_method", *(f"der({x.name})" for x in model.states),
+             *(f"_eventIndicator{k + 1}" for k in range(events.n_indicators if events else 0)),
+             *(v.name for group in (model.parameters, model.inputs, model.states, model.observed, model.dependent,
+                                    model.constant_variables, events.discretes if events else ()) for v in group),
+             *(y.name for y in model.outputs if y.name not in states)]
+    seen = set()
+    twice = sorted({n for n in names if n in seen or seen.add(n)})
+    if twice:
+        raise BuildError(f"{model.name}: the FMU would name two variables {', '.join(twice)}")
 
 
 def _write_sources(sources, model, layout, functions, names, settings, fmi_version):

@@ -93,9 +93,10 @@ class _Parameters:
                         pending[name], ca.vertcat(*[syms[n] for n in inner]),
                         ca.vertcat(*[resolved[n] for n in inner]))
         self.constants = {}
+        self.declared = {p.name: p for p in params}
         free_syms = ca.vertcat(*[p.sym for p in self.free]) if self.free else ca.SX(0, 1)
         free_vals = ca.vertcat(*[self.defaults[p.name] for p in self.free]) if self.free else ca.SX(0, 1)
-        self.subs_from, self.subs_to = [], []
+        self.subs_from, self.subs_to, self.subs_names = [], [], []
         for name, expr in resolved.items():
             p = dependent[name][0]
             structural = p.kind != "real" or p.role == "constant" or not p.tunable
@@ -105,12 +106,18 @@ class _Parameters:
                 expr = ca.SX(value)
             self.subs_from.append(syms[name])
             self.subs_to.append(expr)
+            self.subs_names.append(name)
         # Constants inside dependent expressions are numbers now.
         if self.subs_from:
             const_from = [syms[n] for n in self.constants]
             const_to = [ca.SX(v) for v in self.constants.values()]
             if const_from:
                 self.subs_to = list(ca.substitute(self.subs_to, const_from, const_to))
+
+    def dependent(self):
+        """The dependent parameters (bound to others, not structural): [(variable, expression in the tunable
+        parameters)] in binding order."""
+        return [(self.declared[n], e) for n, e in zip(self.subs_names, self.subs_to) if n not in self.constants]
 
     def substitute(self, expr):
         if not self.subs_from or expr is None:
@@ -326,10 +333,28 @@ def lower_system(system):
                          for p in params.free),
         ode=ode, out=out, observe=observe,
         observed=tuple(ModelVariable(v.name, v.unit, v.description, _start(v)) for v in observed),
-        x0=x0, constants=dict(params.constants), notes=tuple(notes),
+        x0=x0, constants=dict(params.constants), notes=tuple(notes), **_parameter_variables(params, P),
         events=None if M is None else _event_part(system, params, active, outputs, observed, (X, U, P, T, M),
                                                   (ode, out, observe), (p_defaults, x0_values)),
     )
+
+
+def _parameter_variables(params, P):
+    """The LoweredModel fields of the parameters that are not tunable: ``dependent`` (with their values at the
+    defaults) and ``calculate(p)``, their values from the tunable ones; ``constant_variables`` (kind, value)."""
+    dependent = params.dependent()
+    q = ca.vertcat(*[e for _, e in dependent]) if dependent else ca.SX(0, 1)
+    calculate = ca.Function("calculate", [P], [q], ["p"], ["q"])
+    values = np.array(calculate([params.defaults[p.name] for p in params.free]), dtype=float).ravel()
+    return {
+        "dependent": tuple(ModelVariable(v.name, v.unit, v.description, float(value))
+                           for (v, _), value in zip(dependent, values)),
+        "calculate": calculate,
+        "constant_variables": tuple(ModelVariable(name, params.declared[name].unit,
+                                                  params.declared[name].description, float(value),
+                                                  params.declared[name].kind)
+                                    for name, value in params.constants.items()),
+    }
 
 
 def _hybrid_memory(system, equations):

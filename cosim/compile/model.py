@@ -126,6 +126,13 @@ class LoweredModel:
         ``x0(p) -> x`` initial states from start values and initial equations.
     constants : dict
         Integer and non-tunable parameters, evaluated at build time (name -> value).
+    constant_variables : tuple of ModelVariable
+        The same constants with their units, descriptions and kinds (``start`` is the value).
+    dependent : tuple of ModelVariable
+        Parameters bound to other parameters (substituted into the equations); ``start`` is the value at the
+        default parameters.
+    calculate : casadi.Function or None
+        ``calculate(p) -> q``: the dependent parameters' values from the tunable ones, in ``dependent`` order.
     notes : tuple of str
         What the lowering did that a user may want to know (demoted states, nonlinear blocks, frozen starts).
     events : EventPart or None
@@ -146,6 +153,9 @@ class LoweredModel:
     constants: dict = field(default_factory=dict)
     notes: tuple = ()
     events: EventPart = None
+    dependent: tuple = ()
+    calculate: object = None
+    constant_variables: tuple = ()
 
     @property
     def parameter_values(self):

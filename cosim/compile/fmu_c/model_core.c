@@ -62,7 +62,7 @@ void model_reset(Model *s) {
 }
 
 /* Something the results depend on changed: recompute them when next asked. */
-void model_touch(Model *s) { s->fresh_xdot = s->fresh_y = s->fresh_z = 0; }
+void model_touch(Model *s) { s->fresh_xdot = s->fresh_y = s->fresh_z = s->fresh_v = s->fresh_q = 0; }
 
 const double *model_derivatives(Model *s) {
     if (!s->fresh_xdot) {
@@ -78,6 +78,23 @@ static const double *outputs(Model *s) {
         s->fresh_y = 1;
     }
     return s->y;
+}
+
+/* The local variables: computed only when one is read (nothing in stepping reads them). */
+static const double *observed(Model *s) {
+    if (!s->fresh_v) {
+        if (call(s, cosim_observe, s->m, s->v, NULL, NULL)) return NULL;
+        s->fresh_v = 1;
+    }
+    return s->v;
+}
+
+static const double *calculated(Model *s) {
+    if (!s->fresh_q) {
+        if (call(s, cosim_calculated, s->m, s->q, NULL, NULL)) return NULL;
+        s->fresh_q = 1;
+    }
+    return s->q;
 }
 
 /* An indicator exactly 0 is reported on the side it was on when continuous time began (as +-DBL_MIN): a
@@ -103,9 +120,8 @@ void model_settle_indicators(Model *s) {
     for (k = 0; k < N_Z; k++) s->z_side[k] = z[k] > 0.0 ? 1.0 : z[k] < 0.0 ? -1.0 : 0.0;
 }
 
-static int discrete_type(int k) {
-    return D_KIND[k] == 2 ? TYPE_BOOLEAN : D_KIND[k] == 0 ? TYPE_FLOAT64 : TYPE_INT64;
-}
+/* The FMI type of a kind code of model_data.h (D_KIND, K_KIND): 0 real, 1 integer, 2 boolean, 3 enumeration. */
+static int kind_type(int kind) { return kind == 2 ? TYPE_BOOLEAN : kind == 0 ? TYPE_FLOAT64 : TYPE_INT64; }
 
 static const char *TYPE_NAMES[] = {"Float64", "Int64", "Boolean"};
 
@@ -113,7 +129,8 @@ static const char *TYPE_NAMES[] = {"Float64", "Int64", "Boolean"};
 static int type_of(unsigned int vr) {
     if (vr >= N_VR) return -1;
     if (vr == VR_CS + 1) return TYPE_INT64;
-    if (vr >= VR_D && vr < VR_D + N_D) return discrete_type((int)(vr - VR_D));
+    if (vr >= VR_D && vr < VR_D + N_D) return kind_type(D_KIND[vr - VR_D]);
+    if (vr >= VR_K) return kind_type(K_KIND[vr - VR_K]);
     return TYPE_FLOAT64;
 }
 
@@ -142,12 +159,18 @@ int model_get(Model *s, unsigned int vr, int type, double *value) {
         if (!(r = outputs(s))) return CORE_ERROR;
         *value = r[Y_INDEX[vr - VR_Y]];
     } else if (vr < VR_Z) *value = s->m[vr - VR_D];
-    else if (vr == VR_CS) *value = s->cs_step;
-    else if (vr == VR_CS + 1) *value = s->cs_method;
-    else {
+    else if (vr < VR_CS) {
         if (!(r = model_indicators(s))) return CORE_ERROR;
         *value = r[vr - VR_Z];
-    }
+    } else if (vr == VR_CS) *value = s->cs_step;
+    else if (vr == VR_CS + 1) *value = s->cs_method;
+    else if (vr < VR_Q) {
+        if (!(r = observed(s))) return CORE_ERROR;
+        *value = r[V_INDEX[vr - VR_V]];
+    } else if (vr < VR_K) {
+        if (!(r = calculated(s))) return CORE_ERROR;
+        *value = r[vr - VR_Q];
+    } else *value = K_VALUE[vr - VR_K];
     return CORE_OK;
 }
 

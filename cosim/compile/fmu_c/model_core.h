@@ -40,9 +40,10 @@ typedef struct {
     double t;
     double x[N_X + 1], u[N_U + 1], p[N_P + 1], m[N_M + 1];
     double xdot[N_X + 1], y[N_Y + 1], z[N_Z + 1];
+    double v[N_OBS + 1], q[N_Q + 1];  /* the local variables (observe) and the calculated parameters */
     int x_set[N_X + 1];          /* state set by the importer before initialisation (x0 does not override) */
     double z_side[N_Z + 1];      /* sign of each indicator when continuous time last began (0: not known) */
-    int fresh_xdot, fresh_y, fresh_z;  /* cached results valid for the current t, x, u, p, m */
+    int fresh_xdot, fresh_y, fresh_z, fresh_v, fresh_q;  /* cached results valid for the current t, x, u, p, m */
     double cs_step;              /* internal step of model_do_step, s (value reference VR_CS: _cs_step) */
     int cs_method;               /* CS_RK4 or CS_IMPLICIT_EULER (value reference VR_CS + 1: _cs_method) */
     core_logger log;
