@@ -16,7 +16,6 @@ from numpy.testing import assert_allclose
 from scipy.integrate import solve_ivp
 
 from cosim.compile import lower
-from cosim.errors import UnsupportedConstructError
 
 HYBRID = Path(__file__).resolve().parent / "models" / "hybrid" / "Hybrid.mo"
 # The crossing is located by scipy's brentq to a few ulps; the step past it is this long (an importer's
@@ -276,16 +275,6 @@ def test_elsewhen_reinit_in_each_branch_and_an_if_inside_a_sampled_when():
     times, low = changes(states, 2)
     assert_allclose(times, [0.6, 0.9], atol=1e-15)
     assert low == [1, 2]
-
-
-def test_floor_is_rejected_by_its_name_with_file_and_line(tmp_path):
-    folder = tmp_path / "T"
-    folder.mkdir()
-    (folder / "T.mo").write_text("package T\n  model M\n    Real x(start = 1);\n    Real y;\n  equation\n"
-                                 "    der(x) = -x;\n    y = floor(x);\n  end M;\nend T;\n")
-    with pytest.raises(UnsupportedConstructError, match=r"floor\(\)") as err:
-        lower(folder / "T.mo", "T.M")
-    assert err.value.file.endswith("T.mo") and err.value.line == 7
 
 
 @pytest.mark.parametrize("name", ["Branches", "LoopEvent", "Overheat"])

@@ -145,12 +145,6 @@ UNSUPPORTED = {
     y = sample(x, c);
     z = previous(y) + 1;
   end M;""", "clocked synchronous construct", 10),
-    "mod": ("""
-  model M
-    Real x(start = 1);
-  equation
-    der(x) = -x + mod(x, 0.3);
-  end M;""", "mod() (event-generating integer division)", 6),
 }
 
 

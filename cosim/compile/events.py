@@ -3,8 +3,10 @@ sample clocks) into CasADi expressions, and build the :class:`~cosim.compile.mod
 
 The event memory ``m`` holds, in order: the discrete variables, the value of each relation (held between
 events so that an ``if`` does not chatter inside a step), the held value of each condition a ``when`` fires on
-(a ``when`` fires on the rising edge of its condition against that value), and one counter per ``sample``
-clock (the index of its next tick, so that tick instants are ``start + k*interval`` exactly).
+(a ``when`` fires on the rising edge of its condition against that value), one counter per ``sample``
+clock (the index of its next tick, so that tick instants are ``start + k*interval`` exactly), and the held
+integer value of each event-generating ``floor``/``ceil``/``integer``/``div``/``mod``/``rem``
+(:mod:`cosim.compile.integer_events`).
 """
 
 import graphlib
@@ -12,6 +14,7 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 
+from cosim.compile import integer_events
 from cosim.compile.model import DiscreteVariable, EventPart
 from cosim.errors import StructureError, UnsupportedConstructError
 
@@ -55,6 +58,7 @@ class EventSystem:
     terminal: object = None                          # SX symbol: 1 in the passes at the end of the simulation
     reads_terminal: bool = False                     # the model uses terminal()
     initial_values: dict = field(default_factory=dict)  # discrete name -> value from an initial equation
+    steps: list = field(default_factory=list)        # integer_events.Step (floor, ceil, integer, div, mod, rem)
 
 
 def _comparison(op, a, b):
@@ -68,7 +72,7 @@ class EventReader:
         self.tr = tr
         self.storage = tr.storage
         self.system = EventSystem(discretes, tr.pre_syms, tr.relations, init=ca.SX.sym("$initial"),
-                                  terminal=ca.SX.sym("$terminal"))
+                                  terminal=ca.SX.sym("$terminal"), steps=tr.steps)
         self.levels, self.fires = {}, {}
         for v in discretes:
             tr.pre_syms.setdefault(v.name, ca.SX.sym(f"pre({v.name})"))
@@ -90,7 +94,7 @@ class EventReader:
         if node == "initial":
             return self.system.init
         (kind, body), = node.items()
-        if kind == "relation":
+        if kind == "relation" and self.tr.relations[body] is not None:
             return self.tr.relations[body].sym
         if kind == "not":
             return ca.logic_not(self.level(body))
@@ -164,11 +168,15 @@ class EventReader:
         self._transactions()
         self._actions()
         system = self.system
-        if any(r is None for r in system.relations):
-            self.tr.unsupported("a relation rumoca lists that is not a comparison", self.storage["relations"])
+        listed = self.storage.get("relations", [])
+        if any(r is None and "relation" in entry and not integer_events.generated_floor_relation(entry, self.tr.nodes)
+               for r, entry in zip(system.relations, listed)):
+            self.tr.unsupported("a relation rumoca lists that is not a comparison", listed)
+        # rumoca's entries of div/mod/rem and its sin(pi*x) >= 0 of floor: their steps replace them
+        system.relations[:] = [r for r in system.relations if r is not None]
         system.clocks = [c for c in system.clocks if c is not None]
         if not (system.discretes or system.relations or system.asserts or system.terminates or system.clocks
-                or system.reads_terminal):
+                or system.reads_terminal or system.steps):
             return None
         return system
 
@@ -270,14 +278,16 @@ def _vec(items):
 
 
 def memory_symbols(events):
-    """The symbols of ``m`` in memory order: discrete values, relations, held conditions, clock counters."""
+    """The symbols of ``m`` in memory order: discrete values, relations, held conditions, clock counters, held
+    integer values (steps)."""
     return ([v.sym for v in events.discretes] + [r.sym for r in events.relations]
-            + [h for h, _ in events.held] + [c[0] for c in events.clocks])
+            + [h for h, _ in events.held] + [c[0] for c in events.clocks] + [s.sym for s in events.steps])
 
 
 def referenced_names(events):
     """Names of every symbol the event expressions read (to evaluate only the continuous unknowns they need)."""
     exprs = [r.g for r in events.relations] + list(events.assignments.values()) + [lv for _, lv in events.held]
+    exprs += [s.arg for s in events.steps]
     exprs += [e for _, active, value, _ in events.reinits for e in (active, value)]
     exprs += [active for active, _ in events.asserts + events.terminates]
     return set().union(*[_names(e) for e in exprs]) if exprs else set()
@@ -313,20 +323,23 @@ def _tolerance(t):
 
 
 def _classify(events, ctx):
-    """state relations get an indicator, affine relations on time a time event, the rest are discrete."""
+    """state relations and steps get indicators, affine ones on time a time event, the rest are discrete."""
     continuous = {s.name() for s in ca.vertsplit(ctx.X)} | {s.name() for s in ca.vertsplit(ctx.U)}
     continuous |= {s.name() for s in ctx.W}
+    parameters = {s.name() for s in ca.vertsplit(ctx.P)}
+
+    def kind(g):
+        timed = ca.depends_on(g, ctx.T)
+        if _names(g) & continuous or (timed and _names(ca.jacobian(g, ctx.T)) - parameters):
+            return "state"
+        return "time" if timed else "discrete"
+
     for rel in events.relations:
         rel.g = ctx.substitute(rel.g)
-        names = _names(rel.g)
-        timed = ca.depends_on(rel.g, ctx.T)
-        slope = ca.jacobian(rel.g, ctx.T)
-        if rel.op in ("equal", "not_equal"):
-            rel.kind = "discrete"
-        elif names & continuous or (timed and _names(slope) - {s.name() for s in ca.vertsplit(ctx.P)}):
-            rel.kind = "state"
-        else:
-            rel.kind = "time" if timed else "discrete"
+        rel.kind = "discrete" if rel.op in ("equal", "not_equal") else kind(rel.g)
+    for step in events.steps:
+        step.arg = ctx.substitute(step.arg)
+        step.kind = kind(step.arg)
 
 
 def _time_relation(rel, T, initial):
@@ -360,6 +373,22 @@ def _resolve(assignments, discretes, location):
     return done
 
 
+def _step_values(events, ctx, d_to_pre, rel_new):
+    """The new value of each step in an event pass: directly from its argument (discrete variables at pre, the
+    relations' and the inner steps' new values), on time its value just after the instant."""
+    values = []
+    for step in events.steps:  # a step inside another's argument comes first and is replaced by its new value
+        arg = step.arg if d_to_pre is None else ca.substitute(step.arg, *d_to_pre)
+        inner = [r.sym for r in events.relations] + [s.sym for s in events.steps[:len(values)]]
+        if inner:
+            arg = ca.substitute(arg, ca.vertcat(*inner), ca.vertcat(*(rel_new + values)))
+        if step.kind == "time":
+            values.append(integer_events.right_limit(step, arg, ctx.T, _tolerance(ctx.T), events.init))
+        else:
+            values.append(integer_events.direct(step.mode, arg))
+    return values
+
+
 def _pass(events, ctx):
     """One event-iteration pass as an SX function (x, u, p, t, m_pre, w, initial, terminal) -> (x_new, m_new,
     status); ``terminal`` is 1 in the passes at the end of the simulation, where ``terminal()`` is true."""
@@ -374,6 +403,7 @@ def _pass(events, ctx):
         else:
             value = _comparison(rel.op, g, 0)
         rel_new.append(value)
+    step_new = _step_values(events, ctx, d_to_pre, rel_new)
     ticks, counters = [], []
     for counter, tick, start, interval in events.clocks:
         due = start + counter * interval
@@ -383,7 +413,8 @@ def _pass(events, ctx):
         counters.append(ca.if_else(init, first, ca.if_else(ticks[-1], after, counter)))
     state_pre = [(events.pre[n], s) for n, s in zip(ctx.states, ca.vertsplit(ctx.X)) if n in events.pre]
     subs_from = [r.sym for r in events.relations] + [c[1] for c in events.clocks] + [a for a, _ in state_pre]
-    subs_to = rel_new + ticks + [b for _, b in state_pre]
+    subs_from += [s.sym for s in events.steps]
+    subs_to = rel_new + ticks + [b for _, b in state_pre] + step_new
 
     def known(expr):
         expr = ctx.substitute(expr)
@@ -412,8 +443,9 @@ def _pass(events, ctx):
     for k in reversed(range(len(events.asserts))):
         status = ca.if_else(final(events.asserts[k][0]), 2 + k, status)
     m_pre = pre_d + [ca.SX.sym(f"$relpre{k}") for k in range(len(events.relations))] \
-        + [h for h, _ in events.held] + [c[0] for c in events.clocks]
-    m_new = [new[v.name] for v in events.discretes] + rel_new + held_new + counters
+        + [h for h, _ in events.held] + [c[0] for c in events.clocks] \
+        + [s.sym for s in events.steps]  # a relation on a step reads its value before this pass
+    m_new = [new[v.name] for v in events.discretes] + rel_new + held_new + counters + step_new
     inputs = [ctx.X, ctx.U, ctx.P, ctx.T, _vec(m_pre), _vec(ctx.W), init, events.terminal]
     outputs = [_vec(x_new), _vec(m_new), status]
     _check_free(outputs, inputs, ctx.location)
@@ -436,6 +468,10 @@ def _next_time(events, ctx, M):
             best = ca.fmin(best, ca.if_else(instant > ctx.T + _tolerance(ctx.T), instant, ca.inf))
     for counter, _, start, interval in events.clocks:
         best = ca.fmin(best, start + counter * interval)
+    for step in events.steps:
+        if step.kind == "time":
+            instant = integer_events.next_instant(step, ctx.T)
+            best = ca.fmin(best, ca.if_else(instant > ctx.T + _tolerance(ctx.T), instant, ca.inf))
     _check_free([best], [ctx.T, ctx.P, M], ctx.location)
     return ca.Function("next_time", [ctx.T, ctx.P, M], [best], ["t", "p", "m"], ["t_next"])
 
@@ -482,12 +518,14 @@ def event_part(events, ctx, M):
         m = step(Xm, Um, Pm, Tm, m_pre, ctx.w_value(Xm, Um, Pm, Tm, m), 1, 0)[1]
     initial = ca.Function("initial", [Xm, Um, Pm, Tm], [m], names, ["m"])
     state_relations = [r for r in events.relations if r.kind == "state"]
-    z = ca.Function("z", [ctx.X, ctx.U, ctx.P, ctx.T, M, _vec(ctx.W)], [_vec([r.g for r in state_relations])])
+    z_steps = [g for s in events.steps if s.kind == "state" for g in integer_events.indicators(s)]
+    z = ca.Function("z", [ctx.X, ctx.U, ctx.P, ctx.T, M, _vec(ctx.W)],
+                    [_vec([r.g for r in state_relations] + z_steps)])
     indicators = ca.Function("indicators", [Xm, Um, Pm, Tm, Mm],
                              [z(Xm, Um, Pm, Tm, Mm, ctx.w_value(Xm, Um, Pm, Tm, Mm))], names + ["m"], ["z"])
     return EventPart(
         discretes=tuple(_discrete_variable(v, events, ctx) for v in events.discretes),
-        n_memory=M.shape[0], n_indicators=len(state_relations), indicators=indicators, update=update,
+        n_memory=M.shape[0], n_indicators=len(state_relations) + len(z_steps), indicators=indicators, update=update,
         initial=initial, next_time=_next_time(events, ctx, M), terminal=terminal,
         messages=tuple(msg for _, msg in events.asserts) + tuple(msg for _, msg in events.terminates[:1]),
     )

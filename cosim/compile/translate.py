@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from cosim.compile import arrays
+from cosim.compile import arrays, integer_events
 from cosim.compile.der_expressions import promote_der_arguments
 from cosim.compile.events import EventReader, Relation
 from cosim.compile.functions import inline
@@ -132,8 +132,7 @@ class _Translator:
         storage = flat.ir["storage"]
         self.storage = storage
         exprs = storage["expressions"]
-        self.nodes = exprs["nodes"]
-        self.provenance = exprs.get("provenance", [])
+        self.nodes, self.provenance = integer_events.target_arena(exprs["nodes"], exprs.get("provenance", []))
         self.operands = self._operand_table(exprs["operands"], "operand_count")
         self.subscripts = self._operand_table(exprs.get("subscripts", []), "subscript_count")
         self.value_types = [vt["scalar"] for vt in storage["value_types"]]
@@ -150,6 +149,9 @@ class _Translator:
         self.reader = None  # events.EventReader, once the variables are known
         self.relation_nodes = {}
         self.no_event_nodes = set()
+        self.direct_nodes = set()  # floor/ceil/integer/div/mod/rem evaluated without events (noEvent, when, initial)
+        self.steps = []  # integer_events.Step of each event-generating floor/ceil/integer/div/mod/rem
+        self.parametric = set()  # names of parameter and constant elements
         self.call_serials = itertools.count()
 
     def where(self, node_id):
@@ -236,9 +238,8 @@ class _Translator:
             return result
         elif kind == "call":
             return self._call(i, body, ctx)
-        elif kind == "runtime_quotient_owner":
-            self.unsupported(f"{body.get('builtin', 'mod')}() (event-generating integer division)",
-                             self.provenance[i])
+        elif kind == "runtime_quotient_owner" and body.get("builtin") in integer_events.QUOTIENT_MODES:
+            return self._quotient(i, body, ctx)
         elif kind == "function_value":
             return ctx["defs"][body["definition_ordinal"]]
         what = body.get("operator") or body.get("builtin") if isinstance(body, dict) else None
@@ -307,11 +308,35 @@ class _Translator:
             return _BUILTIN_1[name](args[0])
         if name in _BUILTIN_2 and len(args) == 2:
             return _BUILTIN_2[name](args[0], args[1])
+        if name in integer_events.MODES and len(args) == 1:
+            return self._step(i, name, integer_events.MODES[name], args[0], ctx)
         if name in arrays.BUILTINS:
             function, integer_args = arrays.BUILTINS[name]
             args = [self.integer(a, i) if k in integer_args else a for k, a in enumerate(args)]
             return function(*args)
         self.reject(f"the built-in {name}()", self.provenance[i])
+
+    def _quotient(self, i, body, ctx):
+        """``div``, ``mod`` or ``rem``: from the held (or direct) integer part of x/y."""
+        builtin = body["builtin"]
+        x, y = self.expr(body["lhs"], ctx), self.expr(body["rhs"], ctx)
+        k = self._step(i, builtin, integer_events.QUOTIENT_MODES[builtin], x / y, ctx)
+        return integer_events.quotient(builtin, x, y, k)
+
+    def _step(self, i, name, mode, arg, ctx):
+        """An integer-valued function outside noEvent, when-clauses, initialisation and functions, of an argument
+        that varies in time: held in the event memory (:class:`~cosim.compile.integer_events.Step`); else direct.
+        In a for-equation each value of the loop variables gets its own step."""
+        if (i in self.direct_nodes or (ctx is not None and "args" in ctx)
+                or not {s.name() for s in ca.symvar(arg)} - self.parametric):
+            return integer_events.direct(mode, arg)
+        location = self.where(i)
+        held = []
+        for element in ca.vertsplit(ca.vec(arg)):
+            k = len(self.steps)
+            self.steps.append(integer_events.Step(ca.SX.sym(f"$step{k}"), element, mode, location))
+            held.append(self.steps[-1].sym)
+        return ca.reshape(ca.vertcat(*held), arg.shape[0], arg.shape[1])
 
     def _call(self, i, body, ctx):
         owner = body["owner"]
@@ -369,11 +394,13 @@ class _Translator:
                 self.unsupported(f"the {v['role'].replace('_', ' ')} variable {v['name']}", v)
         self._declare(raw)
         self._mark_no_event()
-        for k, rel in enumerate(storage.get("relations", [])):
-            if "relation" not in rel:
-                self._reject_quotient()
-            self.relation_nodes[rel["relation"]["expression"]] = k
-        self.relations = [None] * len(self.relation_nodes)
+        self._mark_direct()
+        rumoca_relations = storage.get("relations", [])
+        for k, rel in enumerate(rumoca_relations):
+            if "relation" in rel and not integer_events.generated_floor_relation(rel, self.nodes):
+                self.relation_nodes[rel["relation"]["expression"]] = k
+        # the entries of div/mod/rem and rumoca's sin(pi*x) >= 0 for floor stay None (events.py drops them)
+        self.relations = [None] * len(rumoca_relations)
         variables = []
         for i, v in enumerate(raw):
             a = v["attributes"]
@@ -394,8 +421,8 @@ class _Translator:
             ))
         self.variables_by_index = variables
         self.reader = EventReader(self, [v for v in variables if v.role in ("discrete_real", "discrete_value")])
-        for k, rel in enumerate(storage.get("relations", [])):
-            self.expr(rel["relation"]["expression"])
+        for node in list(self.relation_nodes):
+            self.expr(node)
         variables = [element for var in variables for element in _elements(var)]
         equations = [e for op in storage["continuous_equation_operations"] for e in self._equations(op)]
         initial = [e for op in storage.get("initialization_equation_operations", [])
@@ -419,27 +446,43 @@ class _Translator:
             if self.storage.get(table):
                 self.unsupported(what, self.storage[table][0])
 
-    def _reject_quotient(self):
-        for i, node in enumerate(self.nodes):
-            if "runtime_quotient_owner" in node:
-                self._expr(i, None)
-        self.unsupported("mod(), rem() or div() (event-generating integer division)", None)
-
     def _mark_no_event(self):
         """Every node inside noEvent() or smooth(): its relations are evaluated directly, without events."""
-        stack = [j for i, node in enumerate(self.nodes) if "builtin" in node
-                 and node["builtin"]["builtin"] in ("no_event", "noEvent", "smooth") for j in self.operands[i]]
+        self.no_event_nodes = self._below([j for i, node in enumerate(self.nodes) if "builtin" in node
+                                           and node["builtin"]["builtin"] in ("no_event", "noEvent", "smooth")
+                                           for j in self.operands[i]])
+
+    def _mark_direct(self):
+        """Every node where floor/ceil/integer/div/mod/rem are evaluated directly: inside noEvent/smooth, in
+        when-clauses (their values are computed at the event) and in what holds at initialisation only."""
+        storage = self.storage
+        roots = [entry["value"] for entry in storage.get("initial_discrete_values", [])]
+        roots += [node for op in storage.get("initialization_equation_operations", [])
+                  for node in _residual_nodes(op)]
+        roots += [value["value"] for owner in storage.get("discrete_value_owners", []) for branch in owner["branches"]
+                  if branch["activation"] != "always" for value in branch["values"]]
+        roots += [eq["residual"] for eq in storage.get("discrete_real_equations", []) if eq["activation"] != "always"]
+        roots += [d["value"] for t in storage.get("model_event_transactions", []) for step in t["steps"]
+                  for d in step["definitions"]]
+        roots += [a["kind"]["reinitialize"]["value"] for a in storage.get("event_actions", [])
+                  if "reinitialize" in a["kind"]]
+        self.direct_nodes = self.no_event_nodes | self._below(roots)
+
+    def _below(self, stack):
+        """The nodes ``stack`` and every node under them."""
+        found = set()
         while stack:
             i = stack.pop()
-            if i in self.no_event_nodes:
+            if i in found:
                 continue
-            self.no_event_nodes.add(i)
+            found.add(i)
             (kind, body), = self.nodes[i].items()
             if isinstance(body, dict):
                 stack += [body[key] for key in ("lhs", "rhs", "operand") if isinstance(body.get(key), int)]
                 if kind == "call":
                     stack += self.operands.get(body["owner"], [])
             stack += self.operands.get(i, [])
+        return found
 
     def _element_names(self, v):
         return [v["name"] + s for s in arrays.element_suffixes(self.dims[v["value_type"]])]
@@ -454,6 +497,8 @@ class _Translator:
             names = self._element_names(v)
             for k, name in enumerate(names):
                 self.element_of[name] = (i, k)
+            if v["role"] in ("parameter", "constant"):
+                self.parametric.update(names)
             self.syms.append(arrays.shaped([ca.SX.sym(n) for n in names], dims))
             if v["role"] == "state":
                 self.der_syms[i] = arrays.shaped([ca.SX.sym(f"der({n})") for n in names], dims)
@@ -468,11 +513,12 @@ class _Translator:
         if kind != "structured":
             self.unsupported(f"the equation form '{kind}'", operation)
         if body.get("scalar_view") == "RowMajorProjection":
+            n_steps = len(self.steps)
             try:  # an array equation whose body does not read its index: evaluated once, split in elements
                 return [Equation(e, location) for node in body["bodies"]
                         for e in arrays.elements(self.expr(node, self.context()))]
             except KeyError:  # it reads the index (a binder): element by element below
-                pass
+                del self.steps[n_steps:]
         result = []
         for binders in arrays.domain_values(self, body["domain"]):
             ctx = self.context(binders=binders)
@@ -483,6 +529,14 @@ class _Translator:
                     value = value[tuple(position)] if len(position) == 2 else value[position[0]]
                 result.append(Equation(value, location))
         return result
+
+
+def _residual_nodes(operation):
+    """The expression nodes of an equation operation (a residual's, a structured equation's bodies)."""
+    (kind, body), = operation.items()
+    if kind == "residual":
+        return [body["residual"]]
+    return list(body.get("bodies", [])) if isinstance(body, dict) else []
 
 
 def _elements(var):
