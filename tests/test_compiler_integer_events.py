@@ -3,6 +3,8 @@ built to FMUs and simulated by fmpy (its CVode on the Model Exchange interface, 
 solver), against closed forms evaluated with numpy away from the event instants; the event instants against the
 hand-computed ones (a state integrating a piecewise constant input is exact only if the events are located)."""
 
+from pathlib import Path
+
 import fmpy
 import numpy as np
 import pytest
@@ -10,6 +12,8 @@ import pytest
 from cosim.compile import build_fmu, lower
 from cosim.errors import ModelicaError
 from modelica_support import write_package
+
+MSL = Path("/work/shared/msl/ModelicaStandardLibrary-4.1.0")
 
 MODELS = """
   model Saw "functions of time only: time events"
@@ -87,6 +91,25 @@ MODELS = """
     end for;
   end Square;
 
+  model PulseLike "Modelica.Blocks.Sources.Pulse's equations: integer() in an initial algorithm"
+    parameter Real period = 0.3;
+    parameter Real startTime = 0.1;
+    parameter Real width = 0.12;
+    Real x(start = 0, fixed = true);
+    Integer count;
+    discrete Real T_start;
+    output Real y;
+  initial algorithm
+    count := integer((time - startTime)/period);
+    T_start := startTime + count*period;
+  equation
+    when time >= (pre(count) + 1)*period + startTime then
+      count = pre(count) + 1;
+      T_start = time;
+    end when;
+    y = if time < startTime then 0 else if time < T_start + width then 2 else 0;
+    der(x) = y;
+  end PulseLike;
 """
 
 
@@ -232,6 +255,73 @@ def test_a_relation_on_mod_nested_functions_a_for_equation_and_a_when_clause(fmu
     np.testing.assert_array_equal(r["k2"][ok], np.where(t[ok] >= 0.55, 5, 0))  # integer(10*0.55) at the event
     for i in (1, 2, 3):
         np.testing.assert_array_equal(r[f"y[{i}]"][ok], np.floor(i * t[ok]))
+
+
+def pulse_reference(t, period=0.3, start=0.1, width=0.12, amplitude=2.0):
+    """The pulse, and its integral: `amplitude` on [start + j*period, start + j*period + width)."""
+    phase = np.mod(t - start, period)
+    y = np.where((t >= start) & (phase < width), amplitude, 0.0)
+    whole = np.floor((t - start) / period)
+    x = np.where(t >= start, amplitude * (whole * width + np.minimum(phase, width)), 0.0)
+    return y, x
+
+
+@pytest.mark.parametrize("fmi_type", FMI_TYPES)
+def test_pulse_equations_with_integer_in_the_initial_algorithm(fmu, fmi_type):
+    r = simulate(fmu("PulseLike"), fmi_type, ["x", "y"], 1.0)
+    t = r["time"]
+    y, x = pulse_reference(t)
+    edges = 0.1 + 0.3 * np.arange(4)
+    ok = away(t, np.concatenate([edges, edges + 0.12]))
+    np.testing.assert_array_equal(r["y"][ok], y[ok])
+    np.testing.assert_allclose(r["x"], x, atol=1e-9)
+
+
+MSL_USER_MODEL = """
+  model Sources "MSL 4.1.0 sources whose initial algorithm is count := integer((time - startTime)/period)"
+    Modelica.Blocks.Sources.Pulse pulse(amplitude = 2, width = 40, period = 0.3, startTime = 0.1);
+    Modelica.Blocks.Sources.SawTooth saw(amplitude = 3, period = 0.25, startTime = -0.1);
+    Modelica.Blocks.Sources.Trapezoid trapezoid(amplitude = 1.5, rising = 0.05, width = 0.1, falling = 0.05,
+      period = 0.3, nperiod = 2, startTime = 0.05);
+    Real x(start = 0, fixed = true);
+    output Real y = pulse.y;
+    output Real s = saw.y;
+    output Real q = trapezoid.y;
+  equation
+    der(x) = pulse.y;
+  end Sources;
+"""
+
+
+def trapezoid_reference(t, amplitude=1.5, rising=0.05, width=0.1, falling=0.05, period=0.3, nperiod=2, start=0.05):
+    phase = np.mod(t - start, period)
+    active = (t >= start) & (np.floor((t - start) / period) < nperiod)
+    shape = np.interp(phase, [0, rising, rising + width, rising + width + falling, period],
+                      [0, amplitude, amplitude, 0, 0])
+    return np.where(active, shape, 0.0)
+
+
+@pytest.fixture(scope="module")
+def msl_fmu(tmp_path_factory):
+    if not MSL.is_dir():
+        pytest.skip(f"no Modelica Standard Library at {MSL}")
+    path = write_package(tmp_path_factory.mktemp("msl_sources"), MSL_USER_MODEL)
+    return build_fmu(path, "T.Sources", out_dir=path.parent / "fmus", modelica_path=[MSL])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fmi_type", FMI_TYPES)
+def test_msl_pulse_sawtooth_and_trapezoid_follow_their_closed_forms(msl_fmu, fmi_type):
+    r = simulate(msl_fmu, fmi_type, ["x", "y", "s", "q"], 1.0)
+    t = r["time"]
+    y, x = pulse_reference(t)
+    edges = np.concatenate([0.1 + 0.3 * np.arange(4), 0.22 + 0.3 * np.arange(3), -0.1 + 0.25 * np.arange(1, 5),
+                            0.05 + 0.3 * np.arange(3)])
+    ok = away(t, edges)
+    np.testing.assert_array_equal(r["y"][ok], y[ok])
+    np.testing.assert_allclose(r["x"], x, atol=1e-9)
+    np.testing.assert_allclose(r["s"][ok], 3 * np.mod(t[ok] + 0.1, 0.25) / 0.25, atol=1e-12)
+    np.testing.assert_allclose(r["q"][ok], trapezoid_reference(t[ok]), atol=1e-12)
 
 
 def test_mod_by_a_variable_is_refused_by_the_front_end_naming_mod(tmp_path):

@@ -472,6 +472,10 @@ def _next_time(events, ctx, M):
         if step.kind == "time":
             instant = integer_events.next_instant(step, ctx.T)
             best = ca.fmin(best, ca.if_else(instant > ctx.T + _tolerance(ctx.T), instant, ca.inf))
+    # after event iteration pre(d) = d: a relation like time >= (pre(count) + 1)*period (MSL Sources.Pulse)
+    pre = [(events.pre[v.name], v.sym) for v in events.discretes if v.name in events.pre]
+    if pre:
+        best = ca.substitute(best, ca.vertcat(*[a for a, _ in pre]), ca.vertcat(*[b for _, b in pre]))
     _check_free([best], [ctx.T, ctx.P, M], ctx.location)
     return ca.Function("next_time", [ctx.T, ctx.P, M], [best], ["t", "p", "m"], ["t_next"])
 
