@@ -167,7 +167,7 @@ def _missing_class_error(text, files, roots):
             break
     else:
         file, line = str(files[0]), None
-    folders = [str(files[0].parent)] + [str(r) for r in roots]
+    folders = [str(files[0].parent.resolve())] + [str(r) for r in roots]
     hint = "" if roots else (f"; {describe_path(roots)}")
     return ModelicaError(f"class {name} not found: looked in {', '.join(folders)}{hint}", file=file, line=line)
 
