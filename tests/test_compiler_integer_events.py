@@ -63,14 +63,19 @@ MODELS = """
     b := mod(a, 0.5) + 10*floor(a) + 100*div(a, 0.3) + 1000*rem(-a, 0.3) + 1e4*integer(2*a) + 1e5*ceil(a);
   end f;
 
-  model Direct "inside functions, noEvent and smooth: evaluated directly, no event"
+  model Direct "inside functions, noEvent and smooth, of parameters: evaluated directly, no event"
+    parameter Real p = 1.7;
+    parameter Real tab[3] = {mod(i + 1, 2.0) for i in 1:3} "as Blocks.Sources.BooleanTable's table";
+    parameter Real q = div(-p, 0.5);
     output Real y;
     output Real z;
     output Real w;
+    output Real g;
   equation
     y = f(time - 0.5);
     z = noEvent(ceil(2*time)) + smooth(0, floor(3*time));
     w = noEvent(div(-time, 0.3)) + noEvent(mod(-time, 0.3));
+    g = tab[1] + 10*tab[2] + 100*tab[3] + 1000*rem(p, 0.3) + q;
   end Direct;
 
   model Square "a relation on mod(), nested functions, a for-equation, a when-clause"
@@ -226,7 +231,7 @@ def test_integer_of_a_state_ramp_counts_where_the_ramp_crosses_integers(fmu, fmi
 
 def test_inside_functions_no_event_and_smooth_they_are_evaluated_directly(fmu, package):
     assert lower(package, "T.Direct").events is None  # no event memory, no indicator, no time event
-    r = simulate(fmu("Direct"), "ModelExchange", ["y", "z", "w"], 1.0)
+    r = simulate(fmu("Direct"), "ModelExchange", ["y", "z", "w", "g"], 1.0)
     t = r["time"]
     a = t - 0.5
     expected = (np.mod(a, 0.5) + 10 * np.floor(a) + 100 * np.trunc(a / 0.3) + 1000 * np.fmod(-a, 0.3)
@@ -236,6 +241,9 @@ def test_inside_functions_no_event_and_smooth_they_are_evaluated_directly(fmu, p
     np.testing.assert_allclose(r["y"][ok], expected[ok], atol=1e-9)
     np.testing.assert_array_equal(r["z"][ok], np.ceil(2 * t[ok]) + np.floor(3 * t[ok]))
     np.testing.assert_allclose(r["w"][ok], np.trunc(-t[ok] / 0.3) + np.mod(-t[ok], 0.3), atol=1e-12)
+    tab = np.mod(np.arange(1, 4) + 1, 2.0)
+    np.testing.assert_allclose(r["g"], tab @ [1, 10, 100] + 1000 * np.fmod(1.7, 0.3) + np.trunc(-1.7 / 0.5),
+                               atol=1e-12)
 
 
 @pytest.mark.parametrize("fmi_type", FMI_TYPES)

@@ -310,6 +310,8 @@ class _Translator:
             return _BUILTIN_2[name](args[0], args[1])
         if name in integer_events.MODES and len(args) == 1:
             return self._step(i, name, integer_events.MODES[name], args[0], ctx)
+        if name in integer_events.QUOTIENT_MODES and len(args) == 2:  # rumoca's form on parameters
+            return self._quotient_of(i, name, args[0], args[1], ctx)
         if name in arrays.BUILTINS:
             function, integer_args = arrays.BUILTINS[name]
             args = [self.integer(a, i) if k in integer_args else a for k, a in enumerate(args)]
@@ -317,9 +319,11 @@ class _Translator:
         self.reject(f"the built-in {name}()", self.provenance[i])
 
     def _quotient(self, i, body, ctx):
+        """rumoca's ``runtime_quotient_owner`` of ``div``, ``mod`` or ``rem``."""
+        return self._quotient_of(i, body["builtin"], self.expr(body["lhs"], ctx), self.expr(body["rhs"], ctx), ctx)
+
+    def _quotient_of(self, i, builtin, x, y, ctx):
         """``div``, ``mod`` or ``rem``: from the held (or direct) integer part of x/y."""
-        builtin = body["builtin"]
-        x, y = self.expr(body["lhs"], ctx), self.expr(body["rhs"], ctx)
         k = self._step(i, builtin, integer_events.QUOTIENT_MODES[builtin], x / y, ctx)
         return integer_events.quotient(builtin, x, y, k)
 
