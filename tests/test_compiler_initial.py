@@ -110,7 +110,7 @@ BAD = {
   initial equation
     der(x) = 0;
     x = 2;
-  end M;""", "2 equations for the 1 unknowns", 9),
+  end M;""", "3 equations for the 2 unknowns", 9),  # y is fixed and reached through der(x)
     "singular": ("""
   model M
     Real a(start = 1);
@@ -132,3 +132,75 @@ def test_initial_equations_that_do_not_determine_the_states_name_file_and_line(t
         lower(write_package(tmp_path, body), "T.M")
     assert expected in str(err.value)
     assert err.value.file.endswith("T.mo") and err.value.line == line, str(err.value)
+
+
+def test_a_fixed_start_of_a_state_that_index_reduction_demoted_still_holds(tmp_path):
+    """Two masses and a relative position preferred as the state (the MSL's dampers): the masses' fixed starts
+    hold through it (s_rel = s2 - s1 = 1.0 - (-0.5)), not the relative position's own guess 0."""
+    path = write_package(tmp_path, """
+  model M
+    Real s1(start = -0.5, fixed = true);
+    Real v1(start = 0, fixed = true);
+    Real s2(start = 1.0, fixed = true);
+    Real v2(start = 0, fixed = true);
+    Real s_rel(start = 0, stateSelect = StateSelect.prefer);
+    Real v_rel(start = 0, stateSelect = StateSelect.prefer);
+    Real f;
+  equation
+    s_rel = s2 - s1;
+    v_rel = der(s_rel);
+    der(s1) = v1;
+    der(s2) = v2;
+    f = 10*s_rel + v_rel;
+    der(v1) = f;
+    der(v2) = -f;
+  end M;""")
+    m = lower(path, "T.M")
+    x0 = dict(zip([s.name for s in m.states], m.initial_state()))
+    assert "s_rel" in x0 and "s2" not in x0  # the preferred state was kept, s2 demoted
+    assert x0["s_rel"] == pytest.approx(1.5, abs=1e-12)
+    assert x0["s1"] == pytest.approx(-0.5, abs=1e-12)
+
+
+def test_an_initial_equation_on_an_output_through_a_limiter_is_solved_at_the_start_values(tmp_path):
+    """The MSL's PI block initialised by its output (initType = InitialOutput) behind a relation that events hold
+    between events: the relation is evaluated from the values at the start. y = k*(x + e) with e = min(u, 2)
+    (u = 3 at t = 0, so e = 2) and y = 5 give x = 5/k - 2."""
+    path = write_package(tmp_path, """
+  model M
+    parameter Real k = 2;
+    Real x(start = 0);
+    Real u = 3 - time;
+    Real e = if u > 2 then 2 else u;
+    Real y;
+  equation
+    der(x) = e;
+    y = k*(x + e);
+  initial equation
+    y = 5;
+  end M;""")
+    m = lower(path, "T.M")
+    assert m.initial_state() == pytest.approx([5 / 2 - 2], abs=1e-12)
+
+
+def test_an_equation_of_one_state_keeps_it_when_another_reaches_it_through_an_algebraic_variable(tmp_path):
+    """Three initial equations: two on states a and b, one on an output y = a + b + c that reaches them; the
+    output's equation takes the third state c (a = 1, b = 2, y = 10 give c = 7), whichever order rumoca gives."""
+    path = write_package(tmp_path, """
+  model M
+    Real y;
+    Real a(start = 0);
+    Real b(start = 0);
+    Real c(start = 0);
+  equation
+    y = a + b + c;
+    der(a) = -a;
+    der(b) = -b;
+    der(c) = -c;
+  initial equation
+    y = 10;
+    a = 1;
+    b = 2;
+  end M;""")
+    m = lower(path, "T.M")
+    assert dict(zip([s.name for s in m.states], m.initial_state())) == pytest.approx({"a": 1, "b": 2, "c": 7})

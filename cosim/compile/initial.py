@@ -15,12 +15,14 @@ CasADi expressions (:mod:`cosim.compile.newton`), so that ``x0`` stays a CasADi 
 be generated for. Inputs take their start values and ``time`` is 0.
 """
 
+import dataclasses
+
 import casadi as ca
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import maximum_bipartite_matching
 
+from cosim.compile import integer_events
 from cosim.compile.newton import NEWTON_ITERATIONS, newton
+from cosim.compile.translate import Equation
 from cosim.errors import StructureError
 
 __all__ = ["initial_state"]
@@ -61,7 +63,33 @@ def _knowns_at_start(system, blocks, params):
     by_name.update({d.name(): d for d in system.derivatives.values()})
     syms = [by_name[n] for n in names] + [u.sym for u in inputs] + [system.time]
     values = list(ca.substitute([blocks.solved[n] for n in names], [at], [ca.vertcat(*at_start)])) + at_start
+    held, direct = _held_at_start(system.events)
+    if held:  # relations and integer steps are evaluated from the values at the start, not held
+        for _ in range(len(held) + 1):
+            direct = list(ca.substitute(direct, [ca.vertcat(*syms)], [ca.vertcat(*values)]))
+            values = list(ca.substitute(values, [ca.vertcat(*held)], [ca.vertcat(*direct)]))
+            if not any(ca.depends_on(v, ca.vertcat(*held)) for v in values):
+                break
     return ca.vertcat(*syms), ca.vertcat(*values)
+
+
+_DIRECT = {"less": ca.lt, "less_equal": ca.le, "greater": ca.gt, "greater_equal": ca.ge}
+
+
+def _held_at_start(events):
+    """The symbols of the values an event memory holds between events (relations, integer steps), and their
+    values computed directly, as initialisation computes them."""
+    if events is None:
+        return [], []
+    held, direct = [], []
+    for relation in events.relations:
+        if relation is not None and relation.op in _DIRECT:
+            held.append(relation.sym)
+            direct.append(_DIRECT[relation.op](relation.g, 0))
+    for step in getattr(events, "steps", []):
+        held.append(step.sym)
+        direct.append(integer_events.direct(step.mode, step.arg))
+    return held, direct
 
 
 def _problem(system, params, active, blocks):
@@ -79,6 +107,10 @@ def _problem(system, params, active, blocks):
                 mentioned.append(state)
         residuals.append(ca.substitute(residual, syms, values))
         locations.append(e.location)
+    reached = set().union(*(_names(r) for r in residuals)) if residuals else set()
+    for s in active:  # a fixed state reached through an algebraic variable or a demoted state: its start holds
+        if s.fixed and s.name in reached and s.name not in mentioned:
+            mentioned.append(s.name)
     for s in active:
         if s.fixed and s.name in mentioned:
             residuals.append(s.sym - params.substitute(s.start))
@@ -90,8 +122,9 @@ def _problem(system, params, active, blocks):
             locations += locs
             for u in ca.vertsplit(vs):
                 block_syms.append(u)
-                var = next(v for v in system.variables if v.sym.name() == u.name())
-                guesses.append(params.substitute(var.start) if var.start is not None else ca.SX(0.0))
+                var = next((v for v in system.variables if v.sym.name() == u.name()), None)  # None: a der()
+                start = None if var is None else var.start
+                guesses.append(params.substitute(start) if start is not None else ca.SX(0.0))
     _join_indirect_states(residuals, mentioned, active, len(block_syms))
     unknown_states = [s for s in active if s.name in mentioned]
     return residuals, locations, unknown_states, block_syms, guesses
@@ -99,23 +132,33 @@ def _problem(system, params, active, blocks):
 
 def _join_indirect_states(residuals, mentioned, active, n_block):
     """Fewer states mentioned than equations (an equation on an algebraic variable, on der() of an
-    expression): each equation the mentioned states cannot be matched to takes the first state it depends on
-    that is neither fixed nor taken. Extends ``mentioned``."""
+    expression): the equations the mentioned states cannot be matched to take states they depend on that are
+    neither fixed nor mentioned, by augmenting paths (Kuhn's algorithm) from a matching of the mentioned states,
+    so that an equation of one mentioned state keeps it and a state another equation reaches only indirectly
+    is taken by that equation. Extends ``mentioned``."""
     if len(mentioned) + n_block >= len(residuals):
         return
-    incidence = [[k for k, name in enumerate(mentioned) if name in _names(r)] for r in residuals]
-    rows = [i for i, ks in enumerate(incidence) for _ in ks]
-    cols = [k for ks in incidence for k in ks]
-    graph = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(residuals), max(len(mentioned), 1)))
-    matched = maximum_bipartite_matching(graph, perm_type="column") if rows else -np.ones(len(residuals))
-    for i in np.flatnonzero(matched < 0):
+    n_mentioned = len(mentioned)
+    columns = list(mentioned) + [s.name for s in active if s.name not in mentioned and not s.fixed]
+    incidence = [[k for k, name in enumerate(columns) if name in _names(r)] for r in residuals]
+    owner = {}  # column -> row
+
+    def augment(row, seen, allowed):
+        for k in incidence[row]:
+            if k < allowed and k not in seen:
+                seen.add(k)
+                if k not in owner or augment(owner[k], seen, allowed):
+                    owner[k] = row
+                    return True
+        return False
+
+    for row in range(len(residuals)):  # the mentioned states first: each keeps an equation where it can
+        augment(row, set(), n_mentioned)
+    for row in sorted(set(range(len(residuals))) - set(owner.values())):
         if len(mentioned) + n_block >= len(residuals):
             return
-        depends = _names(residuals[i])
-        for s in active:
-            if s.name in depends and s.name not in mentioned and not s.fixed:
-                mentioned.append(s.name)
-                break
+        if augment(row, set(), len(columns)):
+            mentioned += [columns[k] for k in sorted(owner) if k >= n_mentioned and columns[k] not in mentioned]
 
 
 def initial_state(system, params, active, P, blocks):
@@ -144,6 +187,7 @@ def initial_state(system, params, active, P, blocks):
         The initial equations do not determine as many states as there are equations, or they are singular.
     """
     starts, notes = _starts(active, params)
+    system = _with_demoted_starts(system, active)
     if not system.initial_equations or not active:
         X0 = ca.vertcat(*starts) if active else ca.SX(0, 1)
         return _function(system, params, P, X0), notes
@@ -177,6 +221,18 @@ def initial_state(system, params, active, P, blocks):
     assemble = ca.Function("assemble_x0", [P, S], [X0])
     Pm = ca.MX.sym("p", P.shape[0])
     return ca.Function("x0", [Pm], [assemble(Pm, solution(Pm)[:S.shape[0]])], ["p"], ["x0"]), notes
+
+
+def _with_demoted_starts(system, active):
+    """``system`` with an initial equation ``s = start`` for each state declared ``fixed = true`` that index
+    reduction demoted: its start still holds at t = 0, through the states that replaced it (a mass's position
+    fixed, the spring's relative position kept as the state)."""
+    kept = {s.name for s in active}
+    fixed = [Equation(s.sym - s.start, s.location) for s in system.by_role("state")
+             if s.name not in kept and s.fixed and s.start is not None]
+    if not fixed:
+        return system
+    return dataclasses.replace(system, initial_equations=list(system.initial_equations) + fixed)
 
 
 def _solve(V, R, guess, P, where, file, line):
