@@ -446,6 +446,9 @@ def _fmu_values(info, file, params, starts, problems, p):
             problems.add(p + ("start", sn), f"{file.name} has no variable {sn!r}{_close(sn, info.variables)}")
         elif var.causality in ("output", "independent", "calculatedParameter") or var.variability == "constant":
             problems.add(p + ("start", sn), f"{sn!r} is a {var.causality}; its start value cannot be set")
+        elif var.causality == "local" and var.start is None:
+            problems.add(p + ("start", sn), f"{sn!r} is a local variable the FMU calculates (it has no start value); "
+                                            "it cannot be set")
         else:
             _value_type(info, var, sv, problems, p + ("start", sn))
 

@@ -13,7 +13,7 @@ from fmpy.validation import validate_fmu
 
 from cosim.compile import build_fmu
 from cosim.config import load_config
-from cosim.errors import EngineFallbackWarning
+from cosim.errors import ConfigError, EngineFallbackWarning
 from cosim.master import run
 from modelica_support import write_package
 
@@ -245,3 +245,20 @@ signals = ["rc.vc", "rc.r.v", "rc.c.i", "rc.r.n.i", "rc.p_R", "rc.tau", "rc.two"
     for name in ("vc", "r.v", "c.i", "r.n.i", "p_R", "tau", "two"):
         assert np.max(np.abs(result.data[name] - expected[name])) < 1e-6 * max(1.0, np.max(np.abs(expected[name])))
     assert result.units["p_R"] == "W" and result.units["tau"] == "s"
+
+
+def test_a_config_cannot_set_the_start_of_a_local(fmus, tmp_path):
+    config = tmp_path / "rc.toml"
+    config.write_text(f"""
+[run]
+stop = 0.1
+
+[fmus.rc]
+path = "{fmus["RC", 3]}"
+start = {{ "r.v" = 1.0 }}
+
+[record]
+signals = ["rc.r.v"]
+""")
+    with pytest.raises(ConfigError, match="r.v.* local variable the FMU calculates"):
+        load_config(config)
