@@ -265,3 +265,36 @@ def test_rejected_array_and_function_constructs_name_file_and_line(tmp_path, con
     assert expected in str(err.value)
     assert err.value.file.endswith("T.mo") and err.value.line == line, str(err.value)
     assert isinstance(err.value, UnsupportedConstructError), type(err.value)
+
+
+def test_arrays_of_one_element_are_elements_named_with_their_index(tmp_path):
+    """The MSL's filters and KinematicPTP declare x[n] and deltaq[:] = {1}: an array of one element is the
+    variable x[1] (with its derivative), not a scalar x. der(x[1]) = -a[1] x[1] decays as exp(-a t)."""
+    path = write_package(tmp_path, """
+  model M
+    parameter Real a[:] = {2};
+    parameter Real b[1] = a;
+    Real x[1](each start = 3, each fixed = true);
+  equation
+    der(x) = -b .* x;
+  end M;""")
+    m = lower(path, "T.M")
+    assert [s.name for s in m.states] == ["x[1]"] and [p.name for p in m.parameters] == ["a[1]"]
+    x0 = m.initial_state()
+    assert x0 == pytest.approx([3.0])
+    assert m.derivatives(x0, [], [2.0]) == pytest.approx([-6.0])
+
+
+def test_element_wise_operators_follow_numpy(tmp_path):
+    """.* ./ .+ .- .^ on arrays of two elements (the MSL's Blocks.Math.Product and filters use them)."""
+    path = write_package(tmp_path, """
+  model M
+    parameter Real a[2] = {1.5, 2.5};
+    parameter Real b[2] = {0.5, 4};
+    output Real y[2];
+  equation
+    y = (a .* b) ./ (a .+ b) .- a .^ b;
+  end M;""")
+    m = lower(path, "T.M")
+    a, b = np.array([1.5, 2.5]), np.array([0.5, 4.0])
+    assert m.output_values([], []) == pytest.approx(a * b / (a + b) - a**b, rel=1e-14)

@@ -30,6 +30,12 @@ _BINARY = {
     "not_equal": lambda a, b: a != b,
     "and": ca.logic_and,
     "or": ca.logic_or,
+    # Element-wise operators (.* ./ .+ .- .^): CasADi's arithmetic on equal shapes is element-wise.
+    "elementwise_add": lambda a, b: a + b,
+    "elementwise_subtract": lambda a, b: a - b,
+    "elementwise_multiply": lambda a, b: a * b,
+    "elementwise_divide": lambda a, b: a / b,
+    "elementwise_power": lambda a, b: a**b,
 }
 _BUILTIN_1 = {
     "abs": ca.fabs, "sign": ca.sign, "sqrt": ca.sqrt, "exp": ca.exp, "log": ca.log, "log10": ca.log10,
@@ -545,7 +551,7 @@ def _residual_nodes(operation):
 
 def _elements(var):
     """An array variable as one scalar variable per element (``T[2]``), start and binding split likewise."""
-    if var.sym.numel() == 1:
+    if var.sym.numel() == 1 and var.sym.name() == var.name:  # a scalar; an array of one element is x[1]
         return [var]
     syms = arrays.elements(var.sym)
 
