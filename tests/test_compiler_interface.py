@@ -145,6 +145,13 @@ UNSUPPORTED = {
     y = sample(x, c);
     z = previous(y) + 1;
   end M;""", "clocked synchronous construct", 10),
+    "string in a number": ("""
+  model M
+    parameter String mode = "fast";
+    Real x(start = 1);
+  equation
+    der(x) = if mode == "fast" then -2*x else -x;
+  end M;""", 'a String expression ("fast") where a number is computed', 7),
 }
 
 
@@ -212,3 +219,18 @@ def test_model_list_rejects_unknown_keys(tmp_path):
     models.write_text('[[model]]\nname = "A"\nmodel = "P.A"\nsource = "P/package.mo"\nsorce = "x"\n')
     with pytest.raises(ConfigError, match=r"models.toml:2: model\[0\] has unknown key 'sorce'"):
         list(build_all(models, out_dir=tmp_path / "o"))
+
+
+def test_string_parameters_that_no_equation_computes_with_are_left_out(tmp_path):
+    """The MSL's tables carry file and table names (String parameters): the model builds without them."""
+    path = _package(tmp_path, """
+  model M
+    parameter String fileName = "NoName" "file of the table";
+    parameter Real k = 3;
+    Real x(start = 1, fixed = true);
+  equation
+    der(x) = -k*x;
+  end M;""")
+    model = lower(path, "T.M")
+    assert [p.name for p in model.parameters] == ["k"]
+    assert model.derivatives([2.0], []) == pytest.approx([-6.0])

@@ -212,7 +212,9 @@ class _Translator:
         node = self.nodes[i]
         (kind, body), = node.items()
         if kind == "literal":
-            (_, value), = body.items()
+            (literal_type, value), = body.items()
+            if literal_type == "string":
+                self.reject(f"a String expression (\"{value}\") where a number is computed", self.provenance[i])
             return ca.SX(float(value))
         if kind == "coordinate":
             return self._coordinate(i, body, ctx)
@@ -414,6 +416,8 @@ class _Translator:
         variables = []
         for i, v in enumerate(raw):
             a = v["attributes"]
+            if self.value_types[v["value_type"]] == "string":  # table and file names: no number to compute
+                a = {key: value for key, value in a.items() if key not in ("start", "binding")}
             variables.append(Variable(
                 name=v["name"],
                 role=v["role"],
@@ -433,7 +437,7 @@ class _Translator:
         self.reader = EventReader(self, [v for v in variables if v.role in ("discrete_real", "discrete_value")])
         for node in list(self.relation_nodes):
             self.expr(node)
-        variables = [element for var in variables for element in _elements(var)]
+        variables = [element for var in variables if var.kind != "string" for element in _elements(var)]
         equations = [e for op in storage["continuous_equation_operations"] for e in self._equations(op)]
         initial = [e for op in storage.get("initialization_equation_operations", [])
                    if not self.reader.initial_equation(op) for e in self._equations(op)]
