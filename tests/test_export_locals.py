@@ -3,6 +3,7 @@ the local variables (``LoweredModel.observed``, aliases sharing one value refere
 (calculatedParameter) and the structural constants, against closed forms with fmpy's own solvers, and recorded
 by name by ``cosim run`` with both engines."""
 
+import tempfile
 import warnings
 
 import fmpy
@@ -188,7 +189,8 @@ def test_a_local_cannot_be_set(fmus):
     fmu = fmus["RC", 3]
     md = fmpy.read_model_description(str(fmu))
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    model = fmpy.instantiate_fmu(fmpy.extract(str(fmu)), md, fmi_type="ModelExchange")
+    unzipped = fmpy.extract(str(fmu), unzipdir=tempfile.mkdtemp(dir=fmu.parent))  # removed with the fixture's folder
+    model = fmpy.instantiate_fmu(unzipped, md, fmi_type="ModelExchange")
     model.enterInitializationMode()
     with pytest.raises(FMICallException):
         model.setFloat64([vr["r.v"]], [1.0])
