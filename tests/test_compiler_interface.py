@@ -39,10 +39,17 @@ def test_model_description_carries_declarations(compiler_fmu):
     assert {"V", "A", "rad/s", "Ohm", "H", "Wb", "kg.m2", "N.m.s/rad", "N.m"} <= units
 
 
-def test_dependent_parameter_is_not_a_separate_tunable(compiler_fmu):
+def test_dependent_parameter_is_a_calculated_parameter_not_a_separate_tunable(compiler_fmu):
     v = variables(compiler_fmu("DependentParameters"))
     assert v["k"].variability == "tunable" and float(v["k"].start) == 2.0
-    assert "c" not in v and "c2" not in v  # substituted: they follow k (checked numerically in the model tests)
+    # Substituted into the equations, so they follow k (checked numerically in the model tests), and visible as
+    # calculated parameters: c = k*k + 1 = 5, c2 = 0.5*c = 2.5 at k = 2.
+    assert v["c"].causality == v["c2"].causality == "calculatedParameter"
+    assert v["c"].variability == v["c2"].variability == "tunable"
+    for k in (2.0, 3.0):
+        result = fmpy.simulate_fmu(str(compiler_fmu("DependentParameters")), stop_time=0.1, start_values={"k": k},
+                                   output=["c", "c2"])
+        assert result["c"][-1] == k * k + 1 and result["c2"][-1] == 0.5 * (k * k + 1)
 
 
 HARNESS = r"""
