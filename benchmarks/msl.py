@@ -16,6 +16,7 @@ import argparse
 import collections
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -33,9 +34,29 @@ PACKAGES = ("Modelica.Mechanics.Rotational", "Modelica.Mechanics.Translational",
 
 
 def reference_models(refs):
-    """Every model that has a comparisonSignals.txt under ``refs``, by full name, sorted."""
+    """Every model that has reference results (a CSV) under ``refs``, by full name, sorted."""
     refs = Path(refs)
-    return sorted(".".join(p.parent.relative_to(refs).parts) for p in refs.rglob("comparisonSignals.txt"))
+    return sorted(".".join(p.parent.relative_to(refs).parts) for p in refs.rglob("comparisonSignals.txt")
+                  if any(p.parent.glob("*.csv")))
+
+
+def example_models(msl, package):
+    """The example models of ``package`` (``Modelica.Thermal.HeatTransfer``) in the library at ``msl``: one per
+    file of its Examples folders, or per top-level model of an Examples.mo; partial models and the Utilities
+    and BaseClasses folders left out."""
+    root = Path(msl).joinpath(*package.split("."))
+    found = []
+    for mo in sorted(root.rglob("*.mo")):
+        parts = mo.relative_to(Path(msl)).with_suffix("").parts
+        if "Examples" not in parts or {"Utilities", "BaseClasses", "Components"} & set(parts):
+            continue
+        text = mo.read_text(encoding="utf-8", errors="replace")
+        if mo.name == "package.mo" or mo.stem == "Examples":
+            prefix = ".".join(parts[:-1] if mo.name == "package.mo" else parts)
+            found += [f"{prefix}.{name}" for name in re.findall(r"^  model (\w+)", text, re.M)]
+        elif re.search(rf"^(?:encapsulated )?model {re.escape(mo.stem)}\b", text, re.M):
+            found.append(".".join(parts))
+    return found
 
 
 def _worker(models, msl, refs, rows_file, timeout):
@@ -54,6 +75,8 @@ def _worker(models, msl, refs, rows_file, timeout):
                 row = verify(model, msl, refs)
             except TimeoutError as error:
                 row = Row(model, stage="simulate", cause=f"TimeoutError: {error}", seconds=float(timeout))
+            except Exception as error:  # noqa: BLE001 - the check itself failed: a row that says so
+                row = Row(model, stage="rumoca", cause=f"the check failed: {type(error).__name__}: {error}")
             finally:
                 signal.alarm(0)
             out.write(json.dumps(row.as_dict()) + "\n")
@@ -139,6 +162,9 @@ def main(argv=None):
     parser.add_argument("--msl", required=True, help="the folder holding Modelica/")
     parser.add_argument("--refs", required=True, help="the folder holding Modelica/<package>/Examples/<Model>/")
     parser.add_argument("--only", nargs="*", default=[], help="models whose name contains one of these texts")
+    parser.add_argument("--examples", nargs="*", default=[], metavar="PACKAGE",
+                        help="also the example models of these packages that have no reference results (built "
+                             "and run to their StopTime), e.g. Modelica.Thermal.HeatTransfer")
     parser.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--timeout", type=int, default=600, help="s a model may take (default 600)")
     parser.add_argument("--rows", help="also write every row to this file (JSON lines)")
@@ -148,7 +174,9 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.worker:
         return _worker(args.models, args.msl, args.refs, args.worker, args.timeout)
-    models = [m for m in reference_models(args.refs) if not args.only or any(o in m for o in args.only)]
+    referenced = reference_models(args.refs)
+    others = [m for package in args.examples for m in example_models(args.msl, package) if m not in referenced]
+    models = [m for m in referenced + others if not args.only or any(o in m for o in args.only)]
     print(f"{len(models)} models, {args.jobs} workers; verified when every comparison signal is within "
           f"{TOLERANCE:g} of its range", flush=True)
     start = time.perf_counter()
@@ -175,7 +203,7 @@ def _write_validation(rows, table):
         f"Verified: every comparison signal within {TOLERANCE:g} of its range, away from events "
         "(benchmarks/msl_verify.py). Stages: rumoca = the front end rejected it; lower = cosim's lowering; export "
         "= C code; simulate = the FMU failed under fmpy's CVode; signals = comparison signals not in the FMU; "
-        "compare = a signal off the reference."])
+        "compare = a signal off the reference; ran = built and ran to its StopTime (no reference results)."])
     write_section("msl-models", ["model", "stage", "worst signal", "error", "time [s]", "cause"], model_rows)
 
 

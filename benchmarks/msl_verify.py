@@ -18,9 +18,10 @@ import numpy as np
 
 TOLERANCE = 2e-3
 """Largest error of a verified signal, relative to the reference's range."""
-STAGES = ("rumoca", "lower", "export", "simulate", "signals", "compare", "verified")
+STAGES = ("rumoca", "lower", "export", "simulate", "signals", "compare", "ran", "verified")
 """How far a model got: rumoca (parse, flatten) failed; cosim's lowering failed; the C export failed; the FMU
-failed at run time; comparison signals missing from the FMU; a signal off by more than TOLERANCE; verified."""
+failed at run time; comparison signals missing from the FMU; a signal off by more than TOLERANCE; built and ran
+(a model without reference results); verified."""
 
 __all__ = ["TOLERANCE", "STAGES", "Row", "reference_dir", "read_reference", "experiment", "verify", "compare"]
 
@@ -82,10 +83,13 @@ def _class_text(msl, model):
 
 
 def experiment(msl, model):
-    """The experiment annotation's ``Tolerance`` of ``model`` (default 1e-6 when the annotation has none)."""
+    """``(StartTime, StopTime, Tolerance)`` of ``model``'s experiment annotation (defaults 0, 1, 1e-6)."""
     found = re.search(r"experiment\s*\((?P<body>[^)]*)\)", _class_text(msl, model))
-    tolerance = re.search(r"Tolerance\s*=\s*(?P<v>[-+0-9.eE]+)", found.group("body")) if found else None
-    return float(tolerance.group("v")) if tolerance else 1e-6
+    values = []
+    for key, default in (("StartTime", 0.0), ("StopTime", 1.0), ("Tolerance", 1e-6)):
+        given = re.search(rf"\b{key}\s*=\s*(?P<v>[-+0-9.eE]+)", found.group("body")) if found else None
+        values.append(float(given.group("v")) if given else default)
+    return tuple(values)
 
 
 def _event_times(t):
@@ -122,7 +126,9 @@ def _first_line(error, msl, model):
 
 
 def verify(model, msl, refs, fmi_type="ModelExchange", workdir=None):
-    """Build, simulate and compare ``model``; a :class:`Row` that says how far it got and why it stopped."""
+    """Build, simulate and compare ``model``; a :class:`Row` that says how far it got and why it stopped. A model
+    without reference results (no CSV in its folder, or no folder) is built and run to its experiment's
+    StopTime: stage ``ran`` when that works."""
     import fmpy
 
     from cosim.compile.export import export_fmu
@@ -132,7 +138,12 @@ def verify(model, msl, refs, fmi_type="ModelExchange", workdir=None):
     from cosim.errors import BuildError
 
     row, start = Row(model), time.perf_counter()
-    t_ref, columns, names = read_reference(reference_dir(refs, model))
+    folder = reference_dir(refs, model) if refs else None
+    referenced = folder is not None and any(folder.glob("*.csv"))
+    t_ref, columns, names = read_reference(folder) if referenced else (None, {}, [])
+    t0, t1, tolerance = experiment(msl, model)
+    if referenced:
+        t0, t1 = float(t_ref[0]), float(t_ref[-1])
     try:
         flat = load_flat_model(None, model, [Path(msl)])
     except Exception as error:  # noqa: BLE001 - every failure is a row of the table
@@ -148,17 +159,18 @@ def verify(model, msl, refs, fmi_type="ModelExchange", workdir=None):
             exposed = {v.name for v in fmpy.read_model_description(str(fmu)).modelVariables}
             row.missing = [n for n in names if n not in exposed]
             row.stage = "simulate"
-            span = float(t_ref[-1] - t_ref[0])
             result = fmpy.simulate_fmu(
-                str(fmu), start_time=float(t_ref[0]), stop_time=float(t_ref[-1]), fmi_type=fmi_type,
-                relative_tolerance=min(experiment(msl, model), 1e-6), output_interval=span / 5000,
-                output=[n for n in names if n in exposed])
+                str(fmu), start_time=t0, stop_time=t1, fmi_type=fmi_type, relative_tolerance=min(tolerance, 1e-6),
+                output_interval=(t1 - t0) / 5000, output=[n for n in names if n in exposed] or None)
     except Exception as error:  # noqa: BLE001
         row.cause = _first_line(error, msl, model)
         if row.stage == "export" and not isinstance(error, BuildError):
             row.stage = "lower"
         return _done(row, start)
-    return _done(_judge(row, t_ref, columns, names, result, span), start)
+    if not referenced:
+        row.stage, row.cause = "ran", f"no reference results: built and ran to {t1:g} s"
+        return _done(row, start)
+    return _done(_judge(row, t_ref, columns, names, result, t1 - t0), start)
 
 
 def _judge(row, t_ref, columns, names, result, span):

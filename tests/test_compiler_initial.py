@@ -204,3 +204,22 @@ def test_an_equation_of_one_state_keeps_it_when_another_reaches_it_through_an_al
   end M;""")
     m = lower(path, "T.M")
     assert dict(zip([s.name for s in m.states], m.initial_state())) == pytest.approx({"a": 1, "b": 2, "c": 7})
+
+
+def test_a_fixed_start_of_an_algebraic_variable_is_an_initial_equation(tmp_path):
+    """The MSL's PID_Controller example starts its inertia with a(fixed = true, start = 0): the spring then
+    starts deflected to hold the force, x0 = F/k (with v fixed at 0), not at its start value 0."""
+    path = write_package(tmp_path, """
+  model M
+    parameter Real k = 4;
+    parameter Real F = 2;
+    Real x(start = 0);
+    Real v(start = 0, fixed = true);
+    Real a(start = 0, fixed = true);
+  equation
+    der(x) = v;
+    der(v) = a;
+    a = F - k*x;
+  end M;""")
+    m = lower(path, "T.M")
+    assert dict(zip([s.name for s in m.states], m.initial_state())) == pytest.approx({"x": 0.5, "v": 0.0})

@@ -187,7 +187,7 @@ def initial_state(system, params, active, P, blocks):
         The initial equations do not determine as many states as there are equations, or they are singular.
     """
     starts, notes = _starts(active, params)
-    system = _with_demoted_starts(system, active)
+    system = _with_fixed_starts(system, active)
     if not system.initial_equations or not active:
         X0 = ca.vertcat(*starts) if active else ca.SX(0, 1)
         return _function(system, params, P, X0), notes
@@ -223,13 +223,14 @@ def initial_state(system, params, active, P, blocks):
     return ca.Function("x0", [Pm], [assemble(Pm, solution(Pm)[:S.shape[0]])], ["p"], ["x0"]), notes
 
 
-def _with_demoted_starts(system, active):
-    """``system`` with an initial equation ``s = start`` for each state declared ``fixed = true`` that index
-    reduction demoted: its start still holds at t = 0, through the states that replaced it (a mass's position
-    fixed, the spring's relative position kept as the state)."""
+def _with_fixed_starts(system, active):
+    """``system`` with an initial equation ``v = start`` for each variable declared ``fixed = true`` that is not a
+    state of the lowered model: a state index reduction demoted (a mass's position fixed, the spring's relative
+    position kept as the state) and an algebraic variable (an acceleration ``a(fixed = true, start = 0)``), as
+    the language defines ``fixed`` for them."""
     kept = {s.name for s in active}
-    fixed = [Equation(s.sym - s.start, s.location) for s in system.by_role("state")
-             if s.name not in kept and s.fixed and s.start is not None]
+    fixed = [Equation(v.sym - v.start, v.location) for v in system.by_role("state", "algebraic", "output")
+             if v.name not in kept and v.fixed and v.start is not None]
     if not fixed:
         return system
     return dataclasses.replace(system, initial_equations=list(system.initial_equations) + fixed)
