@@ -223,3 +223,24 @@ def test_a_fixed_start_of_an_algebraic_variable_is_an_initial_equation(tmp_path)
   end M;""")
     m = lower(path, "T.M")
     assert dict(zip([s.name for s in m.states], m.initial_state())) == pytest.approx({"x": 0.5, "v": 0.0})
+
+
+def test_a_parameter_declared_fixed_false_is_computed_by_the_initial_equations(tmp_path):
+    """parameter t0(fixed = false) with the initial equation t0 = 2 k + time (the MSL's harmonic analysis
+    blocks take t0 = time): computed at initialisation from k, then constant; der(x) = -t0 x decays at 2 k."""
+    path = write_package(tmp_path, """
+  model M
+    parameter Real k = 2;
+    parameter Real t0(fixed = false);
+    Real x(start = 1, fixed = true);
+  initial equation
+    t0 = 2*k + time;
+  equation
+    der(x) = -t0*x;
+  end M;""")
+    m = lower(path, "T.M")
+    for k in (2.0, 3.0):
+        x0 = dict(zip([s.name for s in m.states], np.array(m.x0([k]), dtype=float).ravel()))
+        assert x0 == pytest.approx({"t0": 2 * k, "x": 1.0})
+        assert m.derivatives([x0[s.name] for s in m.states], [], [k]) == pytest.approx(
+            [0.0 if s.name == "t0" else -2 * k for s in m.states])

@@ -404,6 +404,7 @@ class _Translator:
         for v in raw:
             if v["role"] not in _ROLES:
                 self.unsupported(f"the {v['role'].replace('_', ' ')} variable {v['name']}", v)
+        computed = self._computed_parameters(raw)
         self._declare(raw)
         self._mark_no_event()
         self._mark_direct()
@@ -441,9 +442,22 @@ class _Translator:
         equations = [e for op in storage["continuous_equation_operations"] for e in self._equations(op)]
         initial = [e for op in storage.get("initialization_equation_operations", [])
                    if not self.reader.initial_equation(op) for e in self._equations(op)]
+        equations += [Equation(d, self.location(raw[i])) for i in computed for d in arrays.elements(self.der_syms[i])]
         derivatives = {name: s for i, der in self.der_syms.items()
                        for name, s in zip(self._element_names(raw[i]), arrays.elements(der))}
         return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, self.reader.read())
+
+    def _computed_parameters(self, raw):
+        """Real parameters declared ``fixed = false`` (the MSL's ``t0 = time`` in an initial equation): computed by
+        the initial equations and constant after them, so each becomes a state with ``der() = 0`` (the equation
+        is added by :meth:`run`). Returns their indices."""
+        computed = []
+        for i, v in enumerate(raw):
+            fixed = v["attributes"].get("fixed")
+            if v["role"] == "parameter" and self.value_types[v["value_type"]] == "real" and fixed and not any(fixed):
+                v["role"] = "state"
+                computed.append(i)
+        return computed
 
     def _reject_tables(self):
         """Constructs rumoca carries that the compiler does not lower, named as the user wrote them."""
