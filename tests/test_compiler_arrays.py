@@ -226,19 +226,6 @@ REJECTED = {
   equation
     der(x) = -total({x, -1, x});
   end M;""", "break-statement in function total", 9),
-    "assert in a function": ("""
-  function f
-    input Real x;
-    output Real y;
-  algorithm
-    assert(x > -10, "x too small");
-    y := 2*x;
-  end f;
-  model M
-    Real x(start = 1);
-  equation
-    der(x) = -f(x);
-  end M;""", "assert() inside function f", 6),
     "three-dimensional array": ("""
   model M
     parameter Real a[2, 2, 2] = fill(1.0, 2, 2, 2);

@@ -18,7 +18,9 @@ from scipy.integrate import solve_ivp
 from cosim.compile import build_fmu
 from cosim.compile.export import export_fmu
 from cosim.compile.model import DiscreteVariable, EventPart, LoweredModel, ModelVariable
+from cosim.errors import ModelicaError
 from fmus.reference import bounce_times
+from modelica_support import write_package
 
 MODELS = Path(__file__).resolve().parent / "models" / "export" / "ExportTests.mo"
 G = 9.81
@@ -391,3 +393,39 @@ def test_modelica_thermostat_fmu_switches_where_scipy_does(hybrid_fmu, solver, t
     expected = _thermostat_switch_times()
     assert len(expected) == 6 and r["switches"][-1] == 6
     assert np.max(np.abs(_event_times(r, "switches") - expected)) < tolerance
+
+
+_FUNCTION_ASSERT = """
+  function rate
+    input Real f;
+    output Real r;
+  algorithm
+    assert(f > 0, "Cut-off frequency f must be positive");
+    r := 2*f;
+  end rate;
+  model M
+    parameter Real f = 1.5;
+    Real x(start = 1, fixed = true);
+  equation
+    der(x) = -rate(f)*x;
+  end M;"""
+
+
+def test_an_assert_inside_a_function_is_checked_with_the_call_sites_values(tmp_path):
+    """The MSL's filter functions check their arguments (assert(f_cut > 0, ...)): the FMU runs for f = 1.5
+    (x = exp(-2 f t)) and stops at initialisation with the assert's file, line and message for f = -1."""
+    fmu = build_fmu(write_package(tmp_path, _FUNCTION_ASSERT), "T.M", out_dir=tmp_path / "out")
+    r = fmpy.simulate_fmu(str(fmu), stop_time=1.0, output=["x"], fmi_type="ModelExchange", relative_tolerance=1e-8)
+    assert r["x"][-1] == pytest.approx(np.exp(-3.0), rel=1e-6)
+    messages = []
+    with pytest.raises(FMICallException, match="fmi3UpdateDiscreteStates"):
+        fmpy.simulate_fmu(str(fmu), stop_time=1.0, start_values={"f": -1.0}, fmi_type="ModelExchange",
+                          logger=lambda env, status, category, message: messages.append(message.decode()))
+    assert messages[-1].endswith("T.mo:6: Cut-off frequency f must be positive")
+
+
+def test_an_assert_inside_a_function_that_always_fails_refuses_the_build(tmp_path):
+    body = _FUNCTION_ASSERT.replace("assert(f > 0", "assert(1 < 0")
+    with pytest.raises(ModelicaError, match="fails whatever the values: Cut-off") as err:
+        build_fmu(write_package(tmp_path, body), "T.M", out_dir=tmp_path / "out")
+    assert err.value.line == 6

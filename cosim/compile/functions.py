@@ -10,7 +10,10 @@ numbers rebound. Loop ranges, sizes and subscripts must be known at build time (
 sizes are parameters). ``while`` statements do not reach the IR: rumoca rejects them (the front end says where).
 """
 
+import casadi as ca
+
 from cosim.compile import arrays
+from cosim.errors import ModelicaError
 
 __all__ = ["inline"]
 
@@ -48,10 +51,31 @@ class _Frame:
                     self.define(assignment["target"], self.evaluate(assignment["rhs"], binders))
             elif kind == "for":
                 self.run_for(body, binders)
+            elif kind == "assertion":
+                self.assertion(body, binders)
             else:
                 name = _MODELICA_NAMES.get(kind, f"'{kind}' statement")
                 self.tr.reject(f"{name} inside function {self.function['name']} (put it in the model's equations)",
                                statement)
+
+    def assertion(self, body, binders):
+        """An ``assert`` of level error: checked where the model's own asserts are (at events, initialisation
+        included) with this call's arguments; refused at build time when it fails whatever the values. An assert of
+        level warning stops nothing: it is not checked."""
+        if body.get("level", "error") != "error":
+            return
+        holds = self.evaluate(body["condition"], binders)
+        literal = self.tr.nodes[body["message"]].get("literal", {})
+        text = literal.get("string") if isinstance(literal, dict) else None
+        where = self.tr.location(body)
+        message = f"{where}: {text or '(message computed at run time; not available)'}"
+        if holds.is_constant():
+            if float(ca.evalf(holds)) == 0.0:
+                file, _, line = where.rpartition(":")
+                raise ModelicaError(f"the assert in function {self.function['name']} fails whatever the values: "
+                                    f"{text}", file or where, int(line) if line.isdigit() else None)
+            return
+        self.tr.function_asserts.append((ca.logic_not(holds), message))
 
     def run_for(self, body, binders):
         """Unroll a ``for`` statement: the loop-carried values are rebound before every pass of the body."""

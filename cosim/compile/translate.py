@@ -159,6 +159,7 @@ class _Translator:
         self.steps = []  # integer_events.Step of each event-generating floor/ceil/integer/div/mod/rem
         self.parametric = set()  # names of parameter and constant elements
         self.call_serials = itertools.count()
+        self.function_asserts = []  # (failed, "file:line: message") of asserts inside inlined functions
 
     def where(self, node_id):
         prov = self.provenance[node_id] if node_id < len(self.provenance) else None
@@ -445,6 +446,7 @@ class _Translator:
         equations += [Equation(d, self.location(raw[i])) for i in computed for d in arrays.elements(self.der_syms[i])]
         derivatives = {name: s for i, der in self.der_syms.items()
                        for name, s in zip(self._element_names(raw[i]), arrays.elements(der))}
+        self.reader.system.asserts += self.function_asserts
         return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, self.reader.read())
 
     def _computed_parameters(self, raw):
