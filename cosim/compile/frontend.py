@@ -188,5 +188,7 @@ def _front_end_error(err, path, model, files, roots=()):
         return ModelicaError(f"no model named {model!r} in {path.parent}", file=str(path))
     if "unbalanced" in text:
         detail = text.split("unbalanced model:")[-1].strip()
-        return StructureError(f"model {model} is unbalanced: {detail}", file=str(path))
-    return locate_rumoca_error(text, files) or ModelicaError(f"{model}: {text.splitlines()[0]}", file=str(path))
+        return StructureError(f"model {model} is unbalanced: {detail} (counted by rumoca {rumoca.version()}, the "
+                              "Modelica front end)", file=str(path))
+    return locate_rumoca_error(text, files) or ModelicaError(
+        f"rumoca {rumoca.version()} (the Modelica front end) rejected {model}: {text.splitlines()[0]}", file=str(path))
