@@ -10,6 +10,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
 
 from cosim.compile import events as hybrid
+from cosim.compile.guess import better_guess
 from cosim.compile.initial import initial_state
 from cosim.compile.model import LoweredModel, ModelVariable
 from cosim.compile.newton import NEWTON_ITERATIONS, newton
@@ -310,7 +311,14 @@ def lower_system(system):
         stray = _names(expr) - known - block_names
         if stray:
             raise StructureError(f"{system.name}: {what} still depend on {', '.join(sorted(stray))} after lowering")
-    ode, out, observe = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, system, M)
+    x0, x0_notes = initial_state(system, params, active, P, blocks)
+    notes += x0_notes
+    p_defaults = [params.defaults[p.name] for p in params.free]
+    x0_values = np.array(x0(p_defaults), dtype=float).ravel() if active else np.zeros(0)
+    start_point = [x0_values, np.array([_start(u) for u in inputs]), np.array(p_defaults), np.zeros(1)]
+    start_point += [] if M is None else [np.zeros(M.shape[0])]
+    ode, out, observe, guess_notes = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, system, M, start_point)
+    notes += guess_notes
     if blocks.nonlinear:
         for vs, _, locs in blocks.nonlinear:
             notes.append(f"nonlinear algebraic loop in {', '.join(u.name() for u in ca.vertsplit(vs))} "
@@ -320,10 +328,6 @@ def lower_system(system):
         notes += [f"sample(start = {start:g} s, interval = {interval:g} s) is fixed at build time (rumoca evaluates "
                   "its arguments): a parameter in them does not follow its run-time value"
                   for _, _, start, interval in system.events.clocks]
-    x0, x0_notes = initial_state(system, params, active, P, blocks)
-    notes += x0_notes
-    p_defaults = [params.defaults[p.name] for p in params.free]
-    x0_values = np.array(x0(p_defaults), dtype=float).ravel() if active else np.zeros(0)
     return LoweredModel(
         name=system.name,
         states=tuple(ModelVariable(s.name, s.unit, s.description, float(v)) for s, v in zip(active, x0_values)),
@@ -400,29 +404,35 @@ def _start(var):
     return float(ca.evalf(var.start))
 
 
-def _functions(X, U, P, T, xdot, y, obs, nonlinear, system, M=None):
+def _functions(X, U, P, T, xdot, y, obs, nonlinear, system, M, start_point):
     """CasADi functions of (x, u, p, t), and the event memory m for a hybrid model; nonlinear blocks are
-    solved by a generated Newton iteration."""
+    solved by a generated Newton iteration, from the start values or, where it does not converge from them at
+    ``start_point`` (numeric x, u, p, t[, m]), from the block's solution there (:mod:`cosim.compile.guess`).
+    Returns the three functions and notes."""
     names = ["x", "u", "p", "t"] + ([] if M is None else ["m"])
     args = [X, U, P, T] + ([] if M is None else [M])
     if not nonlinear:
         return (ca.Function("ode", args, [xdot], names, ["xdot"]),
                 ca.Function("out", args, [y], names, ["y"]),
-                ca.Function("observe", args, [obs], names, ["v"]))
+                ca.Function("observe", args, [obs], names, ["v"]), [])
     block_syms = [vs for vs, _, _ in nonlinear]
     explicit = ca.Function("explicit", [*args, *block_syms], [xdot, y, obs])
     margs = [ca.MX.sym(n, s.shape[0]) for n, s in zip(names, args)]
-    solved = []
+    solved, notes, context_value = [], [], np.concatenate([np.ravel(v) for v in start_point])
     for k, (vs, residual, _) in enumerate(nonlinear):
         context = ca.vertcat(*args, *block_syms[:k])
         solver = newton(k, vs, residual, context)
-        guess = ca.DM([_start(_var_named(system, u.name())) for u in ca.vertsplit(vs)])
+        guess = np.array([_start(_var_named(system, u.name())) for u in ca.vertsplit(vs)], dtype=float)
+        guess, note = better_guess(solver, vs, residual, context, context_value, guess)
+        notes += [note] if note else []
+        at_start = np.asarray(solver(guess, np.tile(context_value[:, None], (1, NEWTON_ITERATIONS))), dtype=float)
+        context_value = np.concatenate([context_value, at_start.ravel()])
         ctx_value = ca.vertcat(*margs, *solved)
-        solved.append(solver(guess, ca.repmat(ctx_value, 1, NEWTON_ITERATIONS)))
+        solved.append(solver(ca.DM(guess), ca.repmat(ctx_value, 1, NEWTON_ITERATIONS)))
     xd, yy, oo = explicit(*margs, *solved)
     return (ca.Function("ode", margs, [xd], names, ["xdot"]),
             ca.Function("out", margs, [yy], names, ["y"]),
-            ca.Function("observe", margs, [oo], names, ["v"]))
+            ca.Function("observe", margs, [oo], names, ["v"]), notes)
 
 
 def _var_named(system, name):

@@ -1,0 +1,63 @@
+"""The starting point of the Newton iterations that solve a nonlinear algebraic loop in the generated code.
+
+The code starts every solve from the loop's start values. Where the loop's unknowns carry no start value (0),
+that point can be one where Newton's method cannot move: a resistor heated through a thermal conductor has
+``v = R_actual*i`` with ``R_actual`` guessed 0, a singular Jacobian, and every evaluation returns NaN. So the
+lowering tries the start values at the model's start point (initial states, default parameters, inputs at their
+start, t = 0); when Newton's method does not converge there, it solves the loop once at that point with
+scipy's Levenberg-Marquardt (which needs no invertible Jacobian) and starts the generated iterations from that
+solution instead. A loop that converges from its start values keeps them, so models that built before keep
+their numbers.
+"""
+
+import casadi as ca
+import numpy as np
+from scipy.optimize import least_squares
+
+from cosim.compile.newton import NEWTON_ITERATIONS
+
+__all__ = ["converged", "better_guess"]
+
+_TOLERANCE = 1e-9  # residual norm, relative to the unknowns' size, of a converged solve
+
+
+def converged(residual, solution):
+    """True when ``solution`` is finite and ``residual(solution)`` is within the tolerance."""
+    value = np.asarray(residual(solution), dtype=float).ravel()
+    scale = 1.0 + float(np.max(np.abs(solution))) if len(solution) else 1.0
+    return bool(np.all(np.isfinite(solution)) and np.all(np.isfinite(value))
+                and np.max(np.abs(value), initial=0.0) <= _TOLERANCE * scale)
+
+
+def better_guess(solver, unknowns, residual, context, context_value, guess):
+    """The guess the generated Newton iterations should start from, and a note when it is not ``guess``.
+
+    Parameters
+    ----------
+    solver : casadi.Function
+        The generated iterations: (guess, context repeated NEWTON_ITERATIONS times) -> unknowns.
+    unknowns, residual, context : casadi.SX
+        The loop: ``0 = residual(unknowns, context)``.
+    context_value : numpy.ndarray
+        The context at the model's start point.
+    guess : numpy.ndarray
+        The unknowns' start values.
+
+    Returns
+    -------
+    (numpy.ndarray, str or None)
+    """
+    f = ca.Function("loop_residual", [unknowns, context], [residual])
+    at_start = lambda v: np.asarray(f(v, context_value), dtype=float).ravel()  # noqa: E731
+    newton = np.asarray(solver(guess, np.tile(context_value[:, None], (1, NEWTON_ITERATIONS))), dtype=float).ravel()
+    if converged(at_start, newton):
+        return guess, None
+    try:
+        found = least_squares(at_start, guess, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+    except (ValueError, np.linalg.LinAlgError):
+        return guess, None
+    if not converged(at_start, found):
+        return guess, None
+    names = ", ".join(u.name() for u in ca.vertsplit(unknowns))
+    return found, (f"Newton's method does not converge from the start values of {names} at the start point: "
+                   "its iterations start from the loop's solution there (found by Levenberg-Marquardt)")

@@ -1,0 +1,59 @@
+"""Nonlinear algebraic loops whose unknowns have no start values: Newton's method from 0 meets a singular
+Jacobian, so the generated iterations start from the loop's solution at the model's start point
+(cosim/compile/guess.py). Checked against the loop solved by scipy at every instant."""
+
+import fmpy
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from cosim.compile import build_fmu, lower
+from modelica_support import write_package
+
+# A resistor heated by its own loss through a thermal conductance (the MSL's Analog.Examples.Resistor, written
+# out): v = R_actual i with R_actual guessed 0 makes the Jacobian at the start values singular.
+HEATED_RESISTOR = """
+  model M
+    parameter Real R = 100;
+    parameter Real alpha = 0.01;
+    parameter Real T_ref = 293.15;
+    parameter Real G = 0.05;
+    parameter Real T_amb = 293.15;
+    Real v = 20*sin(2*3.141592653589793*time);
+    Real i;
+    Real R_actual;
+    Real T(start = 288.15) "a temperature starts at 288.15 K, as SI.Temperature does";
+    Real P;
+  equation
+    v = R_actual*i;
+    R_actual = R*(1 + alpha*(T - T_ref));
+    P = v*i;
+    P = G*(T - T_amb);
+  end M;"""
+
+
+def _temperature(v, R=100.0, alpha=0.01, T_ref=293.15, G=0.05, T_amb=293.15):
+    """T of the heated resistor: G (T - T_amb) = v^2 / (R (1 + alpha (T - T_ref))), the root above T_amb."""
+    return brentq(lambda T: G * (T - T_amb) - v**2 / (R * (1 + alpha * (T - T_ref))), T_amb, T_amb + 1e4)
+
+
+def test_a_loop_newton_cannot_start_from_zero_starts_from_its_solution_at_the_start_point(tmp_path):
+    path = write_package(tmp_path, HEATED_RESISTOR)
+    model = lower(path, "T.M")
+    assert any("Levenberg-Marquardt" in note and "R_actual" in note for note in model.notes)
+    fmu = build_fmu(path, "T.M", out_dir=tmp_path / "out")
+    result = fmpy.simulate_fmu(str(fmu), stop_time=1.0, output_interval=0.01, output=["T", "i"])
+    v = 20 * np.sin(2 * np.pi * result["time"])
+    expected = np.array([_temperature(x) for x in v])
+    # Newton's 30 iterations converge to machine precision here; 1e-9 K is far below any model error
+    np.testing.assert_allclose(result["T"], expected, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(result["i"], v / (100 * (1 + 0.01 * (expected - 293.15))), rtol=1e-12)
+
+
+def test_a_loop_that_converges_from_its_start_values_keeps_them(tmp_path):
+    """With start values near the root the generated code is as before: no note, same iterations."""
+    body = HEATED_RESISTOR.replace("Real R_actual;", "Real R_actual(start = 100);").replace(
+        "Real T(start = 288.15)", "Real T(start = 300)")
+    model = lower(write_package(tmp_path, body), "T.M")
+    assert not any("Levenberg-Marquardt" in note for note in model.notes)
+    assert model.observe([], [], model.parameter_values, 0.0)[model.index("observed", "T")] == pytest.approx(293.15)  # v = 0 at t = 0: no heating
