@@ -10,18 +10,20 @@ solution instead. A loop that converges from its start values keeps them, so mod
 their numbers.
 """
 
+import warnings
+
 import casadi as ca
 import numpy as np
 from scipy.optimize import least_squares
 
 from cosim.compile.newton import NEWTON_ITERATIONS
 
-__all__ = ["converged", "better_guess"]
+__all__ = ["better_guess"]
 
 _TOLERANCE = 1e-9  # residual norm, relative to the unknowns' size, of a converged solve
 
 
-def converged(residual, solution):
+def _converged(residual, solution):
     """True when ``solution`` is finite and ``residual(solution)`` is within the tolerance."""
     value = np.asarray(residual(solution), dtype=float).ravel()
     scale = 1.0 + float(np.max(np.abs(solution))) if len(solution) else 1.0
@@ -50,13 +52,15 @@ def better_guess(solver, unknowns, residual, context, context_value, guess):
     f = ca.Function("loop_residual", [unknowns, context], [residual])
     at_start = lambda v: np.asarray(f(v, context_value), dtype=float).ravel()  # noqa: E731
     newton = np.asarray(solver(guess, np.tile(context_value[:, None], (1, NEWTON_ITERATIONS))), dtype=float).ravel()
-    if converged(at_start, newton):
+    if _converged(at_start, newton):
         return guess, None
     try:
-        found = least_squares(at_start, guess, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a trial point where the loop is undefined (NaN)
+            found = least_squares(at_start, guess, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15).x
     except (ValueError, np.linalg.LinAlgError):
         return guess, None
-    if not converged(at_start, found):
+    if not _converged(at_start, found):
         return guess, None
     names = ", ".join(u.name() for u in ca.vertsplit(unknowns))
     return found, (f"Newton's method does not converge from the start values of {names} at the start point: "
