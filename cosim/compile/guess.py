@@ -54,14 +54,28 @@ def better_guess(solver, unknowns, residual, context, context_value, guess):
     newton = np.asarray(solver(guess, np.tile(context_value[:, None], (1, NEWTON_ITERATIONS))), dtype=float).ravel()
     if _converged(at_start, newton):
         return guess, None
-    try:
-        with np.errstate(all="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # a trial point where the loop is undefined (NaN)
-            found = least_squares(at_start, guess, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15).x
-    except (ValueError, np.linalg.LinAlgError):
-        return guess, None
-    if not _converged(at_start, found):
+    found = _least_squares(at_start, guess)
+    if found is None:
         return guess, None
     names = ", ".join(u.name() for u in ca.vertsplit(unknowns))
     return found, (f"Newton's method does not converge from the start values of {names} at the start point: "
                    "its iterations start from the loop's solution there (found by Levenberg-Marquardt)")
+
+
+def _least_squares(residual, guess):
+    """The loop's solution by Levenberg-Marquardt from ``guess``, or, where the loop is undefined there (a
+    thermal voltage k T/q guessed 0 divides), from the guess with its zeros replaced by 1, then by 1e-3; None
+    when none converges."""
+    for zeros in (None, 1.0, 1e-3):
+        start = guess if zeros is None else np.where(guess == 0.0, zeros, guess)
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a trial point where the loop is undefined (NaN)
+            if not np.all(np.isfinite(residual(start))):
+                continue
+            try:
+                found = least_squares(residual, start, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+            except (ValueError, np.linalg.LinAlgError):
+                continue
+            if _converged(residual, found):
+                return found
+    return None

@@ -317,7 +317,8 @@ def lower_system(system):
     x0_values = np.array(x0(p_defaults), dtype=float).ravel() if active else np.zeros(0)
     start_point = [x0_values, np.array([_start(u) for u in inputs]), np.array(p_defaults), np.zeros(1)]
     start_point += [] if M is None else [np.zeros(M.shape[0])]
-    ode, out, observe, guess_notes = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, system, M, start_point)
+    start_of = {v.name: _start_at_defaults(v, params, P, p_defaults) for v in system.variables}
+    ode, out, observe, guess_notes = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, start_of, M, start_point)
     notes += guess_notes
     if blocks.nonlinear:
         for vs, _, locs in blocks.nonlinear:
@@ -404,9 +405,10 @@ def _start(var):
     return float(ca.evalf(var.start))
 
 
-def _functions(X, U, P, T, xdot, y, obs, nonlinear, system, M, start_point):
+def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point):
     """CasADi functions of (x, u, p, t), and the event memory m for a hybrid model; nonlinear blocks are
-    solved by a generated Newton iteration, from the start values or, where it does not converge from them at
+    solved by a generated Newton iteration, from the start values (``start_of``: name -> value at the default
+    parameters; a der() in a block has none and starts at 0) or, where it does not converge from them at
     ``start_point`` (numeric x, u, p, t[, m]), from the block's solution there (:mod:`cosim.compile.guess`).
     Returns the three functions and notes."""
     names = ["x", "u", "p", "t"] + ([] if M is None else ["m"])
@@ -422,7 +424,7 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, system, M, start_point):
     for k, (vs, residual, _) in enumerate(nonlinear):
         context = ca.vertcat(*args, *block_syms[:k])
         solver = newton(k, vs, residual, context)
-        guess = np.array([_start(_var_named(system, u.name())) for u in ca.vertsplit(vs)], dtype=float)
+        guess = np.array([start_of.get(u.name(), 0.0) for u in ca.vertsplit(vs)], dtype=float)
         guess, note = better_guess(solver, vs, residual, context, context_value, guess)
         notes += [note] if note else []
         at_start = np.asarray(solver(guess, np.tile(context_value[:, None], (1, NEWTON_ITERATIONS))), dtype=float)
@@ -435,6 +437,12 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, system, M, start_point):
             ca.Function("observe", margs, [oo], names, ["v"]), notes)
 
 
-def _var_named(system, name):
-    """The variable ``name`` of ``system``; None for an unknown that is no variable (``der(x)`` in a block)."""
-    return next((v for v in system.variables if v.name == name), None)
+def _start_at_defaults(var, params, P, p_defaults):
+    """A variable's start value, a start bound to parameters (``T_heatPort(start = T)``) evaluated at their
+    defaults; 0 when it has none or it depends on anything else."""
+    if var.start is None:
+        return 0.0
+    value = params.substitute(var.start)
+    if P.shape[0]:
+        value = ca.substitute(value, P, ca.DM(p_defaults))
+    return float(ca.evalf(value)) if value.is_constant() or not ca.symvar(value) else 0.0
