@@ -57,3 +57,31 @@ def test_a_loop_that_converges_from_its_start_values_keeps_them(tmp_path):
     model = lower(write_package(tmp_path, body), "T.M")
     assert not any("Levenberg-Marquardt" in note for note in model.notes)
     assert model.observe([], [], model.parameter_values, 0.0)[model.index("observed", "T")] == pytest.approx(293.15)  # v = 0 at t = 0: no heating
+
+
+def test_a_loop_undefined_at_its_start_values_is_solved_from_nonzero_values(tmp_path):
+    """A diode heated by its own loss (the MSL's HeatingDiode, written out): vt = k T/q with T guessed 0 divides
+    by zero at the start values. Reference: the loop solved for T by scipy at every instant."""
+    path = write_package(tmp_path, """
+  model M
+    parameter Real Is = 1e-6;
+    parameter Real k_q = 8.617e-5 "k/q, V/K";
+    parameter Real Rth = 20 "K/W";
+    parameter Real T_amb = 300;
+    Real v = 0.4 + 0.1*time;
+    Real vt;
+    Real i;
+    Real T;
+  equation
+    vt = k_q*T;
+    i = Is*(exp(v/vt) - 1);
+    T = T_amb + Rth*v*i;
+  end M;""")
+    fmu = build_fmu(path, "T.M", out_dir=tmp_path / "out")
+    result = fmpy.simulate_fmu(str(fmu), stop_time=1.0, output_interval=0.05, output=["T"])
+
+    def temperature(v):
+        return brentq(lambda T: T - 300 - 20 * v * 1e-6 * (np.exp(v / (8.617e-5 * T)) - 1), 300, 400)
+
+    expected = [temperature(0.4 + 0.1 * t) for t in result["time"]]
+    np.testing.assert_allclose(result["T"], expected, rtol=0, atol=1e-9)
