@@ -285,3 +285,25 @@ def test_element_wise_operators_follow_numpy(tmp_path):
     m = lower(path, "T.M")
     a, b = np.array([1.5, 2.5]), np.array([0.5, 4.0])
     assert m.output_values([], []) == pytest.approx(a * b / (a + b) - a**b, rel=1e-14)
+
+
+def test_a_matrix_output_of_a_function_assigned_element_by_element(tmp_path):
+    """The MSL's Bessel filter coefficients: output Real c2[integer(order/2), 2] filled one element at a time
+    (rumoca first fills it with a two-index comprehension, which is the 2x2 matrix, not a column of 4)."""
+    path = write_package(tmp_path, """
+  function f
+    input Integer order;
+    output Real c2[integer(order/2), 2];
+  algorithm
+    c2[1, 1] := 1;
+    c2[1, 2] := 2;
+    c2[2, 1] := 3;
+    c2[2, 2] := 4;
+  end f;
+  model M
+    parameter Real c[2, 2] = f(4);
+    output Real y[2, 2] = c;
+  end M;""")
+    m = lower(path, "T.M")
+    assert dict(zip([o.name for o in m.outputs], m.output_values([], []))) == {
+        "y[1,1]": 1.0, "y[1,2]": 2.0, "y[2,1]": 3.0, "y[2,2]": 4.0}

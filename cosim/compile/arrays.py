@@ -151,6 +151,11 @@ def domain_values(tr, domain, bound=None):
     """Every assignment of a loop domain's binders (a ``for`` equation, a ``for`` statement, a comprehension)
     as dicts ``{(domain, ordinal): value}``; binders of enclosing domains already in ``bound`` stay fixed."""
     bound = dict(bound or {})
+    return [{**bound, **dict(combo)} for combo in itertools.product(*_axes(tr, domain, bound))]
+
+
+def _axes(tr, domain, bound):
+    """The values of each binder of a domain (outermost first) that ``bound`` does not fix."""
     chain = []
     while domain is not None:
         chain.append(domain)
@@ -165,7 +170,7 @@ def domain_values(tr, domain, bound=None):
                 tr.reject(f"the loop over {b.get('display_name')} whose range is not Integer", entry)
             values = range(b["lower"], b["upper"] + (1 if b["step"] > 0 else -1), b["step"])
             axes.append([((d, ordinal), v) for v in values])
-    return [{**bound, **dict(combo)} for combo in itertools.product(*axes)]
+    return axes
 
 
 def _subscripts(tr, i, ctx):
@@ -195,11 +200,21 @@ def _range_values(tr, body, ctx, node_id):
 
 
 def _index_node(tr, i, body, ctx):
-    return index(tr.expr(body["base"], ctx), _subscripts(tr, i, ctx))
+    base, subs = tr.expr(body["base"], ctx), _subscripts(tr, i, ctx)
+    try:
+        return index(base, subs)
+    except RuntimeError as err:  # CasADi's bounds check
+        tr.reject(f"a subscript {subs} outside the array's {base.shape[0]}x{base.shape[1]} elements ({err})",
+                  tr.provenance[i])
 
 
 def _update_node(tr, i, body, ctx):
-    return update(tr.expr(body["base"], ctx), tr.expr(body["value"], ctx), _subscripts(tr, i, ctx))
+    base, subs = tr.expr(body["base"], ctx), _subscripts(tr, i, ctx)
+    try:
+        return update(base, tr.expr(body["value"], ctx), subs)
+    except RuntimeError as err:  # CasADi's bounds check: an array whose size the inlining did not know
+        tr.reject(f"an assignment to element {subs} of an array the compiler sized {base.shape[0]}x{base.shape[1]} "
+                  f"({str(err).splitlines()[-1]})", tr.provenance[i])
 
 
 def _array_node(tr, i, body, ctx):
@@ -213,6 +228,9 @@ def _comprehension_node(tr, i, body, ctx):
     """``{f(i) for i in 1:n}`` (rumoca also writes a loop that only accumulates as ``sum`` of one)."""
     bound = (ctx or {}).get("binders", {})
     values = [tr.expr(body["body"], tr.context(ctx, binders=b)) for b in domain_values(tr, body["domain"], bound)]
+    sizes = [len(axis) for axis in _axes(tr, body["domain"], bound)]
+    if len(sizes) == 2 and all(v.numel() == 1 for v in values):  # {f(i, j) for i in 1:m, j in 1:n}: m x n
+        return ca.reshape(ca.vertcat(*values), sizes[1], sizes[0]).T
     try:
         return array_of(values)
     except ValueError:
