@@ -190,5 +190,6 @@ def _front_end_error(err, path, model, files, roots=()):
         detail = text.split("unbalanced model:")[-1].strip()
         return StructureError(f"model {model} is unbalanced: {detail} (counted by rumoca {rumoca.version()}, the "
                               "Modelica front end)", file=str(path))
+    said = text.splitlines()[0].removeprefix(f"{model} could not be compiled: ")
     return locate_rumoca_error(text, files) or ModelicaError(
-        f"rumoca {rumoca.version()} (the Modelica front end) rejected {model}: {text.splitlines()[0]}", file=str(path))
+        f"rumoca {rumoca.version()} (the Modelica front end) rejected {model}: {said}", file=str(path))
