@@ -244,3 +244,36 @@ def test_a_parameter_declared_fixed_false_is_computed_by_the_initial_equations(t
         assert x0 == pytest.approx({"t0": 2 * k, "x": 1.0})
         assert m.derivatives([x0[s.name] for s in m.states], [], [k]) == pytest.approx(
             [0.0 if s.name == "t0" else -2 * k for s in m.states])
+
+
+_PARALLEL = """
+  model M
+    parameter Real C1 = 1e-3;
+    parameter Real C2 = 2e-3;
+    parameter Real R = 10;
+    Real v1(start = 2, fixed = true);
+    Real v2(start = V2, fixed = true);
+    parameter Real V2 = 2;
+    Real i1;
+    Real i2;
+  equation
+    C1*der(v1) = i1;
+    C2*der(v2) = i2;
+    v1 = v2;
+    i1 + i2 = -v1/R;
+  end M;"""
+
+
+def test_fixed_starts_the_other_initial_equations_imply_are_left_out_when_they_agree(tmp_path):
+    """Two capacitors in parallel, both v(fixed = true) (the MSL's GenerationOfFMUs): one start is enough when
+    they agree; v then decays with tau = R (C1 + C2)."""
+    m = lower(write_package(tmp_path, _PARALLEL), "T.M")
+    assert m.initial_state() == pytest.approx([2.0])
+    assert any("left out" in note for note in m.notes)
+    assert m.derivatives([2.0], []) == pytest.approx([-2.0 / (10 * 3e-3)])
+
+
+def test_fixed_starts_that_contradict_each_other_are_refused(tmp_path):
+    with pytest.raises(StructureError, match="contradict each other"):
+        lower(write_package(tmp_path, _PARALLEL.replace("parameter Real V2 = 2;", "parameter Real V2 = 3;")),
+              "T.M")

@@ -187,12 +187,23 @@ def initial_state(system, params, active, P, blocks):
         The initial equations do not determine as many states as there are equations, or they are singular.
     """
     starts, notes = _starts(active, params)
+    n_equations = len(system.initial_equations)
     system = _with_fixed_starts(system, active)
+    optional = range(n_equations, len(system.initial_equations))  # the fixed starts of non-states
     if not system.initial_equations or not active:
         X0 = ca.vertcat(*starts) if active else ca.SX(0, 1)
         return _function(system, params, P, X0), notes
     residuals, locations, unknown_states, block_syms, guesses = _problem(system, params, active, blocks)
     unknowns = [s.sym for s in unknown_states] + block_syms
+    V = ca.vertcat(*unknowns)
+    others = [(s.sym, start) for s, start in zip(active, starts) if s not in unknown_states]
+    if others:  # the states the initial equations leave alone sit at their start values
+        residuals = ca.vertsplit(ca.substitute(ca.vertcat(*residuals), ca.vertcat(*[o for o, _ in others]),
+                                               ca.vertcat(*[v for _, v in others])))
+    redundant = _redundant_rows(residuals, V, optional, len(residuals) - len(unknowns))
+    dropped = [residuals[k] for k in redundant]
+    residuals = [r for k, r in enumerate(residuals) if k not in redundant]
+    locations = [loc for k, loc in enumerate(locations) if k not in redundant]
     where, file, line = _where(locations)
     if len(residuals) != len(unknowns):
         names = ", ".join(s.name for s in unknown_states) or "none"
@@ -200,17 +211,17 @@ def initial_state(system, params, active, P, blocks):
             f"the initial equations at {where} give {len(residuals)} equations for the {len(unknowns)} unknowns "
             f"they determine (states mentioned or fixed: {names}; the other states keep their start values)",
             file, line)
-    V = ca.vertcat(*unknowns)
     R = ca.vertcat(*residuals)
-    others = [(s.sym, start) for s, start in zip(active, starts) if s not in unknown_states]
-    if others:  # the states the initial equations leave alone sit at their start values
-        R = ca.substitute(R, ca.vertcat(*[o for o, _ in others]), ca.vertcat(*[v for _, v in others]))
     stray = _names(R) - _names(V) - {p.name for p in params.free}
     if stray:
         raise StructureError(f"the initial equations at {where} depend on {', '.join(sorted(stray))}, which "
                              "the lowering could not express in states and parameters", file, line)
     guess = ca.vertcat(*[starts[active.index(s)] for s in unknown_states] + guesses)
     solution, how = _solve(V, R, guess, P, where, file, line)
+    if dropped:
+        _check_consistent(dropped, V, solution, P, [params.defaults[p.name] for p in params.free], where)
+        notes.append(f"fixed start values at {where} repeat what the other initial equations give; "
+                     f"{len(dropped)} of them are left out")
     notes.append(f"initial equations at {where} determine {', '.join(s.name for s in unknown_states)} ({how})")
     S = ca.SX.sym("initial_solution", len(unknown_states))
     value = {s.name: S[k] for k, s in enumerate(unknown_states)}
@@ -234,6 +245,37 @@ def _with_fixed_starts(system, active):
     if not fixed:
         return system
     return dataclasses.replace(system, initial_equations=list(system.initial_equations) + fixed)
+
+
+def _redundant_rows(residuals, V, optional, excess):
+    """Up to ``excess`` of the ``optional`` rows (fixed starts of non-states) that the other equations already
+    imply: removing one leaves the rank of the Jacobian in V (at a random point) unchanged. Two capacitors in
+    parallel, both ``v(fixed = true)``: one start is enough."""
+    if excess <= 0 or not optional:
+        return []
+    symbols = ca.symvar(ca.vertcat(*residuals))
+    values = np.random.default_rng(12345).uniform(0.5, 1.5, len(symbols))
+    jac = ca.Function("initial_rank", [ca.vertcat(*symbols)], [ca.jacobian(ca.vertcat(*residuals), V)])
+    numeric = np.array(jac(values), dtype=float)
+    rank, rows, redundant = np.linalg.matrix_rank(numeric), list(range(len(residuals))), []
+    for k in reversed(optional):
+        kept = [r for r in rows if r != k]
+        if len(redundant) < excess and np.linalg.matrix_rank(numeric[kept]) == rank:
+            rows, redundant = kept, redundant + [k]
+    return redundant
+
+
+def _check_consistent(dropped, V, solution, P, p_defaults, where):
+    """Left-out fixed starts must hold at the solution (at the default parameters), else they contradict each
+    other. A nonlinear initial problem's solution is a generated iteration: not checked here."""
+    if not isinstance(solution, ca.SX):
+        return
+    at = ca.Function("redundant_starts", [P], [ca.substitute(ca.vertcat(*dropped), V, solution[:V.shape[0]]),
+                                               solution[:V.shape[0]]])
+    left, values = (np.abs(np.array(v, dtype=float)).max(initial=0.0) for v in at(p_defaults))
+    if left > 1e-9 * (1 + values):
+        raise StructureError(f"the fixed start values at {where} contradict each other (off by {left:g} at the "
+                             "default parameters): give the coupled variables starts that agree, or fix one")
 
 
 def _solve(V, R, guess, P, where, file, line):
