@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from cosim.compile import arrays, integer_events
+from cosim.compile import arrays, integer_events, tables
 from cosim.compile.der_expressions import promote_der_arguments
 from cosim.compile.events import EventReader, Relation
 from cosim.compile.functions import inline
@@ -159,6 +159,7 @@ class _Translator:
         self.steps = []  # integer_events.Step of each event-generating floor/ceil/integer/div/mod/rem
         self.parametric = set()  # names of parameter and constant elements
         self.call_serials = itertools.count()
+        self.tables = tables.Registry()  # the MSL table blocks' table objects (external C functions lowered)
         self.function_asserts = []  # (failed, "file:line: message") of asserts inside inlined functions
 
     def where(self, node_id):
@@ -356,7 +357,10 @@ class _Translator:
         key = ("call", owner, None if ctx is None else ctx["serial"])
         if key not in self.memo:
             args = [self.expr(j, ctx) for j in self.operands[owner]]
-            self.memo[key] = inline(self, body["function"], args)
+            if self.storage["functions"][body["function"]].get("external"):
+                self.memo[key] = tables.call(self, self.storage["functions"][body["function"]], args, self.where(i))
+            else:
+                self.memo[key] = inline(self, body["function"], args)
         return self.memo[key][body["output"]]
 
     def context(self, parent=None, **values):
@@ -447,7 +451,11 @@ class _Translator:
         derivatives = {name: s for i, der in self.der_syms.items()
                        for name, s in zip(self._element_names(raw[i]), arrays.elements(der))}
         self.reader.system.asserts += self.function_asserts
-        return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, self.reader.read())
+        events = self.reader.read()
+        for var in variables:  # a table's data are numbers in its expressions: constants of the FMU
+            if var.name in self.tables.frozen:
+                var.tunable = False
+        return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, events)
 
     def _computed_parameters(self, raw):
         """Real parameters declared ``fixed = false`` (the MSL's ``t0 = time`` in an initial equation): computed by
