@@ -326,3 +326,161 @@ def test_an_external_function_other_than_the_tables_is_rejected_with_file_and_li
     with pytest.raises(UnsupportedConstructError, match="the external function f is not supported") as err:
         lower(path, "T.M")
     assert (Path(err.value.file).name, err.value.line) == ("T.mo", 11)
+
+
+# The MSL's own C implementation as the reference: ModelicaStandardTables.c compiled with stubs for the
+# ModelicaUtilities callbacks and without file reading (NO_FILE_SYSTEM), called through ctypes as a simulator would.
+C_STUBS = r"""
+#include <stdarg.h>
+#include <stdlib.h>
+void ModelicaMessage(const char *s) { }
+void ModelicaFormatMessage(const char *s, ...) { }
+void ModelicaVFormatMessage(const char *s, va_list a) { }
+void ModelicaWarning(const char *s) { }
+void ModelicaFormatWarning(const char *s, ...) { }
+void ModelicaVFormatWarning(const char *s, va_list a) { }
+void ModelicaError(const char *s) { }
+void ModelicaFormatError(const char *s, ...) { }
+void ModelicaVFormatError(const char *s, va_list a) { }
+char* ModelicaAllocateString(size_t n) { return calloc(n + 1, 1); }
+char* ModelicaAllocateStringWithErrorReturn(size_t n) { return calloc(n + 1, 1); }
+char* ModelicaDuplicateString(const char* s) { return NULL; }
+char* ModelicaDuplicateStringWithErrorReturn(const char* s) { return NULL; }
+int usertab(char* name, int nipo, int dim[], int* colWise, double** table) { return 1; }
+"""
+
+
+@pytest.fixture(scope="module")
+def c_tables(tmp_path_factory):
+    import ctypes
+    import shutil
+    import subprocess
+
+    sources = MSL / "Modelica" / "Resources" / "C-Sources"
+    if shutil.which("gcc") is None or not (sources / "ModelicaStandardTables.c").is_file():
+        pytest.skip("needs gcc and the MSL's C sources")
+    folder = tmp_path_factory.mktemp("c_tables")
+    (folder / "stubs.c").write_text(C_STUBS)
+    library = folder / "libtables.so"
+    subprocess.run(["gcc", "-shared", "-fPIC", "-O1", "-DNO_FILE_SYSTEM", f"-I{sources}", str(folder / "stubs.c"),
+                    str(sources / "ModelicaStandardTables.c"), "-o", str(library)], check=True)
+    lib = ctypes.CDLL(str(library))
+    D, I, P, S = ctypes.c_double, ctypes.c_int, ctypes.c_void_p, ctypes.c_size_t
+    lib.ModelicaStandardTables_CombiTimeTable_init3.restype = P
+    lib.ModelicaStandardTables_CombiTimeTable_init3.argtypes = [
+        ctypes.c_char_p, ctypes.c_char_p, ctypes.POINTER(D), S, S, D, ctypes.POINTER(I), S, I, I, D, I, I,
+        ctypes.c_char_p, I]
+    lib.ModelicaStandardTables_CombiTimeTable_getValue.restype = D
+    lib.ModelicaStandardTables_CombiTimeTable_getValue.argtypes = [P, I, D, D, D]
+    lib.ModelicaStandardTables_CombiTimeTable_nextTimeEvent.restype = D
+    lib.ModelicaStandardTables_CombiTimeTable_nextTimeEvent.argtypes = [P, D]
+    lib.ModelicaStandardTables_CombiTable1D_init3.restype = P
+    lib.ModelicaStandardTables_CombiTable1D_init3.argtypes = [
+        ctypes.c_char_p, ctypes.c_char_p, ctypes.POINTER(D), S, S, ctypes.POINTER(I), S, I, I, I, ctypes.c_char_p, I]
+    lib.ModelicaStandardTables_CombiTable1D_getValue.restype = D
+    lib.ModelicaStandardTables_CombiTable1D_getValue.argtypes = [P, I, D]
+    keep = []  # the tables' arrays, alive while the C objects point at them
+
+    def init(kind, rows, *options):
+        flat = np.ascontiguousarray(rows, dtype=float).ravel()
+        columns = (I * 2)(2, 3)
+        keep.append((flat, columns))
+        data = flat.ctypes.data_as(ctypes.POINTER(D))
+        if kind == "time":
+            start, smoothness, extrapolation, shift, events = options
+            return lib.ModelicaStandardTables_CombiTimeTable_init3(b"NoName", b"NoName", data, len(rows), 3, start,
+                                                                   columns, 2, smoothness, extrapolation, shift,
+                                                                   events, 0, b",", 0)
+        smoothness, extrapolation = options
+        return lib.ModelicaStandardTables_CombiTable1D_init3(b"NoName", b"NoName", data, len(rows), 3, columns, 2,
+                                                             smoothness, extrapolation, 0, b",", 0)
+
+    lib.init = init
+    return lib
+
+
+def simulate_time_table(next_event, value, t_grid):
+    """A simulator's calls: the next event at the start, at each event instant reached the next one (the event
+    handled before the value at that instant is read), the values with the held next event."""
+    held, events, values = next_event(t_grid[0]), [], []
+    for t in t_grid:
+        while t >= held and held < 1e300:
+            events.append(held)
+            held = next_event(held)
+        values.append(value(t, held))
+    return np.array(events), np.array(values)
+
+
+def random_table(rng, strictly_increasing=False):
+    n = int(rng.integers(1, 7))
+    if strictly_increasing:
+        times = np.cumsum(rng.choice([0.25, 0.5, 1.0], size=n)) - 1.0
+    else:  # repeated times: jumps, also at the first and the last time
+        times = np.sort(rng.choice([-0.5, 0.0, 0.5, 0.75, 1.0, 1.5, 2.0], size=n))
+    return np.column_stack([times, rng.integers(-3, 4, size=(n, 2)).astype(float)])
+
+
+@needs_msl
+@pytest.mark.parametrize("at_events", [False, True])
+def test_time_table_expressions_agree_with_the_msl_c_code_on_random_tables(c_tables, at_events):
+    """Random tables (repeated times, one row, any smoothness, extrapolation and timeEvents, start and shift):
+    the same event instants, and the same values on a grid away from them (1e-9) or at them after the event is
+    handled (with a shift exactly representable: an inexact one rounds t - shift below a first time in the C code
+    where the expressions, deciding by the held next event, take the value after the event)."""
+    import casadi as ca
+
+    from cosim.compile import tables
+
+    rng = np.random.default_rng(40)
+    tau, held = ca.SX.sym("tau"), ca.SX.sym("held")
+    checked = 0
+    while checked < 150:
+        rows = random_table(rng)
+        smoothness, extrapolation = int(rng.choice([1, 3])), int(rng.choice([1, 2, 3]))
+        events = int(rng.choice([1, 2, 3])) if smoothness == 1 else 1  # the block passes Always for constants
+        if extrapolation == 3 and not rows[-1, 0] > rows[0, 0]:
+            continue
+        start = float(rng.choice([-1e60, 0.0, 0.3, 1.1, -0.7]))
+        shift = float(rng.choice([0.0, 0.25, -0.375, 1.0] if at_events else [0.0, 0.2, -0.35, 1.0]))
+        table_id = c_tables.init("time", rows, start, smoothness, extrapolation, shift, events)
+        c_next = lambda t: c_tables.ModelicaStandardTables_CombiTimeTable_nextTimeEvent(table_id, t)  # noqa: E731
+        c_value = lambda t, h: [c_tables.ModelicaStandardTables_CombiTimeTable_getValue(table_id, k, t, h, h)  # noqa: E731
+                                for k in (1, 2)]
+        table = tables.TableData("t", rows, [2, 3], smoothness, extrapolation, "", events, ca.SX(start), ca.SX(shift))
+        next_f = ca.Function("next", [tau], [tables.next_time_event(table, tau)])
+        value_f = ca.Function("value", [tau, held], [ca.vertcat(*[tables.time_table_value(table, k, tau, held)
+                                                                  for k in (1, 2)])])
+        grid = np.round(np.arange(-1.0, 6.0, 0.05), 10)
+        c_events, _ = simulate_time_table(c_next, c_value, grid)
+        if at_events:
+            grid = c_events[(c_events >= -1) & (c_events <= 6)] if c_events.size else grid
+        c_events, c_values = simulate_time_table(c_next, c_value, grid)
+        events_found, values = simulate_time_table(lambda t: float(next_f(t)),
+                                                   lambda t, h: np.array(value_f(t, h)).ravel(), grid)
+        np.testing.assert_allclose(events_found, c_events, atol=1e-12)
+        ok = grid == grid if at_events else away(grid, np.append(c_events, 1e300), 1e-9)
+        np.testing.assert_allclose(values[ok], c_values[ok], atol=1e-9, err_msg=f"{rows}, {smoothness}, "
+                                   f"{extrapolation}, {events}, {start}, {shift}")
+        checked += 1
+
+
+@needs_msl
+def test_1d_table_expressions_agree_with_the_msl_c_code_on_random_tables(c_tables):
+    import casadi as ca
+
+    from cosim.compile import tables
+
+    rng = np.random.default_rng(41)
+    u = ca.SX.sym("u")
+    grid = np.arange(-4, 6, 0.0625)  # through every abscissa: the values at the breakpoints too
+    for _ in range(150):
+        rows = random_table(rng, strictly_increasing=True)
+        smoothness, extrapolation = int(rng.choice([1, 3])), int(rng.choice([1, 2, 3]))
+        if extrapolation == 3 and len(rows) < 2:
+            continue
+        table_id = c_tables.init("1d", rows, smoothness, extrapolation)
+        expected = [[c_tables.ModelicaStandardTables_CombiTable1D_getValue(table_id, k, x) for k in (1, 2)]
+                    for x in grid]
+        table = tables.TableData("t", rows, [2, 3], smoothness, extrapolation, "")
+        f = ca.Function("f", [u], [ca.vertcat(*[tables.table_1d_value(table, k, u) for k in (1, 2)])])
+        np.testing.assert_allclose(np.array(f(ca.DM(grid).T)).T, expected, atol=1e-12)
