@@ -64,12 +64,15 @@ def _knowns_at_start(system, blocks, params):
     syms = [by_name[n] for n in names] + [u.sym for u in inputs] + [system.time]
     values = list(ca.substitute([blocks.solved[n] for n in names], [at], [ca.vertcat(*at_start)])) + at_start
     held, direct = _held_at_start(system.events)
+    direct = [params.substitute(d) for d in direct]  # dependent and structural parameters by their values
     if held:  # relations and integer steps are evaluated from the values at the start, not held
         for _ in range(len(held) + 1):
             direct = list(ca.substitute(direct, [ca.vertcat(*syms)], [ca.vertcat(*values)]))
             values = list(ca.substitute(values, [ca.vertcat(*held)], [ca.vertcat(*direct)]))
             if not any(ca.depends_on(v, ca.vertcat(*held)) for v in values):
                 break
+        direct = list(ca.substitute(direct, [ca.vertcat(*syms)], [ca.vertcat(*values)]))
+        syms, values = syms + held, values + direct  # the nonlinear blocks joined later read them too
     return ca.vertcat(*syms), ca.vertcat(*values)
 
 
@@ -116,8 +119,14 @@ def _problem(system, params, active, blocks):
             residuals.append(s.sym - params.substitute(s.start))
             locations.append(s.location)
     block_syms, guesses = [], []
-    for vs, residual, locs in blocks.nonlinear:
-        if any(ca.depends_on(r, vs) for r in residuals):
+    joined, grew = set(), True
+    while grew:  # a joined block may read the unknowns of an earlier block: join until none is left out
+        grew = False
+        for k, (vs, residual, locs) in enumerate(blocks.nonlinear):
+            if k in joined or not any(ca.depends_on(r, vs) for r in residuals):
+                continue
+            joined.add(k)
+            grew = True
             residuals += list(ca.vertsplit(ca.substitute(residual, syms, values)))
             locations += locs
             for u in ca.vertsplit(vs):

@@ -315,6 +315,11 @@ def lower_system(system):
     notes += x0_notes
     p_defaults = [params.defaults[p.name] for p in params.free]
     x0_values = np.array(x0(p_defaults), dtype=float).ravel() if active else np.zeros(0)
+    undefined = [s.name for s, v in zip(active, x0_values) if not np.isfinite(v)]
+    if undefined:
+        raise StructureError(f"{system.name}: the initial value of {', '.join(undefined[:6])} is not a number at the "
+                             "default parameters (the initial equations or start values divide by zero there)",
+                             *_file_line(active[[s.name for s in active].index(undefined[0])].location))
     start_point = [x0_values, np.array([_start(u) for u in inputs]), np.array(p_defaults), np.zeros(1)]
     start_point += [] if M is None else [np.zeros(M.shape[0])]
     start_of = {v.name: _start_at_defaults(v, params, P, p_defaults) for v in system.variables}
