@@ -277,3 +277,18 @@ def test_fixed_starts_that_contradict_each_other_are_refused(tmp_path):
     with pytest.raises(StructureError, match="contradict each other"):
         lower(write_package(tmp_path, _PARALLEL.replace("parameter Real V2 = 2;", "parameter Real V2 = 3;")),
               "T.M")
+
+
+def test_an_initial_state_that_is_not_a_number_is_refused(tmp_path):
+    """x(start = b/a) with a = b = 0 is 0/0: refused with the state's name and line, not NaN in the FMU."""
+    path = write_package(tmp_path, """
+  model M
+    parameter Real a = 0;
+    parameter Real b = 0;
+    Real x(start = b/a, fixed = true);
+  equation
+    der(x) = -x;
+  end M;""")
+    with pytest.raises(StructureError, match="initial value of x is not a number") as err:
+        lower(path, "T.M")
+    assert err.value.line == 5
