@@ -284,11 +284,8 @@ MSL_EXAMPLES = [
 ]
 
 
-# benchmarks/msl_verify.py reads the reference's header with csv.open().readline() and leaves the file to the
-# garbage collector: a ResourceWarning that pytest reports as unraisable (not a result of these tests).
 @pytest.mark.slow
 @needs_msl
-@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 @pytest.mark.parametrize("model", MSL_EXAMPLES)
 def test_msl_examples_with_tables_match_the_reference(model, tmp_path):
     sys.path.insert(0, str(ROOT / "benchmarks"))
