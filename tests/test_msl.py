@@ -1,0 +1,110 @@
+"""Modelica Standard Library examples against the Modelica Association's reference results (shared/msl): built
+through the library path, simulated with fmpy's CVode, every comparison signal within 2e-3 of its range away
+from events (benchmarks/msl_verify.py). A fast subset across the packages runs by default; every model that
+benchmarks/msl.py verified stays verified (the slow list). The MSL is test data: the product never reads it."""
+
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+MSL = ROOT.parent / "shared" / "msl" / "ModelicaStandardLibrary-4.1.0"
+REFS = ROOT.parent / "shared" / "msl" / "reference"
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from msl_verify import verify  # noqa: E402
+
+pytestmark = pytest.mark.skipif(not MSL.is_dir(), reason="needs the MSL beside the checkout (../shared/msl)")
+
+# About ten examples across the four packages, each a different part of the compiler: index reduction and
+# demoted fixed starts, initial equations, locals, hybrid events, integer steps of the Blocks sources.
+FAST = [
+    "Modelica.Mechanics.Rotational.Examples.First",
+    "Modelica.Mechanics.Rotational.Examples.Backlash",
+    "Modelica.Mechanics.Translational.Examples.Oscillator",
+    "Modelica.Mechanics.Translational.Examples.InitialConditions",
+    "Modelica.Mechanics.Translational.Examples.PreLoad",
+    "Modelica.Electrical.Analog.Examples.CauerLowPassAnalog",
+    "Modelica.Electrical.Analog.Examples.SwitchWithArc",
+    "Modelica.Electrical.Analog.Examples.OpAmps.Integrator",
+    "Modelica.Blocks.Examples.PID_Controller",
+    "Modelica.Blocks.Examples.SlewRateLimiter",
+]
+
+# Every other model benchmarks/msl.py verified (docs/validation.md, section msl-models).
+VERIFIED = [
+    "Modelica.Blocks.Examples.BusUsage",
+    "Modelica.Blocks.Examples.CompareSincExpSine",
+    "Modelica.Blocks.Examples.InverseModel",
+    "Modelica.Blocks.Examples.LogicalNetwork1",
+    "Modelica.Blocks.Examples.Modulation",
+    "Modelica.Blocks.Examples.Noise.Densities",
+    "Modelica.Blocks.Examples.PID_Controller",
+    "Modelica.Blocks.Examples.ShowLogicalSources",
+    "Modelica.Blocks.Examples.SlewRateLimiter",
+    "Modelica.Blocks.Examples.TotalHarmonicDistortion",
+    "Modelica.Electrical.Analog.Examples.CauerLowPassAnalog",
+    "Modelica.Electrical.Analog.Examples.CauerLowPassOPV",
+    "Modelica.Electrical.Analog.Examples.CauerLowPassSC",
+    "Modelica.Electrical.Analog.Examples.CharacteristicIdealDiodes",
+    "Modelica.Electrical.Analog.Examples.CharacteristicThyristors",
+    "Modelica.Electrical.Analog.Examples.ControlledSwitchWithArc",
+    "Modelica.Electrical.Analog.Examples.GenerationOfFMUs",
+    "Modelica.Electrical.Analog.Examples.HeatingMOSInverter",
+    "Modelica.Electrical.Analog.Examples.HeatingRectifier",
+    "Modelica.Electrical.Analog.Examples.IdealTriacCircuit",
+    "Modelica.Electrical.Analog.Examples.InvertingAmp",
+    "Modelica.Electrical.Analog.Examples.NandGate",
+    "Modelica.Electrical.Analog.Examples.OpAmps.Adder",
+    "Modelica.Electrical.Analog.Examples.OpAmps.Comparator",
+    "Modelica.Electrical.Analog.Examples.OpAmps.ControlCircuit",
+    "Modelica.Electrical.Analog.Examples.OpAmps.Differentiator",
+    "Modelica.Electrical.Analog.Examples.OpAmps.HighPass",
+    "Modelica.Electrical.Analog.Examples.OpAmps.Integrator",
+    "Modelica.Electrical.Analog.Examples.OpAmps.InvertingAmplifier",
+    "Modelica.Electrical.Analog.Examples.OpAmps.LCOscillator",
+    "Modelica.Electrical.Analog.Examples.OpAmps.LowPass",
+    "Modelica.Electrical.Analog.Examples.OpAmps.NonInvertingAmplifier",
+    "Modelica.Electrical.Analog.Examples.OpAmps.Subtracter",
+    "Modelica.Electrical.Analog.Examples.OpAmps.VoltageFollower",
+    "Modelica.Electrical.Analog.Examples.OvervoltageProtection",
+    "Modelica.Electrical.Analog.Examples.ParallelResonance",
+    "Modelica.Electrical.Analog.Examples.Resistor",
+    "Modelica.Electrical.Analog.Examples.ResonanceCircuits",
+    "Modelica.Electrical.Analog.Examples.SeriesResonance",
+    "Modelica.Electrical.Analog.Examples.ShowSaturatingInductor",
+    "Modelica.Electrical.Analog.Examples.ShowVariableResistor",
+    "Modelica.Electrical.Analog.Examples.SwitchWithArc",
+    "Modelica.Electrical.Analog.Examples.ThyristorBehaviourTest",
+    "Modelica.Mechanics.Rotational.Examples.Backlash",
+    "Modelica.Mechanics.Rotational.Examples.EddyCurrentBrake",
+    "Modelica.Mechanics.Rotational.Examples.First",
+    "Modelica.Mechanics.Rotational.Examples.FirstGrounded",
+    "Modelica.Mechanics.Rotational.Examples.RollingWheel",
+    "Modelica.Mechanics.Translational.Examples.Accelerate",
+    "Modelica.Mechanics.Translational.Examples.Damper",
+    "Modelica.Mechanics.Translational.Examples.EddyCurrentBrake",
+    "Modelica.Mechanics.Translational.Examples.ElastoGap",
+    "Modelica.Mechanics.Translational.Examples.GenerationOfFMUs",
+    "Modelica.Mechanics.Translational.Examples.InitialConditions",
+    "Modelica.Mechanics.Translational.Examples.Oscillator",
+    "Modelica.Mechanics.Translational.Examples.PreLoad",
+    "Modelica.Mechanics.Translational.Examples.Sensors",
+    "Modelica.Mechanics.Translational.Examples.SignConvention",
+    "Modelica.Mechanics.Translational.Examples.Vehicle",
+    "Modelica.Mechanics.Translational.Examples.WhyArrows",
+]
+
+
+@pytest.mark.parametrize("model", FAST)
+def test_msl_example_matches_the_reference(model, tmp_path):
+    row = verify(model, MSL, REFS, workdir=tmp_path)
+    assert row.stage == "verified", f"{row.stage}: {row.cause}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", [m for m in VERIFIED if m not in FAST])
+def test_verified_msl_example_stays_verified(model, tmp_path):
+    row = verify(model, MSL, REFS, workdir=tmp_path)
+    assert row.stage == "verified", f"{row.stage}: {row.cause}"
