@@ -5,13 +5,12 @@ hand-computed ones (a state integrating a piecewise constant input is exact only
 
 from pathlib import Path
 
-import fmpy
 import numpy as np
 import pytest
 
 from cosim.compile import build_fmu, lower
 from cosim.errors import ModelicaError
-from modelica_support import write_package
+from modelica_support import away, event_instants, simulate, write_package
 
 MSL = Path("/work/shared/msl/ModelicaStandardLibrary-4.1.0")
 
@@ -133,24 +132,6 @@ def fmu(package):
         return built[name]
 
     return get
-
-
-def simulate(fmu_path, fmi_type, outputs, stop_time):
-    options = {"relative_tolerance": 1e-10} if fmi_type == "ModelExchange" else {}
-    return fmpy.simulate_fmu(str(fmu_path), fmi_type=fmi_type, stop_time=stop_time, output_interval=0.01,
-                             output=outputs, **options)
-
-
-def event_instants(result):
-    """The instants fmpy recorded twice (before and after an event) in a Model Exchange result."""
-    t = result["time"]
-    return np.unique(t[1:][np.diff(t) == 0])
-
-
-def away(t, instants, distance=1e-6):
-    """Mask of the times farther than ``distance`` from every instant (values at an event are left or right)."""
-    instants = np.asarray(instants, dtype=float)
-    return np.min(np.abs(t[:, None] - instants[None, :]), axis=1) > distance if instants.size else t == t
 
 
 def integral_of_piecewise_constant(t, edges, values):
