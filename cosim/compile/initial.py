@@ -89,7 +89,7 @@ def _held_at_start(events):
         if relation is not None and relation.op in _DIRECT:
             held.append(relation.sym)
             direct.append(_DIRECT[relation.op](relation.g, 0))
-    for step in getattr(events, "steps", []):
+    for step in events.steps:
         held.append(step.sym)
         direct.append(integer_events.direct(step.mode, step.arg))
     return held, direct
