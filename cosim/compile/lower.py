@@ -246,7 +246,11 @@ def _check_generic_rank(jac, locations):
 
 
 def _pick_state_to_demote(constraint, states, demoted):
+    """The state a constraint computes (state_select never/avoid first, then the last declared); None when
+    every state it ties is already demoted."""
     candidates = [k for k, s in enumerate(states) if k not in demoted and ca.depends_on(constraint, s.sym)]
+    if not candidates:
+        return None
     return min(candidates, key=lambda k: (_DEMOTE_ORDER.get(states[k].state_select.lower(), 2), -k))
 
 
@@ -275,18 +279,26 @@ def lower_system(system):
         blocks = _causalise(equations + extra, unknowns, active_names)
         if not blocks.constraints:
             break
+        progressed = False
         for g, loc in blocks.constraints:
             if _depends(g, input_names):
                 raise StructureError(
                     f"a constraint between states involves an input ({g}); it would need the input's derivative",
                     *_file_line(loc))
             k = _pick_state_to_demote(g, states, demoted)
+            if k is None:  # on states this pass already demoted (a repeated constraint): the next pass sees it
+                continue
+            progressed = True
             demoted.append(k)
             dg = ca.mtimes(ca.jacobian(g, ca.vertcat(*[s.sym for s in states])), ca.vertcat(*ders))
             dg += ca.jacobian(g, system.time)
             extra.append((dg, loc))
             notes.append(f"{loc}: constraint 0 = {g} ties states together; {states[k].name} is computed from it "
                          f"(index reduction)")
+        if not progressed:
+            g, loc = blocks.constraints[0]
+            raise StructureError(f"the constraint 0 = {g} between states has no state left to compute from it: the "
+                                 "equations over-determine the states", *_file_line(loc))
     active = [s for k, s in enumerate(states) if k not in demoted]
     solved = blocks.solved
 
