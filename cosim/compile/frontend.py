@@ -12,7 +12,7 @@ from cosim.compile.der_expressions import rewrite_der_expressions
 from cosim.compile.library import describe_path, find_class_file, library_session
 from cosim.compile.source_text import locate_rumoca_error
 from cosim.errors import ModelicaError, StructureError
-from cosim.modelica_text import check_redeclares
+from cosim.modelica_text import check_redeclares, line_of
 from cosim.tomldoc import read_text
 
 __all__ = ["FlatModel", "load_flat_model"]
@@ -160,23 +160,15 @@ def _missing_class_error(text, files, roots):
     if not found:
         return None
     name = found.group("name")
+    file, line = str(files[0]), None
     for mo in files:
-        line = _line_naming(mo, name)
-        if line:
-            file = str(mo)
+        text = mo.read_text(encoding="utf-8")
+        if name in text:
+            file, line = str(mo), line_of(text, text.index(name))
             break
-    else:
-        file, line = str(files[0]), None
     folders = [str(files[0].parent.resolve())] + [str(r) for r in roots]
-    hint = "" if roots else (f"; {describe_path(roots)}")
+    hint = "" if roots else f"; {describe_path(roots)}"
     return ModelicaError(f"class {name} not found: looked in {', '.join(folders)}{hint}", file=file, line=line)
-
-
-def _line_naming(mo, name):
-    for number, line in enumerate(mo.read_text(encoding="utf-8").splitlines(), 1):
-        if name in line:
-            return number
-    return None
 
 
 def _front_end_error(err, path, model, files, roots=()):

@@ -135,7 +135,7 @@ def _span_of(entry):
 class _Translator:
     def __init__(self, flat):
         self.flat = flat
-        storage = flat.ir["storage"]
+        storage = dict(flat.ir["storage"])  # its own copy: the variables' roles may change (fixed = false)
         self.storage = storage
         exprs = storage["expressions"]
         self.nodes, self.provenance = integer_events.target_arena(exprs["nodes"], exprs.get("provenance", []))
@@ -405,11 +405,12 @@ class _Translator:
     def run(self):
         storage = self.storage
         self._reject_tables()
-        raw = storage["variables"]
-        for v in raw:
+        for v in storage["variables"]:
             if v["role"] not in _ROLES:
                 self.unsupported(f"the {v['role'].replace('_', ' ')} variable {v['name']}", v)
-        computed = self._computed_parameters(raw)
+        computed = self._computed_parameters(storage["variables"])
+        raw = storage["variables"] = [dict(v, role="state") if i in computed else v
+                                      for i, v in enumerate(storage["variables"])]
         self._declare(raw)
         self._mark_no_event()
         self._mark_direct()
@@ -459,15 +460,10 @@ class _Translator:
 
     def _computed_parameters(self, raw):
         """Real parameters declared ``fixed = false`` (the MSL's ``t0 = time`` in an initial equation): computed by
-        the initial equations and constant after them, so each becomes a state with ``der() = 0`` (the equation
-        is added by :meth:`run`). Returns their indices."""
-        computed = []
-        for i, v in enumerate(raw):
-            fixed = v["attributes"].get("fixed")
-            if v["role"] == "parameter" and self.value_types[v["value_type"]] == "real" and fixed and not any(fixed):
-                v["role"] = "state"
-                computed.append(i)
-        return computed
+        the initial equations and constant after them, so each becomes a state with ``der() = 0`` (the role and
+        the equation are set by :meth:`run`). Returns their indices."""
+        return [i for i, v in enumerate(raw) if v["role"] == "parameter" and v["attributes"].get("fixed")
+                and not any(v["attributes"]["fixed"]) and self.value_types[v["value_type"]] == "real"]
 
     def _reject_tables(self):
         """Constructs rumoca carries that the compiler does not lower, named as the user wrote them."""
