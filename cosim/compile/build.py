@@ -102,14 +102,15 @@ def _compiler_fingerprint():
     return digest.hexdigest()
 
 
-def _source_hash(source, model, options="", roots=()):
+def _source_hash(source, model, options="", library=""):
+    """The build's key: model, options, compiler, the source folder's files and ``library``, the fingerprint of the
+    libraries it uses (:func:`~cosim.compile.library.library_fingerprint`, '' for none)."""
     digest = hashlib.sha256(f"{model} {options}".encode())
     digest.update(_compiler_fingerprint().encode())
     for mo in sorted(source.parent.glob("*.mo")) if source is not None else ():
         digest.update(mo.name.encode())
         digest.update(mo.read_bytes())
-    if roots:
-        digest.update(library_fingerprint(roots).encode())
+    digest.update(library.encode())
     return digest.hexdigest()
 
 
@@ -229,14 +230,17 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi
     out_dir = mark_fmu_folder(out_dir if out_dir else models_toml.resolve().parent.parent / "fmus", check_only=True)
     state_path = out_dir / _STATE_FILE
     state = json.loads(state_path.read_text()) if state_path.is_file() else {}
+    fingerprints = {(): ""}  # library path -> its files' fingerprint, read once per build
     for entry in read_model_list(models_toml):
         roots = library_path(list(modelica_path) + entry["libraries"])
+        if roots not in fingerprints:
+            fingerprints[roots] = library_fingerprint(roots)
         fmu = out_dir / f"{entry['name']}.fmu"
         version = fmi_version or entry.get("fmi_version", 3)
         with_source = entry.get("c_sources", False) if source is None else source
         solver = {"cs_step": entry.get("cs_step", DEFAULT_CS_STEP), "cs_method": entry.get("cs_method", "rk4")}
         digest = _source_hash(entry["source"], entry["model"], f"fmi{version} sources={with_source} {solver}",
-                              roots)
+                              fingerprints[roots])
         if not force and fmu.is_file() and state.get(entry["name"]) == digest:
             yield f"{entry['name']}: up to date ({fmu})"
             continue

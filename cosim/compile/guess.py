@@ -47,19 +47,22 @@ def better_guess(solver, unknowns, residual, context, context_value, guess):
 
     Returns
     -------
-    (numpy.ndarray, str or None)
+    (numpy.ndarray, str or None, numpy.ndarray)
+        The guess, the note, and what the generated iterations give from that guess at the start point.
     """
     f = ca.Function("loop_residual", [unknowns, context], [residual])
     at_start = lambda v: np.asarray(f(v, context_value), dtype=float).ravel()  # noqa: E731
-    newton = np.asarray(solver(guess, np.tile(context_value[:, None], (1, NEWTON_ITERATIONS))), dtype=float).ravel()
+    iterate = lambda g: np.asarray(solver(g, np.tile(context_value[:, None], (1, NEWTON_ITERATIONS))),  # noqa: E731
+                                   dtype=float).ravel()
+    newton = iterate(guess)
     if _converged(at_start, newton):
-        return guess, None
+        return guess, None, newton
     found = _least_squares(at_start, guess)
     if found is None:
-        return guess, None
+        return guess, None, newton
     names = ", ".join(u.name() for u in ca.vertsplit(unknowns))
     return found, (f"Newton's method does not converge from the start values of {names} at the start point: "
-                   "its iterations start from the loop's solution there (found by Levenberg-Marquardt)")
+                   "its iterations start from the loop's solution there (found by Levenberg-Marquardt)"), iterate(found)
 
 
 def _least_squares(residual, guess):

@@ -442,10 +442,9 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point):
         context = ca.vertcat(*args, *block_syms[:k])
         solver = newton(k, vs, residual, context)
         guess = np.array([start_of.get(u.name(), 0.0) for u in ca.vertsplit(vs)], dtype=float)
-        guess, note = better_guess(solver, vs, residual, context, context_value, guess)
+        guess, note, at_start = better_guess(solver, vs, residual, context, context_value, guess)
         notes += [note] if note else []
-        at_start = np.asarray(solver(guess, np.tile(context_value[:, None], (1, NEWTON_ITERATIONS))), dtype=float)
-        context_value = np.concatenate([context_value, at_start.ravel()])
+        context_value = np.concatenate([context_value, at_start])
         ctx_value = ca.vertcat(*margs, *solved)
         solved.append(solver(ca.DM(guess), ca.repmat(ctx_value, 1, NEWTON_ITERATIONS)))
     xd, yy, oo = explicit(*margs, *solved)
