@@ -64,38 +64,23 @@ void model_reset(Model *s) {
 /* Something the results depend on changed: recompute them when next asked. */
 void model_touch(Model *s) { s->fresh_xdot = s->fresh_y = s->fresh_z = s->fresh_v = s->fresh_q = 0; }
 
-const double *model_derivatives(Model *s) {
-    if (!s->fresh_xdot) {
-        if (call(s, cosim_ode, s->m, s->xdot, NULL, NULL)) return NULL;
-        s->fresh_xdot = 1;
+/* The result of a model function at the current t, x, u, p, m: computed once, then kept until model_touch. */
+static const double *cached(Model *s, casadi_fn f, double *result, int *fresh) {
+    if (!*fresh) {
+        if (call(s, f, s->m, result, NULL, NULL)) return NULL;
+        *fresh = 1;
     }
-    return s->xdot;
+    return result;
 }
 
-static const double *outputs(Model *s) {
-    if (!s->fresh_y) {
-        if (call(s, cosim_out, s->m, s->y, NULL, NULL)) return NULL;
-        s->fresh_y = 1;
-    }
-    return s->y;
-}
+const double *model_derivatives(Model *s) { return cached(s, cosim_ode, s->xdot, &s->fresh_xdot); }
+
+static const double *outputs(Model *s) { return cached(s, cosim_out, s->y, &s->fresh_y); }
 
 /* The local variables: computed only when one is read (nothing in stepping reads them). */
-static const double *observed(Model *s) {
-    if (!s->fresh_v) {
-        if (call(s, cosim_observe, s->m, s->v, NULL, NULL)) return NULL;
-        s->fresh_v = 1;
-    }
-    return s->v;
-}
+static const double *observed(Model *s) { return cached(s, cosim_observe, s->v, &s->fresh_v); }
 
-static const double *calculated(Model *s) {
-    if (!s->fresh_q) {
-        if (call(s, cosim_calculated, s->m, s->q, NULL, NULL)) return NULL;
-        s->fresh_q = 1;
-    }
-    return s->q;
-}
+static const double *calculated(Model *s) { return cached(s, cosim_calculated, s->q, &s->fresh_q); }
 
 /* An indicator exactly 0 is reported on the side it was on when continuous time began (as +-DBL_MIN): a
  * solver that locates a root exactly at 0 (CVode can) has then not yet crossed, and goes on to where the
