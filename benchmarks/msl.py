@@ -75,8 +75,6 @@ def _worker(models, msl, refs, rows_file, timeout):
                 row = verify(model, msl, refs)
             except TimeoutError as error:
                 row = Row(model, stage="simulate", cause=f"TimeoutError: {error}", seconds=float(timeout))
-            except Exception as error:  # noqa: BLE001 - the check itself failed: a row that says so
-                row = Row(model, stage="rumoca", cause=f"the check failed: {type(error).__name__}: {error}")
             finally:
                 signal.alarm(0)
             out.write(json.dumps(row.as_dict()) + "\n")
