@@ -396,6 +396,15 @@ class FmuInstance:
             "EnterContinuousTimeMode": addr(f.get(f"{p}EnterContinuousTimeMode")),
         }
 
+    def port_entry_points(self, port):
+        """Addresses of the Get and Set functions of ``port``'s type (``fmi3GetInt32``, ``fmi2SetBoolean``, ...; 0
+        when absent), for a compiled engine: their C signatures are GetFloat64's / GetReal's with another value
+        type."""
+        f = self._fmu._functions
+        p = "fmi3" if self.version == 3 else "fmi2"
+        return tuple(ctypes.cast(fn, ctypes.c_void_p).value or 0 if fn is not None else 0
+                     for fn in (f.get(f"{p}Get{port.suffix}"), f.get(f"{p}Set{port.suffix}")))
+
     # -- values by name (not hot) ------------------------------------------------------------
     def set_values(self, values):
         """Set variables by name: floats, ints, bools; raises KeyError for an unknown name."""

@@ -10,8 +10,11 @@ Signatures (FMI 2.0 and 3.0 share the first two; statuses are returned as int32)
 
 * :func:`set_time` ``fmiXSetTime(c, t)``
 * :func:`vec` ``fmiXSetContinuousStates / GetContinuousStates / GetDerivatives(c, double*, size_t)``
-* :func:`real3` ``fmi3GetFloat64 / SetFloat64(c, const uint32* vr, size_t n, double* v, size_t n)``
-* :func:`real2` ``fmi2GetReal / SetReal(c, const uint32* vr, size_t n, double* v)``
+* :func:`real3` ``fmi3GetFloat64 / SetFloat64(c, const uint32* vr, size_t n, double* v, size_t n)``, and the
+  Get/Set functions of the other value types (``fmi3GetInt32``, ``fmi3SetBoolean``, ...), whose signature differs
+  only in the type ``v`` points to
+* :func:`real2` ``fmi2GetReal / SetReal(c, const uint32* vr, size_t n, double* v)``, and ``fmi2GetInteger`` /
+  ``fmi2SetBoolean`` ... likewise
 * :func:`completed3` ``fmi3CompletedIntegratorStep(c, true, bool* enterEventMode, bool* terminate)``:
   flags written to the two bytes at ``flags``
 * :func:`completed2` ``fmi2CompletedIntegratorStep(c, 1, int* enterEventMode, int* terminate)``:

@@ -13,15 +13,18 @@ iteration with the chattering guard; :mod:`cosim.master.plant`). FMU functions a
 Tables (all int64 unless said):
 
 ``fmu`` (n_fmu, N_FMU_COLS)
-    per FMU: component, SetTime, SetContinuousStates, GetDerivatives, GetReal, SetReal, DoStep,
-    CompletedIntegratorStep addresses, FMI version, state offset in X, number of states, scratch
-    address (32 bytes for the flags of CompletedIntegratorStep / DoStep / UpdateDiscreteStates), then
-    GetEventIndicators, EnterEventMode, UpdateDiscreteStates (FMI 2: NewDiscreteStates),
-    EnterContinuousTimeMode, GetContinuousStates addresses.
+    per FMU: component, SetTime, SetContinuousStates, GetDerivatives, DoStep, CompletedIntegratorStep
+    addresses, FMI version, state offset in X, number of states, scratch address (32 bytes for the flags of
+    CompletedIntegratorStep / DoStep / UpdateDiscreteStates), then GetEventIndicators, EnterEventMode,
+    UpdateDiscreteStates (FMI 2: NewDiscreteStates), EnterContinuousTimeMode, GetContinuousStates addresses.
 ``me``, ``cmp``, ``cs`` (n,)
     FMU indices of the ME FMUs (in order), of those needing CompletedIntegratorStep, of the CS FMUs.
-``port`` (n_port, 4)
-    FMU index, value-reference array address, n, offset in the signal buffer.
+``ports``
+    ``(port, buf, raw)``: ``port`` (n_port, N_PORT_COLS) per port: FMU index, value-reference array address, n,
+    offset in the signal buffer, addresses of the Get and Set functions of its type, its type (index in
+    RAW_TYPES: 0 float64, read and written in place in the buffer), then for a typed port the address of its
+    values in ``raw`` and their index in ``raw[type - 1]``; ``buf`` the signal buffer; ``raw`` a tuple of views
+    of one array, one per RAW_TYPES after float64 (bool as uint8), where typed ports keep their C values.
 ``pgrp`` (n_group, 2)
     port ranges: 0 sampled ports (get), 1 instant inputs (set), then per ME-to-ME level its gets and sets.
 ``rsrc``, ``rdst``, ``rgain`` (float64), ``roff`` (float64), ``rgrp`` (n_group, 2)
@@ -73,16 +76,20 @@ and made the loop four times slower). numba's on-disk cache keys on this file on
 import math
 
 import numba
+import numpy as np
 
 from cosim.fmi import native
 
-__all__ = ["run_chunk", "nonfinite", "FMU_COLS", "CTL_COLS", "ST", "FF", "FUNCTIONS", "KINDS", "DONE", "MORE",
-           "ERROR"]
+__all__ = ["run_chunk", "nonfinite", "FMU_COLS", "PORT_COLS", "RAW_TYPES", "CTL_COLS", "ST", "FF", "FUNCTIONS",
+           "KINDS", "DONE", "MORE", "ERROR"]
 
-FMU_COLS = ("component", "SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "SetReal", "DoStep",
-            "CompletedIntegratorStep", "version", "x_off", "n_states", "scratch", "GetEventIndicators",
-            "EnterEventMode", "UpdateDiscreteStates", "EnterContinuousTimeMode", "GetContinuousStates")
-(_C, _ST, _SX, _GD, _GR, _SR, _DS, _CI, _V, _XO, _NX, _SC, _GZ, _EEM, _UDS, _ECT, _GX) = range(len(FMU_COLS))
+FMU_COLS = ("component", "SetTime", "SetContinuousStates", "GetDerivatives", "DoStep", "CompletedIntegratorStep",
+            "version", "x_off", "n_states", "scratch", "GetEventIndicators", "EnterEventMode", "UpdateDiscreteStates",
+            "EnterContinuousTimeMode", "GetContinuousStates")
+(_C, _ST, _SX, _GD, _DS, _CI, _V, _XO, _NX, _SC, _GZ, _EEM, _UDS, _ECT, _GX) = range(len(FMU_COLS))
+PORT_COLS = ("fmu", "vr", "n", "buf_off", "Get", "Set", "type", "raw_addr", "raw_index")
+(_PF, _PVR, _PN, _PB, _PGET, _PSET, _PT, _PRA, _PRI) = range(len(PORT_COLS))
+RAW_TYPES = ("float64", "float32", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "bool")
 CTL_COLS = ("fn", "period", "route", "u", "nu", "y", "ny", "x", "nx", "p", "np")
 ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "ev_count", "n_log")
 (_K, _SYNC, _FIRST, _EF, _EFN, _ES, _EVN, _NLOG) = range(len(ST))
@@ -121,19 +128,85 @@ def nonfinite(buf, W):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _io(fmu, port, grp, g, buf_addr, setter, st):
-    """Get (``setter`` False) or set the ports of group ``g``; True on an FMI error."""
-    for j in range(grp[g, 0], grp[g, 1]):
-        f = port[j, 0]
-        fn = fmu[f, _SR] if setter else fmu[f, _GR]
-        n = port[j, 2]
-        val = buf_addr + 8 * port[j, 3]
-        if fmu[f, _V] == 3:
-            s = native.real3(fn, fmu[f, _C], port[j, 1], n, val, n)
+def _from_raw(raw, code, a, buf, b, n):
+    """``buf[b:b + n]`` = the typed values at ``raw[code - 1][a:]``, exact (Booleans 0/1), as ``Port.to_values``."""
+    for i in range(n):
+        if code == 1:
+            buf[b + i] = raw[0][a + i]
+        elif code == 2:
+            buf[b + i] = raw[1][a + i]
+        elif code == 3:
+            buf[b + i] = raw[2][a + i]
+        elif code == 4:
+            buf[b + i] = raw[3][a + i]
+        elif code == 5:
+            buf[b + i] = raw[4][a + i]
+        elif code == 6:
+            buf[b + i] = raw[5][a + i]
+        elif code == 7:
+            buf[b + i] = raw[6][a + i]
+        elif code == 8:
+            buf[b + i] = raw[7][a + i]
+        elif code == 9:
+            buf[b + i] = raw[8][a + i]
         else:
-            s = native.real2(fn, fmu[f, _C], port[j, 1], n, val)
+            buf[b + i] = 1.0 if raw[9][a + i] != 0 else 0.0
+
+
+@numba.njit(cache=True, _nrt=False)
+def _to_raw(raw, code, a, buf, b, n):
+    """The values ``buf[b:b + n]`` into ``raw[code - 1][a:]`` as ``Port.from_values``: Float32 rounded to the
+    nearest float32, integers to the nearest integer (``rint``), Booleans true when that is not 0."""
+    for i in range(n):
+        v = buf[b + i]
+        if code == 1:
+            raw[0][a + i] = v
+        elif code == 10:
+            raw[9][a + i] = 1 if np.rint(v) != 0 else 0
+        else:
+            r = np.rint(v)
+            if code == 2:
+                raw[1][a + i] = r
+            elif code == 3:
+                raw[2][a + i] = r
+            elif code == 4:
+                raw[3][a + i] = r
+            elif code == 5:
+                raw[4][a + i] = r
+            elif code == 6:
+                raw[5][a + i] = r
+            elif code == 7:
+                raw[6][a + i] = r
+            elif code == 8:
+                raw[7][a + i] = r
+            else:
+                raw[8][a + i] = r
+
+
+@numba.njit(cache=True, _nrt=False)
+def _io(fmu, ports, grp, g, buf_addr, setter, st):
+    """Get (``setter`` False) or set the ports of group ``g``; True on an FMI error. ``ports`` is ``(port, buf,
+    raw)``: a float64 port is read and written in place in the signal buffer, a typed one (``type`` > 0) through
+    its slot of ``raw`` with the conversions of :class:`cosim.fmi.Port`."""
+    port, buf, raw = ports
+    for j in range(grp[g, 0], grp[g, 1]):
+        f = port[j, _PF]
+        n = port[j, _PN]
+        code = port[j, _PT]
+        val = buf_addr + 8 * port[j, _PB]
+        if code != 0:
+            val = port[j, _PRA]
+            if setter:
+                _to_raw(raw, code, port[j, _PRI], buf, port[j, _PB], n)
+        fn = port[j, _PSET] if setter else port[j, _PGET]
+        if fmu[f, _V] == 3:
+            s = native.real3(fn, fmu[f, _C], port[j, _PVR], n, val, n)
+        else:
+            s = native.real2(fn, fmu[f, _C], port[j, _PVR], n, val)
         if s > 1:
             return _fail(st, f, 4 if setter else 3, s)
+        if code != 0 and not setter:
+            _from_raw(raw, code, port[j, _PRI], buf, port[j, _PB], n)
     return False
 
 
@@ -144,7 +217,7 @@ def _route(buf, rsrc, rdst, rgain, roff, rgrp, g):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _eval(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
+def _eval(t, push, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
     """Set time and states of every ME FMU (``push``), route ME-to-ME connections level by level."""
     if push:
         for i in range(me.shape[0]):
@@ -156,17 +229,17 @@ def _eval(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
             if s > 1:
                 return _fail(st, f, 1, s)
     for lv in range(lvl.shape[0]):
-        if _io(fmu, port, pgrp, lvl[lv, 0], buf_addr, False, st):
+        if _io(fmu, ports, pgrp, lvl[lv, 0], buf_addr, False, st):
             return True
         _route(buf, rsrc, rdst, rgain, roff, rgrp, lvl[lv, 1])
-        if _io(fmu, port, pgrp, lvl[lv, 2], buf_addr, True, st):
+        if _io(fmu, ports, pgrp, lvl[lv, 2], buf_addr, True, st):
             return True
     return False
 
 
 @numba.njit(cache=True, _nrt=False)
-def _deriv(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr, buf_addr, st):
-    if _eval(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
+def _deriv(t, push, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr, buf_addr, st):
+    if _eval(t, push, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
         return True
     for i in range(me.shape[0]):
         f = me[i]
@@ -460,7 +533,7 @@ def _rk4_events(ta, tb, n, net, evt, cmp, W, addrs, st):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr, buf_addr,
+def _rk4(t, t_next, k, h_max, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr, buf_addr,
          st):
     """RK4 substeps of the ME FMUs' combined state from ``t`` to ``t_next`` when no FMU has events or asks for
     CompletedIntegratorStep (the plain path, as fast as before events existed); True on an FMI error."""
@@ -476,19 +549,19 @@ def _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, 
         t1 = t + L * (j + 1) / n
         h = t1 - ta
         th = ta + 0.5 * h
-        if _deriv(ta, not (synced and j == 0), fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
+        if _deriv(ta, not (synced and j == 0), fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
                   x_addr, dx_addr, buf_addr, st):
             return True
         _stage(W, 0, 0.5 * h)
-        if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+        if _deriv(th, True, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
                   buf_addr, st):
             return True
         _stage(W, 1, 0.5 * h)
-        if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+        if _deriv(th, True, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
                   buf_addr, st):
             return True
         _stage(W, 2, h)
-        if _deriv(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+        if _deriv(t1, True, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
                   buf_addr, st):
             return True
         for i in range(nX):
@@ -526,7 +599,7 @@ def _advance_events(t, t_next, k, net, evt, cmp, W, addrs, st):
 
 
 @numba.njit(cache=True, _nrt=False)
-def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec, times,
+def run_chunk(fmu, me, cmp, cs, ports, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec, times,
               rows, rec_idx, calls, scr, st, evt, max_instants):
     """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR.
 
@@ -552,7 +625,7 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
         return MORE
     if st[_FIRST] == 1:
         st[_FIRST] = 0
-        if _io(fmu, port, pgrp, 1, buf_addr, True, st):
+        if _io(fmu, ports, pgrp, 1, buf_addr, True, st):
             return ERROR
     code = MORE
     for _ in range(max_instants):
@@ -561,11 +634,11 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
         t = t0 + (k * den) / num
         # 1. sample
         if n_me > 0:
-            if _eval(t, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
+            if _eval(t, True, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
                 code = ERROR
                 break
             st[_SYNC] = k
-        if _io(fmu, port, pgrp, 0, buf_addr, False, st):
+        if _io(fmu, ports, pgrp, 0, buf_addr, False, st):
             code = ERROR
             break
         # 2. instant FMU-to-FMU routes
@@ -580,7 +653,7 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
                     calls[c] += 1
             # 4. hold: controller outputs to the FMUs
             _route(buf, rsrc, rdst, rgain, roff, rgrp, 1)
-            if _io(fmu, port, pgrp, 1, buf_addr, True, st):
+            if _io(fmu, ports, pgrp, 1, buf_addr, True, st):
                 code = ERROR
                 break
         if nonfinite(buf, W):  # Python names the value (cosim.master.finite)
@@ -608,12 +681,12 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
             plain = True
             if evt is not None:
                 plain = not (evt[0].shape[0] > 0 or cmp.shape[0] > 0 or ff[_TNEXT] <= t_next)
-                if not plain and _advance_events(t, t_next, k, (fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain,
+                if not plain and _advance_events(t, t_next, k, (fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain,
                                                                  roff, rgrp), evt, cmp, W,
                                                  (x_addr, dx_addr, buf_addr), st):
                     code = ERROR
                     break
-            if plain and nX > 0 and _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff,
+            if plain and nX > 0 and _rk4(t, t_next, k, h_max, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff,
                                          rgrp, W, x_addr, dx_addr, buf_addr, st):
                 code = ERROR
                 break

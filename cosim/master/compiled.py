@@ -21,7 +21,8 @@ from controllers.base import Controller
 from cosim.errors import EventError, FmiCallError, SimulationTerminated
 from cosim.fmi import FmuInstance, check
 from cosim.jit import compile_kernel, kernel_problem, native_kernel
-from cosim.master.ckernel import CTL_COLS, DONE, ERROR, FF, FMU_COLS, FUNCTIONS, KINDS, ST, run_chunk
+from cosim.master.ckernel import (CTL_COLS, DONE, ERROR, FF, FMU_COLS, FUNCTIONS, KINDS, PORT_COLS, RAW_TYPES, ST,
+                                  run_chunk)
 from cosim.master.finite import nonfinite_error
 from cosim.master.plant import CHATTER_WINDOW, EVENT_TOL, MAX_EVENTS_AT_ONE_TIME
 
@@ -106,7 +107,7 @@ class CompiledLoop:
         tab = self._tables(plant)
         self._ff = tab["ff"]
         self._log = tab["evt"][8] if tab["evt"] is not None else None
-        self._args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["port"], tab["pgrp"], tab["rsrc"],
+        self._args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["ports"], tab["pgrp"], tab["rsrc"],
                       tab["rdst"], tab["rgain"], tab["roff"], tab["rgrp"], tab["lvl"], tab["ctl"], tab["ii"], tab["ff"],
                       eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st,
                       tab["evt"])
@@ -156,7 +157,6 @@ class CompiledLoop:
         lay, buf = eng.layout, eng.buf
         names = list(plant.instances)
         fidx = {n: i for i, n in enumerate(names)}
-        buf_addr = buf.ctypes.data
         scr = np.zeros((len(names), 32), dtype=np.uint8)
         fmu = np.zeros((len(names), len(FMU_COLS)), dtype=np.int64)
         x_off = {}
@@ -167,8 +167,7 @@ class CompiledLoop:
         for i, n in enumerate(names):
             inst = plant.instances[n]
             ep = inst.entry_points()
-            need = ["GetReal", "SetReal"] + (["SetTime", "SetContinuousStates", "GetDerivatives"] if inst.kind == "ME"
-                                             else ["DoStep"])
+            need = ["SetTime", "SetContinuousStates", "GetDerivatives"] if inst.kind == "ME" else ["DoStep"]
             if inst in plant.completed:
                 need.append("CompletedIntegratorStep")
             if inst.kind == "ME" and (inst.n_indicators or inst in plant.completed or inst.next_event_time < np.inf):
@@ -176,9 +175,9 @@ class CompiledLoop:
             missing = [f for f in need if not ep[f]]
             if missing:  # a call through address 0 would crash the process: refuse here
                 raise FmiCallError("load", "missing entry points", f"{n}: {', '.join(missing)} not exported")
-            row = [ep["component"], ep["SetTime"], ep["SetContinuousStates"], ep["GetDerivatives"], ep["GetReal"],
-                   ep["SetReal"], ep["DoStep"], ep["CompletedIntegratorStep"], inst.version, x_off.get(n, 0),
-                   inst.n_states, scr[i].ctypes.data] + [ep[f] for f in _EVENT_FUNCTIONS]
+            row = [ep["component"], ep["SetTime"], ep["SetContinuousStates"], ep["GetDerivatives"], ep["DoStep"],
+                   ep["CompletedIntegratorStep"], inst.version, x_off.get(n, 0), inst.n_states,
+                   scr[i].ctypes.data] + [ep[f] for f in _EVENT_FUNCTIONS]
             fmu[i] = row
         me = np.array([fidx[i.name] for i in plant.me], dtype=np.int64)
         ev, nz = [], 0
@@ -195,14 +194,12 @@ class CompiledLoop:
         cmp = np.array([fidx[i.name] for i in plant.completed], dtype=np.int64)
         cs = np.array([fidx[i.name] for i in plant.cs], dtype=np.int64)
 
-        ports, pgrp, items_ = [], [], []
+        ports, pgrp = [], []
 
         def group(items):
             a = len(ports)
             for inst, port in items:
-                off = (port.values.ctypes.data - buf_addr) // 8
-                ports.append((fidx[inst.name], port.vr_address, port.n, off))
-                items_.append((inst, port))
+                ports.append((inst, port))
             pgrp.append((a, len(ports)))
             return len(pgrp) - 1
 
@@ -236,12 +233,12 @@ class CompiledLoop:
         r = np.array(routes, dtype=np.float64).reshape(-1, 4)
         return dict(
             fmu=fmu, me=me, cmp=cmp, cs=cs,
-            port=np.array(ports, dtype=np.int64).reshape(-1, 4), pgrp=np.array(pgrp, dtype=np.int64).reshape(-1, 2),
+            ports=_port_table(ports, fidx, buf), pgrp=np.array(pgrp, dtype=np.int64).reshape(-1, 2),
             rsrc=r[:, 0].astype(np.int64), rdst=r[:, 1].astype(np.int64),
             rgain=np.ascontiguousarray(r[:, 2]), roff=np.ascontiguousarray(r[:, 3]),
             rgrp=np.array(rgrp, dtype=np.int64).reshape(-1, 2), lvl=np.array(lvl, dtype=np.int64).reshape(-1, 3),
             ctl=np.array(ctl, dtype=np.int64).reshape(-1, len(CTL_COLS)), ii=ii,
-            ff=ff, scr=scr, port_items=items_, fmu_names=names, evt=evt,
+            ff=ff, scr=scr, evt=evt,
         )
 
     def _raise(self):
@@ -267,3 +264,24 @@ class CompiledLoop:
         t = self.engine.tb.time(int(st[_K]))
         check(fn, status, f"{inst._last_message()} (in the instant after t={t})")
         raise FmiCallError(fn, f"status {status}", inst.name)  # pragma: no cover - check raised
+
+
+def _port_table(ports, fidx, buf):
+    """The kernel's ``ports`` (see :mod:`cosim.master.ckernel`) for ``(instance, Port)`` pairs: the table, the
+    signal buffer, and the views of one array where the typed ports keep their C values (8-byte aligned slots)."""
+    types = [RAW_TYPES.index(np.dtype(p.raw.dtype).name) if p.raw is not None else 0 for _, p in ports]
+    sizes = [0 if code == 0 else -(-p.n * np.dtype(RAW_TYPES[code]).itemsize // 8) * 8
+             for code, (_, p) in zip(types, ports)]
+    store = np.zeros(max(1, sum(sizes) // 8), dtype=np.int64)
+    raw = tuple(store.view(np.uint8 if t == "bool" else t) for t in RAW_TYPES[1:])
+    table, at = [], 0
+    for (inst, port), code, size in zip(ports, types, sizes):
+        get, set_ = inst.port_entry_points(port)
+        if not (get and set_):  # a call through address 0 would crash the process: refuse here
+            raise FmiCallError("load", "missing entry points", f"{inst.name}: the Get/Set functions of "
+                               f"{port.names[0]}'s type are not exported")
+        item = np.dtype(RAW_TYPES[code]).itemsize
+        table.append((fidx[inst.name], port.vr_address, port.n, (port.values.ctypes.data - buf.ctypes.data) // 8,
+                      get, set_, code, store.ctypes.data + at if code else 0, at // item if code else 0))
+        at += size
+    return np.array(table, dtype=np.int64).reshape(-1, len(PORT_COLS)), buf, raw

@@ -8,10 +8,11 @@ recorded) and freeing the FMUs on any exit. The per-instant loop is the only swa
 :class:`~cosim.master.loop.PythonLoop` or the numba kernel :class:`~cosim.master.compiled.CompiledLoop`.
 
 :func:`engine_for` picks the loop of a config: ``run.engine = "compiled"`` (the default) runs the
-compiled loop when :func:`~cosim.master.compiled.compiled_problem` finds nothing against it;
-otherwise the run falls back to the Python loop with a one-line explanation: a warning naming the
-construct when numba cannot compile a kernel, a note in the result (``RunResult.engine_note``,
-summary.json) when the config itself asks for Python (``jit = false``, a controller overriding
+compiled loop when :func:`~cosim.master.compiled.compiled_problem` finds nothing against it (FMU
+variables of every routable type are carried); otherwise the run falls back to the Python loop with a
+one-line explanation saying what it costs (:data:`PYTHON_COST`) and why: a warning naming the construct when
+numba cannot compile a kernel, a note in the result (``RunResult.engine_note``, summary.json, the line
+``cosim run`` prints) when the config itself asks for Python (``jit = false``, a controller overriding
 ``step`` in Python, an implicit solver).
 """
 
@@ -28,7 +29,7 @@ from cosim.fmi import FmuInstance
 from cosim.master.compiled import CompiledLoop, compiled_problem
 from cosim.master.layout import Layout
 from cosim.master.loop import PythonLoop
-from cosim.master.plant import PlantSystem, python_only_reason
+from cosim.master.plant import PlantSystem
 from cosim.master.recorder import Recorder
 from cosim.master.schedule import TimeBase
 
@@ -323,15 +324,17 @@ def engine_for(config):
     """
     if config.run.engine == "python":
         return Engine(config)
-    plant_reason = python_only_reason(config)
-    if plant_reason is not None:
-        return Engine(config, note=f"Python engine: {plant_reason}")
     t0 = _time.perf_counter()
     reason, numba_failed = compiled_problem(config)  # compiles the controllers' cfuncs (or loads them)
     if reason is None:
         return Engine(config, CompiledLoop, compile_s=_time.perf_counter() - t0)
+    note = f"running the Python engine ({PYTHON_COST}) because {reason}"
     if numba_failed:
-        warnings.warn(f"{config.name}: running the Python engine: {reason}", EngineFallbackWarning, stacklevel=2)
+        warnings.warn(f"{config.name}: {note}", EngineFallbackWarning, stacklevel=2)
     with warnings.catch_warnings():  # the controllers' own "runs in plain Python" warning: said just above
         warnings.simplefilter("ignore", UserWarning)
-        return Engine(config, note=f"Python engine: {reason}")
+        return Engine(config, note=note)
+
+
+PYTHON_COST = "30-75 times slower than the compiled one on the gripper's impact, docs/validation.md"
+"""What running the Python engine costs, said with every fallback (benchmarks/engine.py measures it)."""

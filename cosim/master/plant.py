@@ -30,39 +30,11 @@ from cosim.errors import ConfigError, CosimError, EventError
 from cosim.fmi import FmuInstance
 from cosim.master.kernels import rk4_begin, rk4_final, rk4_stage, route
 
-__all__ = ["PlantSystem", "FmuPool", "python_only_reason", "EVENT_TOL", "MAX_EVENTS_AT_ONE_TIME", "CHATTER_WINDOW"]
+__all__ = ["PlantSystem", "FmuPool", "EVENT_TOL", "MAX_EVENTS_AT_ONE_TIME", "CHATTER_WINDOW"]
 
 EVENT_TOL = 1e-10  # s: width of the bracket a state event is located to
 MAX_EVENTS_AT_ONE_TIME = 100  # events in a row, each within CHATTER_WINDOW of the last, before EventError
 CHATTER_WINDOW = 100 * EVENT_TOL  # s: events closer than this to the previous one count as one instant
-
-
-def python_only_reason(config):
-    """Why the FMUs of ``config`` need the Python engine (non-Float64 ports), or None.
-
-    Parameters
-    ----------
-    config : cosim.config.Config
-
-    Returns
-    -------
-    str or None
-        A one-line reason naming the variable: a routed or recorded variable that is not a float64 real
-        (both engines handle events; the compiled one routes float64 reals only).
-    """
-    used = {}
-    for c in config.connections:
-        for inst, var in (c.src, c.dst):
-            used.setdefault(inst, set()).add(var)
-    for inst, var in config.record.signals:
-        used.setdefault(inst, set()).add(var)
-    for name, spec in config.fmus.items():
-        info = spec.info
-        for var in sorted(used.get(name, ())):
-            if info.variables[var].type not in ("Real", "Float64"):
-                return f"{name}.{var} is {info.variables[var].type}: the compiled engine routes float64 reals only"
-    return None
-
 
 
 def _ports(inst, names, layout, buf):
