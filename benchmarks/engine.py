@@ -13,6 +13,9 @@ For ``GripperPlant`` (examples/gripper_impact.toml) and the split ``PMSM`` + ``D
 * C: benchmarks/engine_harness.c (gcc -O2) dlopens the FMUs' shared libraries and makes exactly the
   FMU calls and RK4 arithmetic of the compiled engine's loop, replaying the controller outputs
   recorded at every instant from a compiled run (no controllers); best of 5 runs.
+* A config with typed ports: examples/hybrid_ball.toml (the bouncing ball of examples/hybrid, built here,
+  records its Integer ``bounces``): which engine runs it (the compiled one, no fallback), its wall time against
+  the Python engine's, and whether their results are identical.
 * GripperPlant as Co-Simulation (``fmus.plant.kind = "CS"``): the compiled engine makes one ``fmi3DoStep`` per
   FOC period, the FMU's embedded RK4 takes one internal step of the same length (its ``cs_step``); best of 5
   runs, and the largest deviation of any recorded signal from the Model Exchange run, in % of its range.
@@ -162,6 +165,28 @@ def cs_figures(make, me):
     return cs.wall_s / cs.sim_s, 100 * deviation
 
 
+# -- typed ports ------------------------------------------------------------------------------------
+def typed_figures(workdir):
+    """examples/hybrid_ball.toml (an Integer output recorded) with both engines: (engine that ran by default,
+    compiled wall s per simulated s (best of 5), Python's, results identical)."""
+    from cosim.compile import build_fmu
+    from cosim.config import load_config
+    from cosim.master import run
+
+    fmu = build_fmu(ROOT / "examples" / "hybrid" / "BouncingBall.mo", "BouncingBall", out_dir=workdir)
+
+    def make(engine):
+        return load_config(ROOT / "examples" / "hybrid_ball.toml", [f"fmus.ball.path={fmu}", "plot.panels=[]",
+                                                                      *([f"run.engine={engine}"] if engine else [])])
+
+    default = run(make(None), progress=False)
+    comp = min((run(make("compiled"), progress=False) for _ in range(5)), key=lambda r: r.wall_s)
+    py = run(make("python"), progress=False)
+    same = comp.data.dtype == py.data.dtype and all(np.array_equal(comp.data[n], py.data[n])
+                                                     for n in py.data.dtype.names)
+    return default.engine, comp.wall_s / comp.sim_s, py.wall_s / py.sim_s, same
+
+
 # -- the C harness -----------------------------------------------------------------------------------
 def c_limit(cfg, workdir):
     """FMU calls of the compiled engine's loop from C (see the module docstring); wall s per simulated s."""
@@ -169,6 +194,7 @@ def c_limit(cfg, workdir):
 
     from cosim.master import run
     from cosim.master import CompiledLoop, Engine
+    from cosim.master.ckernel import FMU_COLS
     from cosim.master.plant import PlantSystem
 
     eng = Engine(cfg, CompiledLoop)
@@ -196,7 +222,8 @@ def c_limit(cfg, workdir):
         so = Path(d) / "binaries" / "x86_64-linux" / f"{md.modelExchange.modelIdentifier}.so"
         lines.append(f"{so} {md.instantiationToken}")
         vals = {**spec.start, **spec.parameters}
-        lines.append(f"{tab['fmu'][i, 9]} {tab['fmu'][i, 10]} {len(vals)} " +
+        x_off, n_x = (tab["fmu"][i, FMU_COLS.index(c)] for c in ("x_off", "n_states"))
+        lines.append(f"{x_off} {n_x} {len(vals)} " +
                      " ".join(f"{spec.info.variables[k].vr} {float(v)!r}" for k, v in vals.items()))
     lines.append(str(plant.W.shape[1]))
     lines.append(str(len(eng.buf)))
@@ -277,6 +304,11 @@ def main(argv=None):
                       f"deviation from the ME run {deviation:.2g} % of a signal's range")
             columns[label] = [f"{wc:.4f} ({1 / wc:.1f}x)", f"{wp:.4f} ({1 / wp:.1f}x)", f"{fm:.4f} ({1 / fm:.1f}x)",
                               f"{c:.4f} ({1 / c:.1f}x)", f"{wc / c:.2f}", str(same), f"{first.compile_s:.2f}", cs]
+        engine, wt, wpt, same_t = typed_figures(Path(tmp))
+        typed = (f"examples/hybrid_ball.toml (an Integer output recorded, 3 s with 12 events): the {engine} engine "
+                 f"by default; compiled {wt:.2e}, Python {wpt:.2e} wall s per simulated s ({wpt / wt:.0f} x); "
+                 f"results identical: {same_t}")
+        print(typed)
     if args.validation:
         what = ["compiled engine", "Python engine", f"hand-written fmpy loop ({args.fmpy_stop} s simulated)",
                 "the FMU calls alone from C (benchmarks/engine_harness.c)", "compiled engine / C",
@@ -286,7 +318,7 @@ def main(argv=None):
                       [[w, *(col[k] for col in columns.values())] for k, w in enumerate(what)],
                       notes=[f"1000 rpm impact, {args.stop} s simulated, FOC 26.6 kHz + outer loop 100 Hz, RK4 one "
                              "step per FOC period; compiled engine and C harness best of 5 runs. Machine: "
-                             f"{_machine()}."])
+                             f"{_machine()}.", typed])
     return 0
 
 

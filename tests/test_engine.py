@@ -240,8 +240,8 @@ def test_fmi_error_in_the_kernel_raises_fmi_call_error(master_dir):
 
     def broken(plant):
         tab = tables(plant)
-        tab["ports"][0][0, 1] = bad_vr.ctypes.data  # the sampled port now reads value reference 99
-        tab["ports"][0][0, 2] = 1
+        tab["port"][0, 1] = bad_vr.ctypes.data  # the sampled port now reads value reference 99
+        tab["port"][0, 2] = 1
         return tab
 
     engine.loop._tables = broken

@@ -84,6 +84,14 @@ def test_typed_variables_route_and_keep_their_dtype(tmp_path, third_party_fmu):
     assert row["b.y_i32"] == "43" and row["a.y_b"] == "1" and row["b.y_b"] == "0"
 
 
+def _replay(tmp_path, *inputs):
+    """A Playback controller at 10 Hz (u = 2.6 from 0 s, -0.4 from 0.2 s) driving ``inputs`` with ``round``."""
+    (tmp_path / "u.csv").write_text("time,u\n0,2.6\n0.2,-0.4\n")
+    text = '[controllers.replay]\nclass = "controllers.playback:Playback"\nrate = 10\n'
+    text += 'parameters = { file = "u.csv", column = "u" }\n'
+    return "\n" + text + "".join(f'[[connections]]\nfrom = "replay.y"\nto = "{i}"\nround = true\n' for i in inputs)
+
+
 def _same_rows(path, overrides=()):
     """Run ``path`` with both engines: the compiled one must run (no fallback) and give the Python engine's rows,
     dtypes and events to the last bit."""
@@ -101,21 +109,7 @@ def _same_rows(path, overrides=()):
 def test_compiled_engine_carries_typed_ports(tmp_path, third_party_fmu, kind):
     """Float32, Int32, Int64 and Boolean ports routed between FMUs, driven by a controller (``round``) and
     recorded: the compiled engine runs them, with the Python engine's values (checked by hand in the test above)."""
-    (tmp_path / "u.csv").write_text("time,u\n0,2.6\n0.2,-0.4\n")
-    replay = """
-[controllers.replay]
-class = "controllers.playback:Playback"
-rate = 10
-parameters = { file = "u.csv", column = "u" }
-[[connections]]
-from = "replay.y"
-to = "a.u_i64"
-round = true
-[[connections]]
-from = "replay.y"
-to = "a.u_b"
-round = true
-"""
+    replay = _replay(tmp_path, "a.u_i64", "a.u_b")
     text = _two_feedthroughs(third_party_fmu("Feedthrough", 3), GOOD + replay).replace('engine = "python"', "")
     path = _write(tmp_path, text.replace("[fmus.b]", f'[fmus.b]\nkind = "{kind}"'))
     d = _same_rows(path).data
@@ -144,21 +138,7 @@ signals = ["ball.h", "ball.bounces", "ball.flying"]
 
 
 def test_controller_output_into_integer_and_boolean_inputs_needs_round(tmp_path, third_party_fmu):
-    (tmp_path / "u.csv").write_text("time,u\n0,2.6\n0.2,-0.4\n")
-    conns = """
-[controllers.replay]
-class = "controllers.playback:Playback"
-rate = 10
-parameters = { file = "u.csv", column = "u" }
-[[connections]]
-from = "replay.y"
-to = "b.u_i32"
-round = true
-[[connections]]
-from = "replay.y"
-to = "b.u_b"
-round = true
-"""
+    conns = _replay(tmp_path, "b.u_i32", "b.u_b")
     result = run(load_config(_write(tmp_path, _two_feedthroughs(third_party_fmu("Feedthrough", 3), conns))))
     d = result.data
     # 2.6 -> 3 (nearest), true (3 != 0); -0.4 -> 0, false; y_i32 = u_i32 + 1, y_b = not u_b. A row samples the

@@ -27,6 +27,9 @@ Signatures (FMI 2.0 and 3.0 share the first two; statuses are returned as int32)
   at ``scratch`` bytes 0..4, the next event time at ``scratch + 8``
 * :func:`update2` ``fmi2NewDiscreteStates(c, fmi2EventInfo*)``: the struct (five int32, the next event
   time at byte 24) at ``scratch``
+* ``load_<type>(addr) -> float64`` / ``store_<type>(addr, float64)`` for ``f64 f32 i8 u8 i16 u16 i32 u32 i64
+  u64``: one value of that C type at ``addr``, converted to or from a double (stores truncate: round first);
+  the compiled engine's typed ports convert through them
 * :func:`call_kernel` ``void kernel(double t, double* u, int64 nu, double* y, int64 ny, double* x,
   int64 nx, double* p, int64 np)``: a controller kernel compiled as a numba ``cfunc``
 """
@@ -36,7 +39,9 @@ from numba.core import types
 from numba.extending import intrinsic
 
 __all__ = ["set_time", "vec", "real3", "real2", "completed3", "completed2", "do_step3", "do_step2", "call0",
-           "update3", "update2", "call_kernel", "KERNEL_SIGNATURE"]
+           "update3", "update2", "call_kernel", "KERNEL_SIGNATURE", "load_f64", "store_f64", "load_f32", "store_f32",
+           "load_i8", "store_i8", "load_u8", "store_u8", "load_i16", "store_i16", "load_u16", "store_u16", "load_i32",
+           "store_i32", "load_u32", "store_u32", "load_i64", "store_i64", "load_u64", "store_u64"]
 
 _I8P = ir.IntType(8).as_pointer()
 _I32 = ir.IntType(32)
@@ -120,6 +125,53 @@ update3 = _make(_spec("P", "P", "+1", "+2", "+3", "+4", "+8"), "i32",
 update2 = _make(_spec("P", "P"), "i32", "fmi2NewDiscreteStates(fn, c, scratch) -> status")
 call_kernel = _make(_spec("D", "P", "Z", "P", "Z", "P", "Z", "P", "Z"), "void",
                     "kernel(fn, t, u, nu, y, ny, x, nx, p, np): a controller kernel compiled as a cfunc")
+
+
+
+def _memory(llty, signed):
+    """The intrinsics ``load(addr) -> float64`` and ``store(addr, value)`` of one C value of type ``llty`` at the
+    int64 address ``addr`` (integers: ``signed`` or not; a store of a double into an integer truncates)."""
+
+    def to_double(builder, v):
+        if isinstance(llty, ir.DoubleType):
+            return v
+        if isinstance(llty, ir.FloatType):
+            return builder.fpext(v, _DBL)
+        return builder.sitofp(v, _DBL) if signed else builder.uitofp(v, _DBL)
+
+    def from_double(builder, v):
+        if isinstance(llty, ir.DoubleType):
+            return v
+        if isinstance(llty, ir.FloatType):
+            return builder.fptrunc(v, llty)
+        return builder.fptosi(v, llty) if signed else builder.fptoui(v, llty)
+
+    def load_typer(typingctx, addr):
+        def codegen(context, builder, signature, args):
+            return to_double(builder, builder.load(builder.inttoptr(args[0], llty.as_pointer())))
+
+        return types.float64(addr), codegen
+
+    def store_typer(typingctx, addr, value):
+        def codegen(context, builder, signature, args):
+            builder.store(from_double(builder, args[1]), builder.inttoptr(args[0], llty.as_pointer()))
+            return context.get_dummy_value()
+
+        return types.void(addr, value), codegen
+
+    return intrinsic(load_typer), intrinsic(store_typer)
+
+
+load_f64, store_f64 = _memory(_DBL, True)
+load_f32, store_f32 = _memory(ir.FloatType(), True)
+load_i8, store_i8 = _memory(ir.IntType(8), True)
+load_u8, store_u8 = _memory(ir.IntType(8), False)
+load_i16, store_i16 = _memory(ir.IntType(16), True)
+load_u16, store_u16 = _memory(ir.IntType(16), False)
+load_i32, store_i32 = _memory(_I32, True)
+load_u32, store_u32 = _memory(_I32, False)
+load_i64, store_i64 = _memory(_I64, True)
+load_u64, store_u64 = _memory(_I64, False)
 
 KERNEL_SIGNATURE = types.void(types.float64, types.CPointer(types.float64), types.int64,
                               types.CPointer(types.float64), types.int64, types.CPointer(types.float64), types.int64,

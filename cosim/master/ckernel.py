@@ -19,12 +19,10 @@ Tables (all int64 unless said):
     UpdateDiscreteStates (FMI 2: NewDiscreteStates), EnterContinuousTimeMode, GetContinuousStates addresses.
 ``me``, ``cmp``, ``cs`` (n,)
     FMU indices of the ME FMUs (in order), of those needing CompletedIntegratorStep, of the CS FMUs.
-``ports``
-    ``(port, buf, raw)``: ``port`` (n_port, N_PORT_COLS) per port: FMU index, value-reference array address, n,
-    offset in the signal buffer, addresses of the Get and Set functions of its type, its type (index in
-    RAW_TYPES: 0 float64, read and written in place in the buffer), then for a typed port the address of its
-    values in ``raw`` and their index in ``raw[type - 1]``; ``buf`` the signal buffer; ``raw`` a tuple of views
-    of one array, one per RAW_TYPES after float64 (bool as uint8), where typed ports keep their C values.
+``port`` (n_port, N_PORT_COLS)
+    FMU index, value-reference array address, n, offset in the signal buffer, addresses of the Get and Set
+    functions of its type, its type (index in RAW_TYPES: 0 float64, read and written in place in the buffer),
+    and for a typed port the address of its C values (``CompiledLoop`` keeps them, 8-byte aligned).
 ``pgrp`` (n_group, 2)
     port ranges: 0 sampled ports (get), 1 instant inputs (set), then per ME-to-ME level its gets and sets.
 ``rsrc``, ``rdst``, ``rgain`` (float64), ``roff`` (float64), ``rgrp`` (n_group, 2)
@@ -70,7 +68,8 @@ Tables (all int64 unless said):
 The kernel is compiled without numba's reference counting (``_nrt=False``: nothing is allocated in
 it; with reference counting the array arguments of the helpers cost two atomic operations per call
 and made the loop four times slower). numba's on-disk cache keys on this file only: after editing
-:mod:`cosim.fmi.native`, touch this file (or delete its ``__pycache__`` entries) so the kernel recompiles.
+:mod:`cosim.fmi.native` or :mod:`cosim.master.events` (the event rules, shared with the Python loop), touch this
+file (or delete its ``__pycache__`` entries) so the kernel recompiles.
 """
 
 import math
@@ -79,6 +78,7 @@ import numba
 import numpy as np
 
 from cosim.fmi import native
+from cosim.master.events import bisection_narrow, bisection_trial, chatter, crossed, step_end, time_event_due
 
 __all__ = ["run_chunk", "nonfinite", "FMU_COLS", "PORT_COLS", "RAW_TYPES", "CTL_COLS", "ST", "FF", "FUNCTIONS",
            "KINDS", "DONE", "MORE", "ERROR"]
@@ -87,8 +87,8 @@ FMU_COLS = ("component", "SetTime", "SetContinuousStates", "GetDerivatives", "Do
             "version", "x_off", "n_states", "scratch", "GetEventIndicators", "EnterEventMode", "UpdateDiscreteStates",
             "EnterContinuousTimeMode", "GetContinuousStates")
 (_C, _ST, _SX, _GD, _DS, _CI, _V, _XO, _NX, _SC, _GZ, _EEM, _UDS, _ECT, _GX) = range(len(FMU_COLS))
-PORT_COLS = ("fmu", "vr", "n", "buf_off", "Get", "Set", "type", "raw_addr", "raw_index")
-(_PF, _PVR, _PN, _PB, _PGET, _PSET, _PT, _PRA, _PRI) = range(len(PORT_COLS))
+PORT_COLS = ("fmu", "vr", "n", "buf_off", "Get", "Set", "type", "raw_addr")
+(_PF, _PVR, _PN, _PB, _PGET, _PSET, _PT, _PRA) = range(len(PORT_COLS))
 RAW_TYPES = ("float64", "float32", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "bool")
 CTL_COLS = ("fn", "period", "route", "u", "nu", "y", "ny", "x", "nx", "p", "np")
 ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "ev_count", "n_log")
@@ -128,85 +128,87 @@ def nonfinite(buf, W):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _from_raw(raw, code, a, buf, b, n):
-    """``buf[b:b + n]`` = the typed values at ``raw[code - 1][a:]``, exact (Booleans 0/1), as ``Port.to_values``."""
+def _from_raw(code, raw, val, n):
+    """The ``n`` C values of type ``RAW_TYPES[code]`` at address ``raw`` into the doubles at ``val``, exact
+    (Booleans 0/1), as ``Port.to_values``."""
     for i in range(n):
         if code == 1:
-            buf[b + i] = raw[0][a + i]
+            v = native.load_f32(raw + 4 * i)
         elif code == 2:
-            buf[b + i] = raw[1][a + i]
+            v = native.load_i8(raw + i)
         elif code == 3:
-            buf[b + i] = raw[2][a + i]
+            v = native.load_u8(raw + i)
         elif code == 4:
-            buf[b + i] = raw[3][a + i]
+            v = native.load_i16(raw + 2 * i)
         elif code == 5:
-            buf[b + i] = raw[4][a + i]
+            v = native.load_u16(raw + 2 * i)
         elif code == 6:
-            buf[b + i] = raw[5][a + i]
+            v = native.load_i32(raw + 4 * i)
         elif code == 7:
-            buf[b + i] = raw[6][a + i]
+            v = native.load_u32(raw + 4 * i)
         elif code == 8:
-            buf[b + i] = raw[7][a + i]
+            v = native.load_i64(raw + 8 * i)
         elif code == 9:
-            buf[b + i] = raw[8][a + i]
+            v = native.load_u64(raw + 8 * i)
         else:
-            buf[b + i] = 1.0 if raw[9][a + i] != 0 else 0.0
+            v = 1.0 if native.load_u8(raw + i) != 0 else 0.0
+        native.store_f64(val + 8 * i, v)
 
 
 @numba.njit(cache=True, _nrt=False)
-def _to_raw(raw, code, a, buf, b, n):
-    """The values ``buf[b:b + n]`` into ``raw[code - 1][a:]`` as ``Port.from_values``: Float32 rounded to the
-    nearest float32, integers to the nearest integer (``rint``), Booleans true when that is not 0."""
+def _to_raw(code, raw, val, n):
+    """The ``n`` doubles at ``val`` into C values of type ``RAW_TYPES[code]`` at ``raw``, as ``Port.from_values``:
+    Float32 rounded to the nearest float32, integers to the nearest integer (``rint``), Booleans true when that
+    is not 0."""
     for i in range(n):
-        v = buf[b + i]
+        v = native.load_f64(val + 8 * i)
+        r = np.rint(v)
         if code == 1:
-            raw[0][a + i] = v
-        elif code == 10:
-            raw[9][a + i] = 1 if np.rint(v) != 0 else 0
+            native.store_f32(raw + 4 * i, v)
+        elif code == 2:
+            native.store_i8(raw + i, r)
+        elif code == 3:
+            native.store_u8(raw + i, r)
+        elif code == 4:
+            native.store_i16(raw + 2 * i, r)
+        elif code == 5:
+            native.store_u16(raw + 2 * i, r)
+        elif code == 6:
+            native.store_i32(raw + 4 * i, r)
+        elif code == 7:
+            native.store_u32(raw + 4 * i, r)
+        elif code == 8:
+            native.store_i64(raw + 8 * i, r)
+        elif code == 9:
+            native.store_u64(raw + 8 * i, r)
         else:
-            r = np.rint(v)
-            if code == 2:
-                raw[1][a + i] = r
-            elif code == 3:
-                raw[2][a + i] = r
-            elif code == 4:
-                raw[3][a + i] = r
-            elif code == 5:
-                raw[4][a + i] = r
-            elif code == 6:
-                raw[5][a + i] = r
-            elif code == 7:
-                raw[6][a + i] = r
-            elif code == 8:
-                raw[7][a + i] = r
-            else:
-                raw[8][a + i] = r
+            native.store_u8(raw + i, 1.0 if r != 0 else 0.0)
 
 
 @numba.njit(cache=True, _nrt=False)
-def _io(fmu, ports, grp, g, buf_addr, setter, st):
-    """Get (``setter`` False) or set the ports of group ``g``; True on an FMI error. ``ports`` is ``(port, buf,
-    raw)``: a float64 port is read and written in place in the signal buffer, a typed one (``type`` > 0) through
-    its slot of ``raw`` with the conversions of :class:`cosim.fmi.Port`."""
-    port, buf, raw = ports
+def _io(fmu, port, grp, g, buf_addr, setter, st):
+    """Get (``setter`` False) or set the ports of group ``g``; True on an FMI error. A float64 port is read and
+    written in place in the signal buffer, a typed one (``type`` > 0) through its C values at ``raw_addr``,
+    converted as :class:`cosim.fmi.Port` does."""
     for j in range(grp[g, 0], grp[g, 1]):
         f = port[j, _PF]
         n = port[j, _PN]
         code = port[j, _PT]
         val = buf_addr + 8 * port[j, _PB]
+        c_val = val
         if code != 0:
-            val = port[j, _PRA]
+            c_val = port[j, _PRA]
             if setter:
-                _to_raw(raw, code, port[j, _PRI], buf, port[j, _PB], n)
+                _to_raw(code, c_val, val, n)
         fn = port[j, _PSET] if setter else port[j, _PGET]
         if fmu[f, _V] == 3:
-            s = native.real3(fn, fmu[f, _C], port[j, _PVR], n, val, n)
+            s = native.real3(fn, fmu[f, _C], port[j, _PVR], n, c_val, n)
         else:
-            s = native.real2(fn, fmu[f, _C], port[j, _PVR], n, val)
+            s = native.real2(fn, fmu[f, _C], port[j, _PVR], n, c_val)
         if s > 1:
             return _fail(st, f, 4 if setter else 3, s)
         if code != 0 and not setter:
-            _from_raw(raw, code, port[j, _PRI], buf, port[j, _PB], n)
+            _from_raw(code, c_val, val, n)
     return False
 
 
@@ -217,7 +219,7 @@ def _route(buf, rsrc, rdst, rgain, roff, rgrp, g):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _eval(t, push, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
+def _eval(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
     """Set time and states of every ME FMU (``push``), route ME-to-ME connections level by level."""
     if push:
         for i in range(me.shape[0]):
@@ -229,17 +231,17 @@ def _eval(t, push, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp
             if s > 1:
                 return _fail(st, f, 1, s)
     for lv in range(lvl.shape[0]):
-        if _io(fmu, ports, pgrp, lvl[lv, 0], buf_addr, False, st):
+        if _io(fmu, port, pgrp, lvl[lv, 0], buf_addr, False, st):
             return True
         _route(buf, rsrc, rdst, rgain, roff, rgrp, lvl[lv, 1])
-        if _io(fmu, ports, pgrp, lvl[lv, 2], buf_addr, True, st):
+        if _io(fmu, port, pgrp, lvl[lv, 2], buf_addr, True, st):
             return True
     return False
 
 
 @numba.njit(cache=True, _nrt=False)
-def _deriv(t, push, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr, buf_addr, st):
-    if _eval(t, push, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
+def _deriv(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr, buf_addr, st):
+    if _eval(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
         return True
     for i in range(me.shape[0]):
         f = me[i]
@@ -362,12 +364,7 @@ def _crossed(ev, Z, due):
     from > 0 to <= 0 or from < 0 to >= 0, as the Python engine; returns how many."""
     n = 0
     for e in range(ev.shape[0]):
-        hit = 0
-        for i in range(ev[e, 1], ev[e, 1] + ev[e, 2]):
-            z0 = Z[0, i]
-            z1 = Z[1, i]
-            if (z0 > 0 and z1 <= 0) or (z0 < 0 and z1 >= 0):
-                hit = 1
+        hit = 1 if crossed(Z[0], Z[1], ev[e, 1], ev[e, 1] + ev[e, 2]) else 0
         due[ev[e, 0]] = hit
         n += hit
     return n
@@ -384,9 +381,10 @@ def _handle_events(t, kind, net, evt, addrs, st):
     for i in range(me.shape[0]):
         if due[me[i]] != 0 and first < 0:
             first = me[i]
-    st[_EVN] = st[_EVN] + 1 if abs(t - ff[_EVT]) <= ff[_WINDOW] else 1
+    count, chattering = chatter(t, ff[_EVT], st[_EVN], ff[_WINDOW], ff[_MAXEV])
+    st[_EVN] = count
     ff[_EVT] = t
-    if st[_EVN] > ff[_MAXEV]:
+    if chattering:
         return _fail(st, max(first, 0), _FN_CHATTER, 0)
     t_next = math.inf
     for i in range(me.shape[0]):
@@ -415,11 +413,11 @@ def _handle_events(t, kind, net, evt, addrs, st):
 def _time_events(t, synced, net, evt, addrs, st):
     """Event iteration at ``t`` of the FMUs whose next time event has come (``synced``: they hold t and X)."""
     ff = evt[7]
-    if ff[_TNEXT] > t:
+    if not time_event_due(ff[_TNEXT], t):
         return False
     me, due, tev = net[1], evt[3], evt[4]
     for i in range(me.shape[0]):
-        due[me[i]] = 1 if tev[me[i]] <= t else 0
+        due[me[i]] = 1 if time_event_due(tev[me[i]], t) else 0
     if not synced and _net_eval(t, net, addrs, st):
         return True
     return _handle_events(t, _TIME, net, evt, addrs, st)
@@ -498,8 +496,7 @@ def _rk4_events(ta, tb, n, net, evt, cmp, W, addrs, st):
         grid = tb if j == n else ta + L * j / n
         if _time_events(t, False, net, evt, addrs, st):
             return True
-        te = ff[_TNEXT]
-        t1 = te if t < te < grid else grid
+        t1 = step_end(t, ff[_TNEXT], grid)
         _copy_row(E, 0, W, 0)
         if _net_deriv(t, net, addrs, st):
             return True
@@ -509,15 +506,13 @@ def _rk4_events(ta, tb, n, net, evt, cmp, W, addrs, st):
             return True
         if hits > 0:
             lo, hi = 0.0, t1 - t
-            while hi - lo > ff[_TOL]:
-                mid = 0.5 * (lo + hi)
+            mid = bisection_trial(lo, hi, ff[_TOL])
+            while mid >= 0:
                 hits = _trial(t, mid, net, evt, W, addrs, st)
                 if hits < 0:
                     return True
-                if hits > 0:
-                    hi = mid
-                else:
-                    lo = mid
+                lo, hi = bisection_narrow(lo, hi, mid, hits > 0)
+                mid = bisection_trial(lo, hi, ff[_TOL])
             t1 = t + hi
             if _trial(t, hi, net, evt, W, addrs, st) < 0 or _handle_events(t1, _STATE, net, evt, addrs, st):
                 return True
@@ -533,7 +528,7 @@ def _rk4_events(ta, tb, n, net, evt, cmp, W, addrs, st):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _rk4(t, t_next, k, h_max, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr, buf_addr,
+def _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr, buf_addr,
          st):
     """RK4 substeps of the ME FMUs' combined state from ``t`` to ``t_next`` when no FMU has events or asks for
     CompletedIntegratorStep (the plain path, as fast as before events existed); True on an FMI error."""
@@ -549,19 +544,19 @@ def _rk4(t, t_next, k, h_max, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain,
         t1 = t + L * (j + 1) / n
         h = t1 - ta
         th = ta + 0.5 * h
-        if _deriv(ta, not (synced and j == 0), fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
+        if _deriv(ta, not (synced and j == 0), fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
                   x_addr, dx_addr, buf_addr, st):
             return True
         _stage(W, 0, 0.5 * h)
-        if _deriv(th, True, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+        if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
                   buf_addr, st):
             return True
         _stage(W, 1, 0.5 * h)
-        if _deriv(th, True, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+        if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
                   buf_addr, st):
             return True
         _stage(W, 2, h)
-        if _deriv(t1, True, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+        if _deriv(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
                   buf_addr, st):
             return True
         for i in range(nX):
@@ -599,7 +594,7 @@ def _advance_events(t, t_next, k, net, evt, cmp, W, addrs, st):
 
 
 @numba.njit(cache=True, _nrt=False)
-def run_chunk(fmu, me, cmp, cs, ports, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec, times,
+def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec, times,
               rows, rec_idx, calls, scr, st, evt, max_instants):
     """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR.
 
@@ -625,7 +620,7 @@ def run_chunk(fmu, me, cmp, cs, ports, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl,
         return MORE
     if st[_FIRST] == 1:
         st[_FIRST] = 0
-        if _io(fmu, ports, pgrp, 1, buf_addr, True, st):
+        if _io(fmu, port, pgrp, 1, buf_addr, True, st):
             return ERROR
     code = MORE
     for _ in range(max_instants):
@@ -634,11 +629,11 @@ def run_chunk(fmu, me, cmp, cs, ports, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl,
         t = t0 + (k * den) / num
         # 1. sample
         if n_me > 0:
-            if _eval(t, True, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
+            if _eval(t, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
                 code = ERROR
                 break
             st[_SYNC] = k
-        if _io(fmu, ports, pgrp, 0, buf_addr, False, st):
+        if _io(fmu, port, pgrp, 0, buf_addr, False, st):
             code = ERROR
             break
         # 2. instant FMU-to-FMU routes
@@ -653,7 +648,7 @@ def run_chunk(fmu, me, cmp, cs, ports, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl,
                     calls[c] += 1
             # 4. hold: controller outputs to the FMUs
             _route(buf, rsrc, rdst, rgain, roff, rgrp, 1)
-            if _io(fmu, ports, pgrp, 1, buf_addr, True, st):
+            if _io(fmu, port, pgrp, 1, buf_addr, True, st):
                 code = ERROR
                 break
         if nonfinite(buf, W):  # Python names the value (cosim.master.finite)
@@ -681,12 +676,12 @@ def run_chunk(fmu, me, cmp, cs, ports, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl,
             plain = True
             if evt is not None:
                 plain = not (evt[0].shape[0] > 0 or cmp.shape[0] > 0 or ff[_TNEXT] <= t_next)
-                if not plain and _advance_events(t, t_next, k, (fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain,
+                if not plain and _advance_events(t, t_next, k, (fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain,
                                                                  roff, rgrp), evt, cmp, W,
                                                  (x_addr, dx_addr, buf_addr), st):
                     code = ERROR
                     break
-            if plain and nX > 0 and _rk4(t, t_next, k, h_max, fmu, me, ports, pgrp, lvl, buf, rsrc, rdst, rgain, roff,
+            if plain and nX > 0 and _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff,
                                          rgrp, W, x_addr, dx_addr, buf_addr, st):
                 code = ERROR
                 break

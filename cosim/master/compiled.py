@@ -24,7 +24,7 @@ from cosim.jit import compile_kernel, kernel_problem, native_kernel
 from cosim.master.ckernel import (CTL_COLS, DONE, ERROR, FF, FMU_COLS, FUNCTIONS, KINDS, PORT_COLS, RAW_TYPES, ST,
                                   run_chunk)
 from cosim.master.finite import nonfinite_error
-from cosim.master.plant import CHATTER_WINDOW, EVENT_TOL, MAX_EVENTS_AT_ONE_TIME
+from cosim.master.events import CHATTER_WINDOW, EVENT_TOL, MAX_EVENTS_AT_ONE_TIME
 
 __all__ = ["CompiledLoop", "compiled_problem"]
 
@@ -107,7 +107,8 @@ class CompiledLoop:
         tab = self._tables(plant)
         self._ff = tab["ff"]
         self._log = tab["evt"][8] if tab["evt"] is not None else None
-        self._args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["ports"], tab["pgrp"], tab["rsrc"],
+        self._raw = tab["raw"]  # the typed ports' C values, addressed by the kernel
+        self._args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["port"], tab["pgrp"], tab["rsrc"],
                       tab["rdst"], tab["rgain"], tab["roff"], tab["rgrp"], tab["lvl"], tab["ctl"], tab["ii"], tab["ff"],
                       eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st,
                       tab["evt"])
@@ -220,6 +221,7 @@ class CompiledLoop:
         lvl = []
         for gets, arrays, sets in plant.program:
             lvl.append((group(gets), rgroup(arrays), group(sets)))
+        port, raw = _port_table(ports, fidx, buf)
         clocks = eng.tb.clocks
         ctl = []
         for name in lay.ctrl_order:
@@ -233,12 +235,12 @@ class CompiledLoop:
         r = np.array(routes, dtype=np.float64).reshape(-1, 4)
         return dict(
             fmu=fmu, me=me, cmp=cmp, cs=cs,
-            ports=_port_table(ports, fidx, buf), pgrp=np.array(pgrp, dtype=np.int64).reshape(-1, 2),
+            port=port, raw=raw, pgrp=np.array(pgrp, dtype=np.int64).reshape(-1, 2),
             rsrc=r[:, 0].astype(np.int64), rdst=r[:, 1].astype(np.int64),
             rgain=np.ascontiguousarray(r[:, 2]), roff=np.ascontiguousarray(r[:, 3]),
             rgrp=np.array(rgrp, dtype=np.int64).reshape(-1, 2), lvl=np.array(lvl, dtype=np.int64).reshape(-1, 3),
             ctl=np.array(ctl, dtype=np.int64).reshape(-1, len(CTL_COLS)), ii=ii,
-            ff=ff, scr=scr, evt=evt,
+            ff=ff, scr=scr, port_items=ports, fmu_names=names, evt=evt,
         )
 
     def _raise(self):
@@ -267,21 +269,18 @@ class CompiledLoop:
 
 
 def _port_table(ports, fidx, buf):
-    """The kernel's ``ports`` (see :mod:`cosim.master.ckernel`) for ``(instance, Port)`` pairs: the table, the
-    signal buffer, and the views of one array where the typed ports keep their C values (8-byte aligned slots)."""
+    """The kernel's ``port`` table (see :mod:`cosim.master.ckernel`) of ``(instance, Port)`` pairs, and the array
+    whose 8-byte aligned slots hold the typed ports' C values (it must live as long as the table)."""
     types = [RAW_TYPES.index(np.dtype(p.raw.dtype).name) if p.raw is not None else 0 for _, p in ports]
-    sizes = [0 if code == 0 else -(-p.n * np.dtype(RAW_TYPES[code]).itemsize // 8) * 8
-             for code, (_, p) in zip(types, ports)]
-    store = np.zeros(max(1, sum(sizes) // 8), dtype=np.int64)
-    raw = tuple(store.view(np.uint8 if t == "bool" else t) for t in RAW_TYPES[1:])
+    slots = [0 if code == 0 else -(-p.n * np.dtype(RAW_TYPES[code]).itemsize // 8) for code, (_, p) in zip(types, ports)]
+    raw = np.zeros(max(1, sum(slots)), dtype=np.int64)
     table, at = [], 0
-    for (inst, port), code, size in zip(ports, types, sizes):
+    for (inst, port), code, slot in zip(ports, types, slots):
         get, set_ = inst.port_entry_points(port)
         if not (get and set_):  # a call through address 0 would crash the process: refuse here
             raise FmiCallError("load", "missing entry points", f"{inst.name}: the Get/Set functions of "
                                f"{port.names[0]}'s type are not exported")
-        item = np.dtype(RAW_TYPES[code]).itemsize
         table.append((fidx[inst.name], port.vr_address, port.n, (port.values.ctypes.data - buf.ctypes.data) // 8,
-                      get, set_, code, store.ctypes.data + at if code else 0, at // item if code else 0))
-        at += size
-    return np.array(table, dtype=np.int64).reshape(-1, len(PORT_COLS)), buf, raw
+                      get, set_, code, raw.ctypes.data + 8 * at if code else 0))
+        at += slot
+    return np.array(table, dtype=np.int64).reshape(-1, len(PORT_COLS)), raw

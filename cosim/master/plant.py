@@ -20,6 +20,7 @@ Events of Model-Exchange FMUs (FMI 2.0 and 3.0) are handled at their own time, w
 An FMU without event indicators and without a next event time costs nothing extra: the plain RK4 loop
 runs. More than ``MAX_EVENTS_AT_ONE_TIME`` events in a row, each within ``CHATTER_WINDOW`` (1e-8 s) of the
 previous one, raise EventError (chattering, or a Zeno accumulation such as a ball that never comes to rest).
+These rules are the functions of :mod:`cosim.master.events`, which the compiled kernel calls too.
 """
 
 import math
@@ -28,13 +29,12 @@ import numpy as np
 
 from cosim.errors import ConfigError, CosimError, EventError
 from cosim.fmi import FmuInstance
+from cosim.master.events import (CHATTER_WINDOW, EVENT_TOL, MAX_EVENTS_AT_ONE_TIME, bisection_narrow, bisection_trial,
+                                 chatter, crossed, step_end, time_event_due)
 from cosim.master.kernels import rk4_begin, rk4_final, rk4_stage, route
 
 __all__ = ["PlantSystem", "FmuPool", "EVENT_TOL", "MAX_EVENTS_AT_ONE_TIME", "CHATTER_WINDOW"]
 
-EVENT_TOL = 1e-10  # s: width of the bracket a state event is located to
-MAX_EVENTS_AT_ONE_TIME = 100  # events in a row, each within CHATTER_WINDOW of the last, before EventError
-CHATTER_WINDOW = 100 * EVENT_TOL  # s: events closer than this to the previous one count as one instant
 
 
 def _ports(inst, names, layout, buf):
@@ -316,12 +316,7 @@ class PlantSystem:
 
     def _crossed(self):
         """The evented FMUs whose indicators (just read into ``inst.z``) changed sign since ``_z0``."""
-        out = []
-        for inst, z0 in zip(self.evented, self._z0):
-            z1 = inst.z
-            if np.any(((z0 > 0) & (z1 <= 0)) | ((z0 < 0) & (z1 >= 0))):
-                out.append(inst)
-        return out
+        return [inst for inst, z0 in zip(self.evented, self._z0) if crossed(z0, inst.z, 0, len(z0))]
 
     def _read_indicators(self):
         for inst in self.evented:
@@ -344,10 +339,9 @@ class PlantSystem:
 
     def _handle_events(self, t, insts, kind):
         """Event iteration of ``insts`` at ``t`` (the FMUs hold t and X); indicators re-read; chattering guard."""
-        last_t, count = self._last_event
-        count = count + 1 if abs(t - last_t) <= CHATTER_WINDOW else 1
+        count, chattering = chatter(t, *self._last_event, CHATTER_WINDOW, MAX_EVENTS_AT_ONE_TIME)
         self._last_event = (t, count)
-        if count > MAX_EVENTS_AT_ONE_TIME:
+        if chattering:
             raise EventError(f"{insts[0].name}: more than {MAX_EVENTS_AT_ONE_TIME} events in a row less than "
                              f"{CHATTER_WINDOW:g} s apart, at t={t:.12g} s (chattering or an accumulation of events)")
         for inst in insts:
@@ -362,7 +356,7 @@ class PlantSystem:
 
     def _time_events(self, t, synced=False):
         """Event iteration at ``t`` of the FMUs whose next event time has come (``synced``: they hold t, X)."""
-        due = [inst for inst in self.me if inst.next_event_time <= t]
+        due = [inst for inst in self.me if time_event_due(inst.next_event_time, t)]
         if due:
             if not synced:
                 self._eval(t)
@@ -396,12 +390,10 @@ class PlantSystem:
         Returns the event time and the FMUs that cross there; X and the FMUs hold the state at that time.
         """
         lo, hi = 0.0, h
-        while hi - lo > EVENT_TOL:
-            mid = 0.5 * (lo + hi)
-            if self._trial(t, mid, x0, k1):
-                hi = mid
-            else:
-                lo = mid
+        mid = bisection_trial(lo, hi, EVENT_TOL)
+        while mid >= 0:
+            lo, hi = bisection_narrow(lo, hi, mid, bool(self._trial(t, mid, x0, k1)))
+            mid = bisection_trial(lo, hi, EVENT_TOL)
         return t + hi, self._trial(t, hi, x0, k1)
 
     def _rk4_events(self, ta, tb, n):
@@ -412,8 +404,7 @@ class PlantSystem:
         while t < tb:
             grid = tb if j == n else ta + L * j / n
             self._time_events(t)
-            te = self._next_time_event()
-            t1 = te if t < te < grid else grid
+            t1 = step_end(t, self._next_time_event(), grid)
             x0 = self.X.copy()
             self.derivatives(t)
             k1 = self.dX.copy()
@@ -450,8 +441,7 @@ class PlantSystem:
         t = ta
         while t < tb:
             self._time_events(t)
-            te = self._next_time_event()
-            t1 = te if t < te < tb else tb
+            t1 = step_end(t, self._next_time_event(), tb)
             sol = solve_ivp(f, (t, t1), self.X.copy(), method=method, rtol=self.solver.rtol, atol=self.solver.atol,
                             max_step=h_max, events=self._ivp_events(), dense_output=bool(self.evented))
             if not sol.success:
