@@ -13,7 +13,8 @@ truth 2's results had been seen, to judge the changes made in response to them):
   gear loss, a compliant mesh with backlash, LuGre guides, a second-order load cell);
 * ``impact``, ``slide``, ``speed`` (the current-step impact; stops and restarts against the jaw guides; a slow
   speed run under a PI loop): ``tests/diagnose_truth_impact.py``, ``tests/diagnose_truth2_impact.py`` and
-  ``tests/diagnose_truth3_impact.py``;
+  ``tests/diagnose_truth3_impact.py``; truth 4 (``tests/diagnose_truth4_impact.py``, laws of forms outside the
+  candidate library) is reserved for the evaluation of issue 42 and is drawn only when ``--truths`` names it;
 * ``haptic`` (the PHANToM's frequency response with a user): ``tests/diagnose_truth_haptic.py`` and
   ``tests/diagnose_truth2_haptic.py`` (built without the project's transfer-function code; truth set ``2w``: the
   same records estimated by Welch H1 instead of at the multisine's lines).
@@ -143,6 +144,12 @@ def _truth3(effect, seed, folder, experiment, workers):
     return diagnose_case_impact3(effect, seed, folder, experiment, workers)
 
 
+def _truth4(effect, seed, folder, experiment, workers):
+    from diagnose_truth4_impact import diagnose_case_impact4
+
+    return diagnose_case_impact4(effect, seed, folder, experiment, workers)
+
+
 def _welch(effect, seed, folder, workers):
     return diagnose_case_haptic2(effect, seed, folder, workers, estimator="welch")
 
@@ -152,11 +159,11 @@ def _welch(effect, seed, folder, workers):
 EXPERIMENTS = {
     "staircase": (SHOWN_ON_STAIRCASE, {"1": diagnose_staircase1, "2": diagnose_staircase2}, 2),
     **{name: (SHOWN_BY[name], {"1": _gripper(name, diagnose_case_impact1), "2": _gripper(name, diagnose_case_impact2),
-                               "3": _gripper(name, _truth3)}, 2)
+                               "3": _gripper(name, _truth3), "4": _gripper(name, _truth4)}, 2)
        for name in ("impact", "slide", "speed")},
     "haptic": (SHOWN_ON_HAPTIC, {"1": diagnose_case_haptic1, "2": diagnose_case_haptic2, "2w": _welch}, 0),
 }
-TRUTHS = ("1", "2", "2w", "3")
+TRUTHS = ("1", "2", "2w", "3", "4")
 
 
 def draw_rows(experiment, truths, effects, cases, seed, workers, rows_file=None):
@@ -237,7 +244,8 @@ def main(argv=None):
     parser.add_argument("--cases", type=int, default=3, help="cases per experiment, truth and effect")
     parser.add_argument("--seed", type=int, help="the run's seed (default: drawn from the operating system)")
     parser.add_argument("--truths", nargs="+", choices=TRUTHS, default=["1", "2", "3"],
-                        help="truths to draw cases of (default 1 2 3; 2w: the haptic second truth by Welch H1)")
+                        help="truths to draw cases of (default 1 2 3; 2w: the haptic second truth by Welch H1; 4: "
+                             "reserved for the evaluation of issue 42)")
     parser.add_argument("--rows", type=Path, help="append every row to this JSON-lines file")
     parser.add_argument("--effects", nargs="+", help="hidden effects (default: none and those the experiment shows)")
     parser.add_argument("--workers", type=int,
