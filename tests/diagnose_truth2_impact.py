@@ -343,3 +343,22 @@ def diagnose_case_impact1(effect, seed, folder, experiment="impact", workers=2):
     case = make_case(effect, np.random.default_rng(seed), experiment=experiment)
     return {**diagnose_records(case, seed, folder, experiment, workers), "experiment": experiment,
             "truth_model": 1, "effect_signal": effect_signal(case, experiment)}
+
+
+def truth_case_functions(draw_truth, simulate, truth_model):
+    """A further gripper truth's ``make_case``, ``effect_signal`` and ``diagnose_case`` (the signatures and rows of
+    :func:`make_case_impact2`, :func:`effect_signal2`, :func:`diagnose_case_impact2`, ``truth_model`` in its rows)
+    from its ``draw_truth`` (effect, rng -> truth dict) and ``simulate`` (as :func:`simulate`)."""
+    def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
+        truth = draw_truth(effect, rng)
+        return measured_records(simulate, truth, rng, noise, trials, experiment), truth
+
+    def effect_signal(case, experiment="impact"):
+        return hidden_effect_signal(simulate, case, experiment)
+
+    def diagnose_case(effect, seed, folder, experiment="impact", workers=2):
+        case = make_case(effect, np.random.default_rng(seed), experiment=experiment)
+        return {**diagnose_records(case, seed, folder, experiment, workers), "experiment": experiment,
+                "truth_model": truth_model, "effect_signal": effect_signal(case, experiment)}
+
+    return make_case, effect_signal, diagnose_case

@@ -71,10 +71,9 @@ import math
 import numpy as np
 from numba import njit
 
-from diagnose_truth2_impact import experiment_input, q_current
-from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, F_GUIDE, FORCE_NOISE, J_M, J_P, K_F, K_T, M_JF, N_COG,
-                                   OMEGA_MAX, PLAY_NOMINAL, R_P, RATIO, T_MAX, draw_baseline,
-                                   hidden_effect_signal, measured_records)
+from diagnose_truth2_impact import experiment_input, q_current, truth_case_functions
+from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, F_GUIDE, J_M, J_P, K_F, K_T, M_JF, N_COG, OMEGA_MAX,
+                                   PLAY_NOMINAL, R_P, RATIO, T_MAX, draw_baseline)
 
 __all__ = ["TRUTH4_IMPACT_EFFECTS", "simulate", "draw_truth", "make_case_impact4", "effect_signal4",
            "diagnose_case_impact4"]
@@ -476,26 +475,9 @@ def draw_truth(effect, rng):
     return truth
 
 
-def make_case_impact4(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
-    """A random hidden-effect case of this truth in the first truth's structure (``make_case`` there): (records,
-    truth dict), the records measured as ``diagnose_truth_impact.measured_records`` does."""
-    truth = draw_truth(effect, rng)
-    return measured_records(simulate, truth, rng, noise, trials, experiment), truth
-
-
-def effect_signal4(case, experiment="impact"):
-    """RMS change the hidden effect alone makes to the case's noise-free records
-    (``diagnose_truth_impact.hidden_effect_signal``)."""
-    return hidden_effect_signal(simulate, case, experiment)
-
-
-def diagnose_case_impact4(effect, seed, folder, experiment="impact", workers=2):
-    """Diagnose this truth's case (``effect``, ``seed``) of ``experiment`` with the whole library of the
-    experiment's model (``diagnose_truth2_impact.diagnose_records``); one row, ``truth_model`` 4. Reserved for the
-    evaluation of issue #42: run it only once the code under evaluation is final."""
-    from diagnose_truth2_impact import diagnose_records
-
-    case = make_case_impact4(effect, np.random.default_rng(seed), experiment=experiment)
-    return {**diagnose_records(case, seed, folder, experiment, workers),
-            "experiment": experiment, "truth_model": 4, "effect_signal": effect_signal4(case, experiment)}
-
+# make_case_impact4(effect, rng, noise, trials, experiment) -> (records, truth dict), measured as the first truth's
+# measured_records does; effect_signal4(case, experiment) -> the RMS change the hidden effect alone makes
+# (hidden_effect_signal); diagnose_case_impact4(effect, seed, folder, experiment, workers) -> one row of the
+# diagnosis with the whole library, truth_model 4: reserved for the evaluation of issue #42, run only once the code
+# under evaluation is final.
+make_case_impact4, effect_signal4, diagnose_case_impact4 = truth_case_functions(draw_truth, simulate, 4)

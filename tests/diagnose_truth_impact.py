@@ -46,7 +46,8 @@ import numpy as np
 from diagnose_truth import free_and_candidates
 
 __all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "draw_baseline", "make_case",
-           "effect_signal", "measured_records", "hidden_effect_signal", "write_job"]
+           "effect_signal", "measured_records", "hidden_effect_signal", "write_job", "SHOWN_IN",
+           "check_seed_gives_same_case", "check_effect_changes_record"]
 
 TRUTH_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction", "cogging",
                  "load_dependent_friction")
@@ -311,6 +312,44 @@ def hidden_effect_signal(simulate, case, experiment):
         angle.append(run_1[4] - run_0[4])
     return (float(np.sqrt(np.mean(np.concatenate(channel) ** 2))),
             float(np.sqrt(np.mean(np.concatenate(angle) ** 2))))
+
+
+# effect -> the experiment whose record the gripper truths' checks size it on
+SHOWN_IN = {"gear_play": "impact", "contact_damping": "impact", "coating_relaxation": "impact",
+            "load_dependent_friction": "impact", "loadcell_filter": "impact", "stiction": "slide", "cogging": "speed"}
+
+
+def check_seed_gives_same_case(make_case, other_draws, seed):
+    """A check every further gripper truth runs: one seed gives the same two-trial ``gear_play`` case of
+    ``make_case`` twice, the same ``eta_g``, ``T_c0`` and play as each of ``other_draws`` (rng -> truth dict: the
+    other truths, ``draw_baseline`` first), a whole impact record and the angle in whole counts."""
+    one = make_case("gear_play", np.random.default_rng(seed), trials=2)
+    two = make_case("gear_play", np.random.default_rng(seed), trials=2)
+    for a, b in zip(one[0], two[0]):
+        for column in range(4):
+            np.testing.assert_array_equal(a[column], b[column])
+        assert a[4] == b[4]
+    for draw in other_draws:
+        other = draw(np.random.default_rng(seed))
+        for key in ("eta_g", "T_c0", "play"):
+            assert one[1][key] == other[key], key
+    t, _, measured, angle, _ = one[0][0]
+    count = 2 * np.pi / COUNTS
+    assert np.all(np.isfinite(measured)) and len(t) == int(RATE_HZ)
+    assert np.all(np.abs(angle / count - np.round(angle / count)) < 1e-6)
+
+
+def check_effect_changes_record(make_case, effect_signal, effect, seed):
+    """A check every further gripper truth runs: ``effect``, drawn from ``seed``, changes the noise-free record of
+    the experiment that shows it (``SHOWN_IN``) by more than a fifth of the compared channel's noise or more than a
+    count of the encoder (RMS); ``none`` changes nothing."""
+    experiment = SHOWN_IN.get(effect, "impact")
+    channel, angle = effect_signal(make_case(effect, np.random.default_rng(seed), experiment=experiment), experiment)
+    if effect == "none":
+        assert (channel, angle) == (0.0, 0.0)
+        return
+    noise = CURRENT_NOISE if experiment == "speed" else FORCE_NOISE
+    assert channel > 0.2 * noise or angle > 2 * np.pi / COUNTS, (channel, angle * COUNTS / (2 * np.pi))
 
 
 def _simulate_arguments(truth):

@@ -18,8 +18,9 @@ import diagnose_truth2_impact as truth2
 import diagnose_truth3_impact as truth3
 from diagnose_truth3_impact import (DT, GMS_PHI, GMS_SIGMA1, GMS_WEIGHTS, P_TH, PRONY_TAU, SIGMA0_G, STRIBECK_M, W_S,
                                     simulate)
-from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, COUNTS, CURRENT_NOISE, F_GUIDE, FORCE_NOISE, K_T,
-                                   OMEGA_MAX, R_P, RATE_HZ, RATIO, SPEED_PROFILE, T_MAX, make_case)
+from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, COUNTS, F_GUIDE, K_T, OMEGA_MAX, R_P, RATIO, SHOWN_IN,
+                                   SPEED_PROFILE, T_MAX, check_effect_changes_record, check_seed_gives_same_case,
+                                   make_case)
 
 SEED = 1554713424
 DRAWS = [truth3.draw_truth("none", rng) for rng in [np.random.default_rng(SEED)] for _ in range(3)]
@@ -245,34 +246,12 @@ def test_cogging_spectrum_is_the_drawn_detent_and_eccentricity():
 def test_a_seed_gives_the_same_case_and_the_other_truths_baseline():
     """One seed: the same records twice, and the same ``eta_g``, ``T_c0`` and play as the first and second
     truths' cases (``draw_baseline`` first)."""
-    one = truth3.make_case_impact3("gear_play", np.random.default_rng(SEED), trials=2)
-    two = truth3.make_case_impact3("gear_play", np.random.default_rng(SEED), trials=2)
-    for a, b in zip(one[0], two[0]):
-        for column in range(4):
-            np.testing.assert_array_equal(a[column], b[column])
-        assert a[4] == b[4]
-    first = make_case("gear_play", np.random.default_rng(SEED))[1]
-    second = truth2.draw_truth("gear_play", np.random.default_rng(SEED))
-    for key in ("eta_g", "T_c0", "play"):
-        assert one[1][key] == first[key] == second[key]
-    t, _, measured, angle, _ = one[0][0]
-    assert np.all(np.isfinite(measured)) and len(t) == int(RATE_HZ)
-    assert np.all(np.abs(angle / COUNT - np.round(angle / COUNT)) < 1e-6)
+    check_seed_gives_same_case(truth3.make_case_impact3, [lambda rng: make_case("gear_play", rng)[1],
+                                                          lambda rng: truth2.draw_truth("gear_play", rng)], SEED)
 
 
-SHOWN = {"gear_play": "impact", "contact_damping": "impact", "coating_relaxation": "impact",
-         "load_dependent_friction": "impact", "loadcell_filter": "impact", "stiction": "slide", "cogging": "speed"}
-
-
-@pytest.mark.parametrize("effect", sorted(SHOWN) + ["none"])
+@pytest.mark.parametrize("effect", sorted(SHOWN_IN) + ["none"])
 def test_every_effect_changes_the_record_measurably(effect):
     """Each hidden effect, drawn from the seed, changes its experiment's noise-free record by more than a fifth of
     the compared channel's noise or more than a count of the encoder (RMS); ``none`` changes nothing."""
-    experiment = SHOWN.get(effect, "impact")
-    case = truth3.make_case_impact3(effect, np.random.default_rng(SEED), experiment=experiment)
-    channel, angle = truth3.effect_signal3(case, experiment)
-    if effect == "none":
-        assert (channel, angle) == (0.0, 0.0)
-        return
-    noise = CURRENT_NOISE if experiment == "speed" else FORCE_NOISE
-    assert channel > 0.2 * noise or angle > COUNT, (channel, angle / COUNT)
+    check_effect_changes_record(truth3.make_case_impact3, truth3.effect_signal3, effect, SEED)

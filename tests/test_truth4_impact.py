@@ -22,8 +22,9 @@ import diagnose_truth3_impact as truth3
 import diagnose_truth4_impact as truth4
 from diagnose_truth4_impact import (BS_EPS, BS_ETA, BS_P, D_C, DT, H_GL, LOADING, RS_A, RS_B, UNLOADING, V0_RS,
                                     simulate)
-from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, COUNTS, CURRENT_NOISE, F_GUIDE, FORCE_NOISE, K_F, K_T,
-                                   N_COG, OMEGA_MAX, R_P, RATE_HZ, RATIO, SPEED_PROFILE, T_MAX, make_case)
+from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, COUNTS, F_GUIDE, K_F, K_T, N_COG, OMEGA_MAX, R_P, RATIO,
+                                   SHOWN_IN, SPEED_PROFILE, T_MAX, check_effect_changes_record,
+                                   check_seed_gives_same_case, make_case)
 
 SEED = 1095907558
 DRAWS = [truth4.draw_truth("none", rng) for rng in [np.random.default_rng(SEED)] for _ in range(3)]
@@ -294,35 +295,13 @@ def test_gear_play_shows_in_the_encoder_at_a_reversal(play_deg):
 def test_a_seed_gives_the_same_case_and_the_other_truths_baseline():
     """One seed: the same records twice, and the same ``eta_g``, ``T_c0`` and play as the first, second and third
     truths' cases (``draw_baseline`` first)."""
-    one = truth4.make_case_impact4("gear_play", np.random.default_rng(SEED), trials=2)
-    two = truth4.make_case_impact4("gear_play", np.random.default_rng(SEED), trials=2)
-    for a, b in zip(one[0], two[0]):
-        for column in range(4):
-            np.testing.assert_array_equal(a[column], b[column])
-        assert a[4] == b[4]
-    first = make_case("gear_play", np.random.default_rng(SEED))[1]
-    second = truth2.draw_truth("gear_play", np.random.default_rng(SEED))
-    third = truth3.draw_truth("gear_play", np.random.default_rng(SEED))
-    for key in ("eta_g", "T_c0", "play"):
-        assert one[1][key] == first[key] == second[key] == third[key]
-    t, _, measured, angle, _ = one[0][0]
-    assert np.all(np.isfinite(measured)) and len(t) == int(RATE_HZ)
-    assert np.all(np.abs(angle / COUNT - np.round(angle / COUNT)) < 1e-6)
+    check_seed_gives_same_case(truth4.make_case_impact4, [lambda rng: make_case("gear_play", rng)[1],
+                                                          lambda rng: truth2.draw_truth("gear_play", rng),
+                                                          lambda rng: truth3.draw_truth("gear_play", rng)], SEED)
 
 
-SHOWN = {"gear_play": "impact", "contact_damping": "impact", "coating_relaxation": "impact",
-         "load_dependent_friction": "impact", "loadcell_filter": "impact", "stiction": "slide", "cogging": "speed"}
-
-
-@pytest.mark.parametrize("effect", sorted(SHOWN) + ["none"])
+@pytest.mark.parametrize("effect", sorted(SHOWN_IN) + ["none"])
 def test_every_effect_changes_the_record_measurably(effect):
     """Each hidden effect, drawn from the seed, changes its experiment's noise-free record by more than a fifth of
     the compared channel's noise or more than a count of the encoder (RMS); ``none`` changes nothing."""
-    experiment = SHOWN.get(effect, "impact")
-    case = truth4.make_case_impact4(effect, np.random.default_rng(SEED), experiment=experiment)
-    channel, angle = truth4.effect_signal4(case, experiment)
-    if effect == "none":
-        assert (channel, angle) == (0.0, 0.0)
-        return
-    noise = CURRENT_NOISE if experiment == "speed" else FORCE_NOISE
-    assert channel > 0.2 * noise or angle > COUNT, (channel, angle / COUNT)
+    check_effect_changes_record(truth4.make_case_impact4, truth4.effect_signal4, effect, SEED)
