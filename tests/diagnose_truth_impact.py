@@ -47,7 +47,7 @@ from diagnose_truth import free_and_candidates
 
 __all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "draw_baseline", "make_case",
            "effect_signal", "measured_records", "hidden_effect_signal", "write_job", "SHOWN_IN",
-           "check_seed_gives_same_case", "check_effect_changes_record"]
+           "check_seed_gives_same_case", "check_effect_changes_record", "check_play_seen_at_reversal"]
 
 TRUTH_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction", "cogging",
                  "load_dependent_friction")
@@ -350,6 +350,22 @@ def check_effect_changes_record(make_case, effect_signal, effect, seed):
         return
     noise = CURRENT_NOISE if experiment == "speed" else FORCE_NOISE
     assert channel > 0.2 * noise or angle > 2 * np.pi / COUNTS, (channel, angle * COUNTS / (2 * np.pi))
+
+
+def check_play_seen_at_reversal(simulate, draw, play_deg):
+    """A check every further gripper truth runs with its ``simulate`` (truth dict, experiment, gap0, profile -> the
+    record with the jaw travel last): jaws free, 0.3 A closing then -0.3 A opening, the encoder turns back between
+    steady closing and steady opening by the jaws' travel times N/r_p plus the play ``play_deg`` times N, within 2
+    counts (two truncated readings; the mesh's deflection under the rack's small load is negligible)."""
+    count = 2 * np.pi / COUNTS
+    profile = ((0.0, 0.3), (0.3, 0.3), (0.3, -0.3), (0.6, -0.3))
+    t, _, _, _, theta, _, x = simulate({**draw, "play": math.radians(play_deg)}, experiment="slide", gap0=10.0,
+                                       profile=profile)
+    angle = np.floor(theta / count) * count
+    closing, opening = np.searchsorted(t, 0.29), len(t) - 1
+    assert x[opening] < x[closing] and theta[opening] < theta[closing]
+    seen = (angle[closing] - angle[opening]) - (x[closing] - x[opening]) * RATIO / R_P
+    assert abs(seen - math.radians(play_deg) * RATIO) < 2 * count, (seen / count, play_deg * RATIO)
 
 
 def _simulate_arguments(truth):

@@ -18,14 +18,13 @@ import diagnose_truth2_impact as truth2
 import diagnose_truth3_impact as truth3
 from diagnose_truth3_impact import (DT, GMS_PHI, GMS_SIGMA1, GMS_WEIGHTS, P_TH, PRONY_TAU, SIGMA0_G, STRIBECK_M, W_S,
                                     simulate)
-from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, COUNTS, F_GUIDE, K_T, OMEGA_MAX, R_P, RATIO, SHOWN_IN,
-                                   SPEED_PROFILE, T_MAX, check_effect_changes_record, check_seed_gives_same_case,
-                                   make_case)
+from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, F_GUIDE, K_T, OMEGA_MAX, R_P, RATIO, SHOWN_IN,
+                                   SPEED_PROFILE, T_MAX, check_effect_changes_record, check_play_seen_at_reversal,
+                                   check_seed_gives_same_case, make_case)
 
 SEED = 1554713424
 DRAWS = [truth3.draw_truth("none", rng) for rng in [np.random.default_rng(SEED)] for _ in range(3)]
 IDS = ["draw0", "draw1", "draw2"]
-COUNT = 2 * math.pi / COUNTS
 GAIN = RATIO / (2 * R_P)  # rack force per motor torque, ideal gear
 
 
@@ -213,34 +212,8 @@ def test_load_cell_moving_average_matches_scipy(lag):
 @pytest.mark.parametrize("play_deg", [0.4, 0.8, 1.5])
 def test_gear_play_shows_in_the_encoder_at_a_reversal(play_deg):
     """Jaws free, 0.3 A closing then -0.3 A opening: between steady closing and steady opening the encoder turns
-    back by the jaws' travel times N/r_p plus the play times N (the Hunt-Crossley flanks' deflection under the
-    rack's small load, < 1e-5 rad, is negligible). Tolerance: 2 counts (two truncated readings)."""
-    draw = {**DRAWS[0], "play": math.radians(play_deg)}
-    profile = ((0.0, 0.3), (0.3, 0.3), (0.3, -0.3), (0.6, -0.3))
-    t, _, _, _, theta, _, x = simulate(draw, experiment="slide", gap0=10.0, profile=profile)
-    angle = np.floor(theta / COUNT) * COUNT
-    closing, opening = np.searchsorted(t, 0.29), len(t) - 1
-    assert x[opening] < x[closing] and theta[opening] < theta[closing]
-    seen = (angle[closing] - angle[opening]) - (x[closing] - x[opening]) * RATIO / R_P
-    assert abs(seen - math.radians(play_deg) * RATIO) < 2 * COUNT, (seen / COUNT, play_deg * RATIO)
-
-
-def test_cogging_spectrum_is_the_drawn_detent_and_eccentricity():
-    """Over one revolution the cogging torque's spectrum holds only harmonics 24, 48, 72 (amplitudes in the drawn
-    ratios) and their +-1 sidebands from the eccentricity (``eps/2`` of each); its peak is the drawn ``T_cog``."""
-    truth = truth3.draw_truth("cogging", np.random.default_rng(SEED))
-    cog = truth3.cogging_coefficients(truth)
-    angle = np.linspace(0.0, 2 * np.pi, 24 * 256, endpoint=False)
-    torque = np.array([truth3._cogging(a, cog) for a in angle])
-    assert abs(np.abs(torque).max() - truth["T_cog"]) < 1e-12
-    spectrum = np.abs(np.fft.rfft(torque)) * 2 / len(angle)
-    ratios = {24: 1.0, 48: truth["ratio_cog2"], 72: truth["ratio_cog3"]}
-    for harmonic, ratio in ratios.items():
-        np.testing.assert_allclose(spectrum[harmonic], cog[0] * ratio, rtol=1e-9)
-        np.testing.assert_allclose(spectrum[[harmonic - 1, harmonic + 1]], cog[0] * ratio * truth["eps_cog"] / 2,
-                                   rtol=1e-9)
-    others = np.delete(spectrum, [h + s for h in ratios for s in (-1, 0, 1)])
-    assert others.max() < 1e-12 * cog[0]
+    back by the jaws' travel times N/r_p plus the play times N, within 2 counts (``check_play_seen_at_reversal``)."""
+    check_play_seen_at_reversal(simulate, DRAWS[0], play_deg)
 
 
 def test_a_seed_gives_the_same_case_and_the_other_truths_baseline():

@@ -22,14 +22,13 @@ import diagnose_truth3_impact as truth3
 import diagnose_truth4_impact as truth4
 from diagnose_truth4_impact import (BS_EPS, BS_ETA, BS_P, D_C, DT, H_GL, LOADING, RS_A, RS_B, UNLOADING, V0_RS,
                                     simulate)
-from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, COUNTS, F_GUIDE, K_F, K_T, N_COG, OMEGA_MAX, R_P, RATIO,
+from diagnose_truth_impact import (B_R, C_GREASE, CONDITION, F_GUIDE, K_F, K_T, N_COG, OMEGA_MAX, R_P, RATIO,
                                    SHOWN_IN, SPEED_PROFILE, T_MAX, check_effect_changes_record,
-                                   check_seed_gives_same_case, make_case)
+                                   check_play_seen_at_reversal, check_seed_gives_same_case, make_case)
 
 SEED = 1095907558
 DRAWS = [truth4.draw_truth("none", rng) for rng in [np.random.default_rng(SEED)] for _ in range(3)]
 IDS = ["draw0", "draw1", "draw2"]
-COUNT = 2 * math.pi / COUNTS
 A_G, B_G = RS_A * F_GUIDE, RS_B * F_GUIDE  # the guides' direct and healing effects without an effect
 
 
@@ -280,16 +279,8 @@ def test_cogging_is_the_derivative_of_the_permeance_energy():
 @pytest.mark.parametrize("play_deg", [0.4, 0.8, 1.5])
 def test_gear_play_shows_in_the_encoder_at_a_reversal(play_deg):
     """Jaws free, 0.3 A closing then -0.3 A opening: between steady closing and steady opening the encoder turns
-    back by the jaws' travel times N/r_p plus the play times N (the mesh's deflection under the rack's small load,
-    < 1e-5 rad, is negligible). Tolerance: 2 counts (two truncated readings)."""
-    draw = {**DRAWS[0], "play": math.radians(play_deg)}
-    profile = ((0.0, 0.3), (0.3, 0.3), (0.3, -0.3), (0.6, -0.3))
-    t, _, _, _, theta, _, x = simulate(draw, experiment="slide", gap0=10.0, profile=profile)
-    angle = np.floor(theta / COUNT) * COUNT
-    closing, opening = np.searchsorted(t, 0.29), len(t) - 1
-    assert x[opening] < x[closing] and theta[opening] < theta[closing]
-    seen = (angle[closing] - angle[opening]) - (x[closing] - x[opening]) * RATIO / R_P
-    assert abs(seen - math.radians(play_deg) * RATIO) < 2 * COUNT, (seen / COUNT, play_deg * RATIO)
+    back by the jaws' travel times N/r_p plus the play times N, within 2 counts (``check_play_seen_at_reversal``)."""
+    check_play_seen_at_reversal(simulate, DRAWS[0], play_deg)
 
 
 def test_a_seed_gives_the_same_case_and_the_other_truths_baseline():
