@@ -10,7 +10,8 @@ truth 2's results had been seen, to judge the changes made in response to them):
 
 * ``staircase`` (the static current staircase, force at 100 Hz): ``tests/diagnose_truth.py`` (quasi-static
   Karnopp stick/slip, rigid drivetrain) and ``tests/diagnose_truth2.py`` (Dahl motor friction, torque-proportional
-  gear loss, a compliant mesh with backlash, LuGre guides, a second-order load cell);
+  gear loss, a compliant mesh with backlash, LuGre guides, a second-order load cell); truth 4
+  (``tests/diagnose_truth4_staircase.py``, the fourth impact truth's plant on the staircase) as below;
 * ``impact``, ``slide``, ``speed`` (the current-step impact; stops and restarts against the jaw guides; a slow
   speed run under a PI loop): ``tests/diagnose_truth_impact.py``, ``tests/diagnose_truth2_impact.py`` and
   ``tests/diagnose_truth3_impact.py``; truth 4 (``tests/diagnose_truth4_impact.py``, laws of forms outside the
@@ -150,6 +151,12 @@ def _truth4(effect, seed, folder, experiment, workers):
     return diagnose_case_impact4(effect, seed, folder, experiment, workers)
 
 
+def _staircase4(effect, seed, folder, workers):
+    from diagnose_truth4_staircase import diagnose_case4
+
+    return diagnose_case4(effect, seed, folder, None, workers)
+
+
 def _welch(effect, seed, folder, workers):
     return diagnose_case_haptic2(effect, seed, folder, workers, estimator="welch")
 
@@ -157,7 +164,7 @@ def _welch(effect, seed, folder, workers):
 # experiment -> (the effects it shows, {truth: case function (effect, seed, folder, workers) -> row},
 # default Dask workers: the haptic fits are fast enough in process)
 EXPERIMENTS = {
-    "staircase": (SHOWN_ON_STAIRCASE, {"1": diagnose_staircase1, "2": diagnose_staircase2}, 2),
+    "staircase": (SHOWN_ON_STAIRCASE, {"1": diagnose_staircase1, "2": diagnose_staircase2, "4": _staircase4}, 2),
     **{name: (SHOWN_BY[name], {"1": _gripper(name, diagnose_case_impact1), "2": _gripper(name, diagnose_case_impact2),
                                "3": _gripper(name, _truth3), "4": _gripper(name, _truth4)}, 2)
        for name in ("impact", "slide", "speed")},

@@ -16,7 +16,8 @@ hysteretic/viscoelastic Maxwell-type contacts; Stribeck/Karnopp, Dahl, LuGre fri
   the last reversal, not of the speed); rate-independent, no Stribeck curve;
 * gear loss: a Coulomb mesh friction whose normal load is the transmitted torque, inside the motor friction's
   level ``L = T_c0 + c |tau_out|/N``, ``c = 1/eta - 1`` while the friction opposes the motor driving the load and
-  ``1 - eta`` when the load drives it; the paper's bearing damping ``B_g`` (eq. 9) is part of ``tau_out``;
+  ``1 - eta`` (``1 - eta_b`` with the staircase truth's ``backdrive_efficiency``) when the load drives it; the
+  paper's bearing damping ``B_g`` (eq. 9) is part of ``tau_out``;
 * gear mesh: backlash with a mesh stiffness that varies with the mesh position (single and double tooth contact,
   Kahraman and Singh 1990, J. Sound Vib. 142(1)): ``K_SINGLE``, ``K_DOUBLE`` over the fraction
   ``CONTACT_RATIO - 1`` of each of ``Z_MESH`` tooth pitches of the pinion, damping ``C_MESH``, never pulling;
@@ -62,8 +63,9 @@ increasing balance, Newton with bisection). The fractional elements use the Grü
 Fractional Differential Equations, ch. 7) on a grid of ``H_GL`` = 0.1 ms with the full memory, the newest point
 being the current deflection.
 
-The draws and the checks (``tests/test_truth4_impact.py``) use the seed 1095907558, drawn once with
-``python -c "import secrets; print(secrets.randbelow(2**31))"``.
+The checks (``tests/test_truth4_impact.py``) draw their cases from the seed 1095907558, drawn once with
+``python -c "import secrets; print(secrets.randbelow(2**31))"``. ``diagnose_truth4_staircase.py`` runs this plant
+on the static staircase.
 """
 
 import math
@@ -342,9 +344,10 @@ def fractional_forces(delta_points, frac):
 
 
 @njit(cache=True)
-def _integrate(inputs, speed_mode, steps_per_sample, eta, T_c0, play, gap0, guide, frac, cog):
+def _integrate(inputs, speed_mode, steps_per_sample, eta, eta_b, T_c0, play, gap0, guide, frac, cog):
     """The plant of the module docstring over ``len(inputs)`` samples. ``inputs``: the current [A] per sample, or
-    (``speed_mode``) the PI loop's motor speed reference [rad/s]. ``guide``: A, B, mu_F; ``frac``: k_r, tau_r,
+    (``speed_mode``) the PI loop's motor speed reference [rad/s]. ``eta``, ``eta_b``: the mesh's efficiency
+    driving and back-driven. ``guide``: A, B, mu_F; ``frac``: k_r, tau_r,
     alpha_r, c_d, alpha_d (zero stiffness and coefficient: none). Returns per sample (before its step) the contact
     force [N], motor angle [rad], q current [A] and jaw travel [m], and the contact force at every ``H_GL``."""
     n = len(inputs)
@@ -384,7 +387,7 @@ def _integrate(inputs, speed_mode, steps_per_sample, eta, T_c0, play, gap0, guid
         # motor: Bliman-Sorine friction carrying the mesh loss in its level
         x1, x2 = bliman_sorine(x1, x2, w)
         state = x1 + x2
-        level = T_c0 + ((1.0 / eta - 1.0) if state * tau_out >= 0.0 else (1.0 - eta)) * abs(tau_out) / RATIO
+        level = T_c0 + ((1.0 / eta - 1.0) if state * tau_out >= 0.0 else (1.0 - eta_b)) * abs(tau_out) / RATIO
         w_new = w + DT * (K_T * i_q - B_R * w - tau_out / RATIO - level * state - cogging_torque(theta, cog)) / J_M
         # jaw: rack, grease and the guides' rate-and-state friction, implicit in the speed
         scale = 1.0 + guide[2] * F_c / F_GUIDE
@@ -428,7 +431,8 @@ def guide_parameters(truth):
 
 def simulate(truth, experiment="impact", gap0=None, profile=None):
     """One noise-free record of ``experiment`` for the parameters ``truth`` (a dict from :func:`draw_truth`;
-    ``eta_g`` and ``T_c0`` are enough for the baseline), the object at ``gap0`` [m] of travel (default: the
+    ``eta_g`` and ``T_c0`` are enough for the baseline; ``eta_b``, the back-driven efficiency, is ``eta_g`` unless
+    given: the staircase truth's effect), the object at ``gap0`` [m] of travel (default: the
     experiment's). Returns (time [s], input, load-cell reading [N] with its offset, contact force [N], motor angle
     [rad], q current [A], jaw travel [m]): the input is the current [A] per sample, or for the speed run the speed
     reference [rad/s]. ``profile``: (time [s], input) corners joined by straight lines in place of the experiment's
@@ -439,8 +443,8 @@ def simulate(truth, experiment="impact", gap0=None, profile=None):
                      t.get("c_frac", 0.0), t.get("alpha_frac", 0.0)])
     steps_per_sample = int(round(1.0 / (rate * DT)))
     out, fine = _integrate(np.ascontiguousarray(given, dtype=float), experiment == "speed", steps_per_sample,
-                           t["eta_g"], t["T_c0"], t.get("play", PLAY_NOMINAL), gap0, guide_parameters(t), frac,
-                           cogging_coefficients(t))
+                           t["eta_g"], t.get("eta_b", t["eta_g"]), t["T_c0"], t.get("play", PLAY_NOMINAL), gap0,
+                           guide_parameters(t), frac, cogging_coefficients(t))
     window = int(round(1.0 / (t.get("f_notch", F_NOTCH_NOMINAL) * H_GL)))
     reading = sinc_filter(fine, window)[np.arange(len(time)) * steps_per_sample // NF] + t.get("F_off", 0.0)
     return time, given, reading, out[:, 0], out[:, 1], out[:, 2], out[:, 3]
