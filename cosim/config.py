@@ -21,7 +21,6 @@ The schema (see docs/config.md for the full reference)::
 import difflib
 import math
 import re
-import tomllib
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
@@ -117,6 +116,8 @@ class FmuSpec:
         Parameter values and start values by variable name (SI units).
     info : cosim.fmi.ModelInfo
         The FMU's model description, read while validating.
+    parameters_file : cosim.paramfile.ParametersFile or None
+        The file ``parameters_file`` named (its values are in ``parameters``, under the config's own).
     """
 
     name: str
@@ -125,6 +126,7 @@ class FmuSpec:
     parameters: dict
     start: dict
     info: object = field(repr=False, compare=False, default=None)
+    parameters_file: object = field(repr=False, compare=False, default=None)
 
 
 @dataclass(frozen=True)
@@ -390,26 +392,21 @@ def _solver(data, problems):
 
 
 def _parameters_file(table, base_dir, problems, path):
-    """The ``[parameters]`` table of a TOML file (as ``cosim calibrate`` writes it); ``parameters`` override it."""
+    """The parameters file ``parameters_file`` names (as ``cosim calibrate`` writes it), or None; ``parameters``
+    override its values."""
+    from cosim.paramfile import read_parameters_file
+
     name = table.get("parameters_file")
     if name is None:
-        return {}
+        return None
     if not isinstance(name, str):
         problems.add(path + ("parameters_file",), f"must be a file name (a string); got {name!r}")
-        return {}
-    file = base_dir / name
+        return None
     try:
-        values = tomllib.loads(read_text(file, "parameters file")).get("parameters", {})
+        return read_parameters_file(base_dir / name)
     except ConfigError as err:
         problems.add(path + ("parameters_file",), str(err))
-        return {}
-    except tomllib.TOMLDecodeError as err:
-        problems.add(path + ("parameters_file",), f"cannot read a [parameters] table from {file}: {err}")
-        return {}
-    if not isinstance(values, dict):
-        problems.add(path + ("parameters_file",), f"{file}: [parameters] must be a table of name = value")
-        return {}
-    return values
+        return None
 
 
 def _value_type(info, var, value, problems, where):
@@ -478,10 +475,11 @@ def _fmu(name, t, base_dir, problems):
     kind = t.get("kind", "ME" if "ME" in info.kinds else "CS")
     if kind not in info.kinds:
         problems.add(p + ("kind",), f"{full.name} provides {', '.join(info.kinds)}, not {kind!r}")
-    params = {**_parameters_file(t, base_dir, problems, p), **_table(t, "parameters", problems, p)}
+    upstream = _parameters_file(t, base_dir, problems, p)
+    params = {**(upstream.values if upstream else {}), **_table(t, "parameters", problems, p)}
     starts = _table(t, "start", problems, p)
     _fmu_values(info, full, params, starts, problems, p)
-    return FmuSpec(name, full, kind, dict(params), dict(starts), info)
+    return FmuSpec(name, full, kind, dict(params), dict(starts), info, upstream)
 
 
 def _fmus(fmus_t, base_dir, problems):

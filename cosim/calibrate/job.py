@@ -4,6 +4,7 @@ with multi-start, and writes ``calibration.json``, ``parameters.toml`` and befor
 Job schema (paths relative to the job file)::
 
     [model]       source = "x.mo", name = "Pkg.Model", parameters = {name = value}   # fixed values
+                  parameters_file = "upstream/parameters.toml"   # fixed values of another calibration
                   (or fmu = "x.fmu" for a model with no Modelica source: finite differences through the FMU)
     [data]        path = "x.csv|x.parquet", inputs = {model_input = "column"}, start, stop, decimate
     [fit]         signals = [{output = "F_g", column = "F_g", noise = 0.5}], segments = [[t0, t1]],
@@ -23,7 +24,7 @@ from cosim.tomldoc import bounded_parameters, number, read_toml, sections, signa
 __all__ = ["CalibrationJob", "load_job", "run_job"]
 
 _SCHEMA = {
-    "model": ("source", "name", "fmu", "parameters"),
+    "model": ("source", "name", "fmu", "parameters", "parameters_file"),
     "data": ("path", "inputs", "start", "stop", "decimate"),
     "fit": ("signals", "segments", "steady_s", "method", "substeps", "max_iter"),
     "multistart": ("count", "seed", "scheduler"),
@@ -53,6 +54,7 @@ class CalibrationJob:
     starts: int
     seed: int
     scheduler: str
+    upstream: tuple = ()  # of cosim.paramfile.ParametersFile: the parameters file [model] read
 
 
 def load_job(path, overrides=()):
@@ -100,12 +102,34 @@ def load_job(path, overrides=()):
     count = number(problems, ms_t, "count", ("multistart",), default=1, positive=True, integer=True)
     seed = number(problems, ms_t, "seed", ("multistart",), default=0, integer=True)
     scheduler = string(problems, ms_t, "scheduler", ("multistart",), default="")
-    fixed = values(problems, model_t, "parameters", ("model",))
+    upstream = _upstream(model_t, base, problems)
+    fixed = {**{n: v for u in upstream for n, v in u.values.items() if n not in free},
+             **values(problems, model_t, "parameters", ("model",))}
     problems.raise_if_any()
     return CalibrationJob(
         path=path, source=source, model=name, fmu=fmu, fixed=fixed, data_path=base / data_path, inputs=dict(inputs),
         window=(start, stop), decimate=decimate, signals=tuple(signals), segments=segments, steady_s=steady_s,
-        method=method, substeps=substeps, max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler)
+        method=method, substeps=substeps, max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler,
+        upstream=upstream)
+
+
+def _upstream(model_t, base, problems):
+    """``[model] parameters_file``: the calibration this one builds on; its values are fixed values here (the job's
+    own ``parameters`` override them; a parameter the job frees keeps its ``start``)."""
+    from cosim.errors import ConfigError
+    from cosim.paramfile import read_parameters_file
+
+    name = model_t.get("parameters_file")
+    if name is None:
+        return ()
+    if not isinstance(name, str):
+        problems.add(("model", "parameters_file"), f"must be a file name (a string); got {name!r}")
+        return ()
+    try:
+        return (read_parameters_file(base / name),)
+    except ConfigError as err:
+        problems.add(("model", "parameters_file"), str(err))
+        return ()
 
 
 def _model(model_t, base, problems):

@@ -3,10 +3,11 @@ calibrated set, loadable by a run config) and a plot of measured vs simulated be
 
 import json
 import math
-from datetime import datetime, timezone
 
 import matplotlib
 import numpy as np
+
+from cosim.paramfile import provenance, write_parameters_file
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -60,13 +61,14 @@ def write_results(job, result, out):
         "samples": int(result["mask"].sum()),
         "multistart": result["runs"],
     }
+    prov = provenance(job.path, [job.data_path], job.upstream)
+    summary["provenance"] = prov
     (out / "calibration.json").write_text(json.dumps(summary, indent=2))
-    stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    lines = [f"# Calibrated by `cosim calibrate {job.path.name}` ({stamp}), model {job.model}",
-             "# Load into a run config: [fmus.plant] parameters_file = \"<this file>\" (or --set ...parameters.NAME=V).",
-             "[parameters]"]
-    lines += [f"{n} = {result['parameters'][n]!r}  # {standard_error(result['std_errors'][n])}" for n in names]
-    (out / "parameters.toml").write_text("\n".join(lines) + "\n")
+    header = (f"Calibrated by `cosim calibrate {job.path.name}`, model {job.model}, cost {result['cost_after']:.6g}",
+              "Read by run configs ([fmus.plant] parameters_file = \"<this file>\"), campaign jobs ([campaign]) and",
+              "calibration jobs ([model]); [provenance] says which job, data and code made it.")
+    write_parameters_file(out / "parameters.toml", {n: result["parameters"][n] for n in names},
+                          {n: standard_error(result["std_errors"][n]) for n in names}, prov, header)
     _plot(job, result, out / "fit.png")
     return summary
 

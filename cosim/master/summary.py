@@ -20,7 +20,8 @@ def summarize(result, config):
     Returns
     -------
     dict
-        Run facts (config, overrides, times, rows, controller calls, solver, engine; ``stopped`` with
+        Run facts (config, overrides, times, rows, controller calls, solver, engine; ``parameters_files``: per
+        FMU instance, the parameters file read, its SHA-256 and provenance; ``stopped`` with
         the instance, time and reason when an FMU asked to terminate), then the keys the
         summary plugin returns; non-finite floats become None.
     """
@@ -39,6 +40,9 @@ def summarize(result, config):
         "engine": result.engine,
         "compile_s": result.compile_s,
     }
+    files = {n: f.parameters_file.record() for n, f in config.fmus.items() if f.parameters_file is not None}
+    if files:
+        out["parameters_files"] = files
     if result.engine_note:
         out["engine_note"] = result.engine_note
     if result.events:
