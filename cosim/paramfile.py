@@ -18,7 +18,8 @@ from pathlib import Path
 from cosim.errors import ConfigError
 from cosim.tomldoc import read_text
 
-__all__ = ["ParametersFile", "read_parameters_file", "write_parameters_file", "provenance", "file_sha256"]
+__all__ = ["ParametersFile", "read_parameters_file", "parameters_file_key", "write_parameters_file", "provenance",
+           "file_sha256"]
 
 
 def file_sha256(path):
@@ -104,6 +105,37 @@ def read_parameters_file(path, key=None):
     prov = doc.get("provenance", {})
     return ParametersFile(path, {n: float(v) for n, v in values.items()}, file_sha256(path),
                           prov if isinstance(prov, dict) else {})
+
+
+def parameters_file_key(table, where, base, problems):
+    """The parameters file a config's or job's ``parameters_file`` key names, or None (no key, or a problem
+    added to ``problems`` under ``where + ("parameters_file",)``).
+
+    Parameters
+    ----------
+    table : dict
+        The TOML table holding the key.
+    where : tuple of str
+        The table's key path (``("fmus", "plant")``).
+    base : pathlib.Path
+        The folder the file name is relative to (the config's or job's).
+    problems : cosim.tomldoc.Problems
+
+    Returns
+    -------
+    ParametersFile or None
+    """
+    name = table.get("parameters_file")
+    if name is None:
+        return None
+    if not isinstance(name, str):
+        problems.add(where + ("parameters_file",), f"must be a file name (a string); got {name!r}")
+        return None
+    try:
+        return read_parameters_file(Path(base) / name)
+    except ConfigError as err:
+        problems.add(where + ("parameters_file",), str(err))
+        return None
 
 
 def _commit():

@@ -22,6 +22,7 @@ from cosim.campaign.draws import trial_list
 from cosim.campaign.job import job_changes
 from cosim.campaign.trial import COLUMNS, TrialRunner
 from cosim.errors import ConfigError
+from cosim.paramfile import file_sha256
 
 __all__ = ["batches", "run_batch", "run_trials", "read_parts", "command_line"]
 
@@ -82,19 +83,30 @@ def run_batch(job, specs, key=""):
                   "trials_s": time.perf_counter() - t1 - kernel}
 
 
-def _sha256(path):
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 def _inputs(job):
-    """What a campaign's results depend on beside the job: each coating's run config and FMU files (SHA-256)."""
+    """What a campaign's results depend on beside the job: each coating's run config, FMU files and the parameters
+    files its config reads (SHA-256)."""
     from cosim.config import load_config
 
     out = {}
     for c in job.coatings:
         cfg = load_config(c.config)
-        out[c.name] = {"config_sha256": _sha256(c.config),
-                       "fmus_sha256": {n: _sha256(f.path) for n, f in sorted(cfg.fmus.items())}}
+        out[c.name] = {"config_sha256": file_sha256(c.config),
+                       "fmus_sha256": {n: file_sha256(f.path) for n, f in sorted(cfg.fmus.items())},
+                       "parameters_files_sha256": {n: f.parameters_file.sha256 for n, f in sorted(cfg.fmus.items())
+                                                   if f.parameters_file is not None}}
+    return out
+
+
+def parameters_files(job):
+    """The parameters files a campaign's trials read, each with its SHA-256 and provenance: the job's
+    (``campaign``) and, per coating and FMU instance, its run config's."""
+    from cosim.config import load_config
+
+    out = {"campaign": job.parameters_file.record() if job.parameters_file is not None else None}
+    for c in job.coatings:
+        fmus = load_config(c.config).fmus
+        out[c.name] = {n: f.parameters_file.record() for n, f in sorted(fmus.items()) if f.parameters_file is not None}
     return out
 
 

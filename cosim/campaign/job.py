@@ -10,6 +10,7 @@ import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from cosim.paramfile import parameters_file_key
 from cosim.tomldoc import number, read_toml, sections
 
 __all__ = ["COATINGS", "SOURCES", "Source", "Coating", "CampaignJob", "load_campaign", "job_changes"]
@@ -30,7 +31,7 @@ _DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "sd")}
 
 _SCHEMA = {
     "campaign": ("seed", "trials", "coatings", "speeds_rpm", "currents_A", "hold_s", "steady_s", "margin_s",
-                 "batch", "bounce_fraction", "load_cell_rate"),
+                 "batch", "bounce_fraction", "load_cell_rate", "parameters_file"),
     "coatings": COATINGS,
     "sources": tuple(SOURCES),
 }
@@ -100,6 +101,9 @@ class CampaignJob:
     load_cell_rate : float
         Sampling rate of the load cell (Hz).
     sources : tuple of Source
+    parameters_file : cosim.paramfile.ParametersFile or None
+        A calibration's parameters set on every coating's plant, over its run config's values and under the
+        coating's ``parameters``.
     overrides : tuple of str
         The ``--set`` items applied.
     """
@@ -117,12 +121,16 @@ class CampaignJob:
     bounce_fraction: float
     load_cell_rate: float
     sources: tuple
+    parameters_file: object = None
     overrides: tuple = field(default=(), compare=False)
 
     def canonical(self):
-        """The job as plain data without its path and overrides: what a resumed run must match."""
+        """The job as plain data without its path and overrides: what a resumed run must match (a parameters
+        file by its path and SHA-256)."""
         d = asdict(self)
         del d["path"], d["overrides"]
+        f = self.parameters_file
+        d["parameters_file"] = None if f is None else {"file": str(f.path), "sha256": f.sha256}
         d["coatings"] = [{**c, "config": str(c["config"])} for c in d["coatings"]]
         return json.loads(json.dumps(d, sort_keys=True))
 
@@ -268,6 +276,7 @@ def load_campaign(path, overrides=()):
         bounce_fraction=number(problems, camp, "bounce_fraction", w, default=0.25, positive=True),
         load_cell_rate=number(problems, camp, "load_cell_rate", w, default=100.0, positive=True),
         sources=_sources(tables, problems),
+        parameters_file=parameters_file_key(camp, w, path.parent, problems),
     )
     if None not in (job["hold_s"], job["steady_s"]) and job["steady_s"] > job["hold_s"]:
         problems.add(w + ("steady_s",), f"{job['steady_s']:g} s is longer than hold_s = {job['hold_s']:g} s")

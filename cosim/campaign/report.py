@@ -10,6 +10,8 @@ from importlib import resources
 import numpy as np
 import pandas as pd
 
+from cosim.campaign.execute import parameters_files
+
 __all__ = ["TABLE_COLUMNS", "table1", "paper_iqrs", "write_report"]
 
 TABLE_COLUMNS = ("coating", "speed_rpm", "current_A", "n", "median_N", "q1_N", "q3_N", "iqr_N", "outlier_share")
@@ -176,6 +178,7 @@ def write_report(trials, job, out, run_info):
         "cells": int(len(table)), "no_steady_force": int(trials["steady_force_N"].isna().sum()),
         "bounced_share": float(trials["bounced"].mean()) if len(trials) else None,
         "p3_iqr_below_bare": _comparison(table, paper, "P3", "bare"),
+        "parameters_files": parameters_files(job),
         "run": {**run_info,
                 "trial_s": run_info["trials_s"] / ran if run_info["ran"] else None,
                 "overhead_share": 1.0 - run_info["loop_s"] / run_info["trials_s"] if run_info["trials_s"] else None,
