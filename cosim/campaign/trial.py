@@ -38,6 +38,13 @@ def _fmu_value(spec, name):
     return float(var.start)
 
 
+def plant_sets(job, coating):
+    """``--set`` items of a coating's plant on top of its run config: the campaign's parameters file, then the
+    coating's own parameters."""
+    upstream = job.parameters_file.values if job.parameters_file is not None else {}
+    return [f"fmus.{_PLANT}.parameters.{k}={v!r}" for k, v in {**upstream, **coating.parameters}.items()]
+
+
 def _trial_settings(job, base, spec, values):
     """Plant parameters, start values, outer-loop values and stop time (s) of one trial."""
     plant = base.fmus[_PLANT]
@@ -76,8 +83,7 @@ class TrialRunner:
         from cosim.master.engine import engine_for
         from cosim.master.plant import FmuPool
 
-        overrides = [f"fmus.{_PLANT}.parameters.{k}={v!r}" for k, v in coating.parameters.items()]
-        overrides += [f'record.signals=["{_PLANT}.F_g"]', "plot.panels=[]"]
+        overrides = plant_sets(job, coating) + [f'record.signals=["{_PLANT}.F_g"]', "plot.panels=[]"]
         self.job, self.coating = job, coating
         self.base = load_config(coating.config, overrides)
         if _PLANT not in self.base.fmus or _OUTER not in self.base.controllers or self.base.summary.kind != "impact":
@@ -89,8 +95,9 @@ class TrialRunner:
         self.loop_s = 0.0  # wall time inside the engine's loop, summed over the trials run
         self.kernel_s = 0.0  # wall time compiling or loading the loop's kernel (the first run), summed
         self.stop_s = None  # the stop time (s) of the last trial's run, the longer one of a late trigger
+        self.outer0 = dict(self.engine.controllers[_OUTER].values)  # a trial's outer-loop values start from these
 
-    def run(self, spec):
+    def run(self, spec, plant=None, outer=None):
         """Run one trial.
 
         The run stops ``margin_s`` after the expected end of tightening; when the impact trigger fired later than
@@ -101,6 +108,8 @@ class TrialRunner:
         Parameters
         ----------
         spec : cosim.campaign.draws.TrialSpec
+        plant, outer : dict, optional
+            Further plant parameters and outer-loop values of this run only (a sensitivity analysis's point).
 
         Returns
         -------
@@ -110,6 +119,8 @@ class TrialRunner:
         job = self.job
         values, noise = draw(job, spec)
         params, start, ctrl, stop = _trial_settings(job, self.base, spec, values)
+        params.update(plant or {})
+        ctrl.update(outer or {})
         result, s = self._simulate(params, start, ctrl, stop)
         if s["t_switch_s"] is not None and result.data["time"][-1] < s["t_switch_s"] + job.hold_s - 1e-6:
             result, s = self._simulate(params, start, ctrl, s["t_switch_s"] + job.hold_s + _LATE_MARGIN_S)
@@ -124,7 +135,7 @@ class TrialRunner:
         eng.k_stop = eng.tb.ticks(stop - base.run.start)
         self.stop_s = stop
         outer = eng.controllers[_OUTER]
-        outer.values.update(ctrl)
+        outer.values.update({**self.outer0, **ctrl})
         outer.p[:] = outer.pack()
         result = eng.run(progress=False)
         self.loop_s += result.wall_s
@@ -177,8 +188,7 @@ def run_command(job, spec, stop=None):
     from cosim.config import load_config
 
     coating = next(c for c in job.coatings if c.name == spec.coating)
-    sets = [f"fmus.{_PLANT}.parameters.{k}={v!r}" for k, v in coating.parameters.items()]
-    base = load_config(coating.config, sets)
+    base = load_config(coating.config, plant_sets(job, coating))
     values, _ = draw(job, spec)
     params, start, ctrl, expected_stop = _trial_settings(job, base, spec, values)
     stop = expected_stop if stop is None else stop
