@@ -25,8 +25,8 @@ from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
 from cosim.fmi.instance import value_dtype
-from cosim.errors import ConfigError
-from cosim.tomldoc import format_key, parse_overrides, read_text, read_toml
+from cosim.paramfile import parameters_file_key
+from cosim.tomldoc import format_key, parse_overrides, read_toml
 
 __all__ = [
     "load_config",
@@ -391,24 +391,6 @@ def _solver(data, problems):
     )
 
 
-def _parameters_file(table, base_dir, problems, path):
-    """The parameters file ``parameters_file`` names (as ``cosim calibrate`` writes it), or None; ``parameters``
-    override its values."""
-    from cosim.paramfile import read_parameters_file
-
-    name = table.get("parameters_file")
-    if name is None:
-        return None
-    if not isinstance(name, str):
-        problems.add(path + ("parameters_file",), f"must be a file name (a string); got {name!r}")
-        return None
-    try:
-        return read_parameters_file(base_dir / name)
-    except ConfigError as err:
-        problems.add(path + ("parameters_file",), str(err))
-        return None
-
-
 def _value_type(info, var, value, problems, where):
     """A parameter or start value must fit the variable's type: a number for a real, an integer (or an integral
     float) for an Integer or enumeration, true/false for a Boolean."""
@@ -475,7 +457,7 @@ def _fmu(name, t, base_dir, problems):
     kind = t.get("kind", "ME" if "ME" in info.kinds else "CS")
     if kind not in info.kinds:
         problems.add(p + ("kind",), f"{full.name} provides {', '.join(info.kinds)}, not {kind!r}")
-    upstream = _parameters_file(t, base_dir, problems, p)
+    upstream = parameters_file_key(t, p, base_dir, problems)
     params = {**(upstream.values if upstream else {}), **_table(t, "parameters", problems, p)}
     starts = _table(t, "start", problems, p)
     _fmu_values(info, full, params, starts, problems, p)

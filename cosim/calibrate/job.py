@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from cosim.calibrate.problem import METHODS
+from cosim.paramfile import parameters_file_key
 from cosim.tomldoc import bounded_parameters, number, read_toml, sections, signal_tables, string, values
 
 __all__ = ["CalibrationJob", "load_job", "run_job"]
@@ -102,7 +103,10 @@ def load_job(path, overrides=()):
     count = number(problems, ms_t, "count", ("multistart",), default=1, positive=True, integer=True)
     seed = number(problems, ms_t, "seed", ("multistart",), default=0, integer=True)
     scheduler = string(problems, ms_t, "scheduler", ("multistart",), default="")
-    upstream = _upstream(model_t, base, problems)
+    upstream = parameters_file_key(model_t, ("model",), base, problems)
+    upstream = () if upstream is None else (upstream,)
+    # a calibration this one builds on: its values are fixed here (the job's own parameters override them; a
+    # parameter the job frees keeps its start)
     fixed = {**{n: v for u in upstream for n, v in u.values.items() if n not in free},
              **values(problems, model_t, "parameters", ("model",))}
     problems.raise_if_any()
@@ -111,25 +115,6 @@ def load_job(path, overrides=()):
         window=(start, stop), decimate=decimate, signals=tuple(signals), segments=segments, steady_s=steady_s,
         method=method, substeps=substeps, max_iter=max_iter, free=free, starts=count, seed=seed, scheduler=scheduler,
         upstream=upstream)
-
-
-def _upstream(model_t, base, problems):
-    """``[model] parameters_file``: the calibration this one builds on; its values are fixed values here (the job's
-    own ``parameters`` override them; a parameter the job frees keeps its ``start``)."""
-    from cosim.errors import ConfigError
-    from cosim.paramfile import read_parameters_file
-
-    name = model_t.get("parameters_file")
-    if name is None:
-        return ()
-    if not isinstance(name, str):
-        problems.add(("model", "parameters_file"), f"must be a file name (a string); got {name!r}")
-        return ()
-    try:
-        return (read_parameters_file(base / name),)
-    except ConfigError as err:
-        problems.add(("model", "parameters_file"), str(err))
-        return ()
 
 
 def _model(model_t, base, problems):
