@@ -18,6 +18,7 @@ Job schema (paths relative to the job)::
 
 import json
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -290,10 +291,9 @@ def _points_frame(job, points, tasks, done):
 
 
 def _summary(job, points, wall, workers, table):
-    import os
+    from cosim.campaign.execute import parameters_files
 
     camp = job.campaign
-    files = camp.parameters_file.record() if camp.parameters_file is not None else None
     top = (table.sort_values("ST", ascending=False).groupby(["coating", "speed_rpm", "current_A", "statistic"],
                                                               sort=False).head(1))
     return {"job": str(job.path), "overrides": list(job.overrides), "campaign": str(camp.path),
@@ -303,5 +303,5 @@ def _summary(job, points, wall, workers, table):
                         for f in job.factors},
             "largest_total_index": {_column(r.coating, r.speed_rpm, r.current_A, r.statistic): {
                 "factor": r.factor, "ST": r.ST, "ST_conf": r.ST_conf} for r in top.itertuples()},
-            "campaign_parameters_file": files,
+            "parameters_files": parameters_files(camp),
             "run": {"wall_s": wall, "workers": workers, "load_average_1min": float(os.getloadavg()[0])}}

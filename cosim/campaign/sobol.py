@@ -42,7 +42,7 @@ class Factor:
         return [self.low, self.high]
 
     def value(self, u):
-        """The factor's value at sampled coordinate ``u``."""
+        """The factor's value at sampled coordinate ``u`` (float; its logarithm on a log scale)."""
         return float(math.exp(u)) if self.scale == "log" else float(u)
 
 
@@ -104,7 +104,15 @@ def sobol_indices(factors, y, resamples=500, confidence=0.95, seed=0):
 
 
 def plot_indices(table, path):
-    """Total (bars) and first-order (dots) indices with their intervals, one panel an output."""
+    """Total (bars) and first-order (dots) indices with their intervals, one panel an output.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`index_table`'s rows.
+    path : path-like
+        The PNG written.
+    """
     outputs = list(table.groupby(["coating", "speed_rpm", "current_A", "statistic"], sort=False))
     cols = 2
     rows = math.ceil(len(outputs) / cols)

@@ -38,7 +38,7 @@ def _fmu_value(spec, name):
     return float(var.start)
 
 
-def plant_sets(job, coating):
+def _plant_sets(job, coating):
     """``--set`` items of a coating's plant on top of its run config: the campaign's parameters file, then the
     coating's own parameters."""
     upstream = job.parameters_file.values if job.parameters_file is not None else {}
@@ -83,7 +83,7 @@ class TrialRunner:
         from cosim.master.engine import engine_for
         from cosim.master.plant import FmuPool
 
-        overrides = plant_sets(job, coating) + [f'record.signals=["{_PLANT}.F_g"]', "plot.panels=[]"]
+        overrides = _plant_sets(job, coating) + [f'record.signals=["{_PLANT}.F_g"]', "plot.panels=[]"]
         self.job, self.coating = job, coating
         self.base = load_config(coating.config, overrides)
         if _PLANT not in self.base.fmus or _OUTER not in self.base.controllers or self.base.summary.kind != "impact":
@@ -188,7 +188,7 @@ def run_command(job, spec, stop=None):
     from cosim.config import load_config
 
     coating = next(c for c in job.coatings if c.name == spec.coating)
-    base = load_config(coating.config, plant_sets(job, coating))
+    base = load_config(coating.config, _plant_sets(job, coating))
     values, _ = draw(job, spec)
     params, start, ctrl, expected_stop = _trial_settings(job, base, spec, values)
     stop = expected_stop if stop is None else stop
