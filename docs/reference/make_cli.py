@@ -24,6 +24,7 @@ COMMANDS = (
     ("calibrate",),
     ("diagnose",),
     ("campaign",),
+    ("sensitivity",),
     ("haptic",),
     ("haptic", "margins"),
     ("haptic", "collisions"),
@@ -31,7 +32,7 @@ COMMANDS = (
     ("haptic", "arm"),
 )
 GUIDES = {"build": "build.md", "run": "run.md", "calibrate": "calibrate.md", "diagnose": "diagnose.md",
-          "haptic": "haptic.md"}
+          "haptic": "haptic.md", "sensitivity": "sensitivity.md"}
 
 
 def help_text(command):
