@@ -202,6 +202,14 @@ def _cmd_campaign(args):
     return 0
 
 
+def _add_dask_options(p):
+    """--workers N | --scheduler ADDRESS: where a command's Dask tasks run."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="N", help="workers of the local Dask cluster (default: one a core)")
+    where.add_argument("--scheduler", default="", metavar="ADDRESS",
+                       help="address of a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
+
+
 def _add_campaign(sub):
     p = sub.add_parser(
         "campaign",
@@ -215,10 +223,7 @@ def _add_campaign(sub):
     p.add_argument("--out", help="output folder (default out/<job stem>); a folder of the same job is resumed")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override any job key, e.g. --set campaign.trials=10 (repeatable)")
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, metavar="N", help="workers of the local Dask cluster (default: one a core)")
-    where.add_argument("--scheduler", default="", metavar="ADDRESS",
-                       help="address of a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
+    _add_dask_options(p)
     p.add_argument("--trial", type=int, metavar="K",
                    help="run trial K (row K of trials.parquet) alone in this process; print it and its cosim run command")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -253,10 +258,7 @@ def _add_sensitivity(sub):
     p.add_argument("--force", action="store_true", help="replace a previous cosim output at --out")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override any job key, e.g. --set sensitivity.samples=8 (repeatable)")
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, metavar="N", help="workers of the local Dask cluster (default: one a core)")
-    where.add_argument("--scheduler", default="", metavar="ADDRESS",
-                       help="address of a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
+    _add_dask_options(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_sensitivity)
 
