@@ -9,6 +9,7 @@ import tomllib
 from pathlib import Path
 
 from cosim.errors import ConfigError
+from cosim.fitting import FreeParameter
 
 __all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
 
@@ -353,7 +354,7 @@ def sections(data, problems, schema, free_form=("parameters",)):
 
 
 def bounded_parameters(data, problems, required=True):
-    """``[parameters.NAME] start, min, max`` tables as ``{name: (start, min, max)}``, checked (start in bounds)."""
+    """``[parameters.NAME] start, min, max`` tables as ``{name: FreeParameter}``, checked (start in bounds)."""
     tables = data.get("parameters", {})
     if not isinstance(tables, dict):
         problems.add(("parameters",), f"must be tables [parameters.NAME] with start, min, max; got {tables!r}")
@@ -372,5 +373,5 @@ def bounded_parameters(data, problems, required=True):
         if None not in (s, lo, hi):
             if not lo <= s <= hi:
                 problems.add(where + ("start",), f"{s:g} is outside the bounds [{lo:g}, {hi:g}]")
-            free[name] = (s, lo, hi)
+            free[name] = FreeParameter(s, lo, hi)
     return free

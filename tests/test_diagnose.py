@@ -131,7 +131,8 @@ def test_linearised_fit_of_a_linear_replay_is_its_least_squares_fit():
     """The screen's one Gauss-Newton step is exact on outputs linear in the parameters: the predicted chi-square is
     the least-squares minimum (numpy's lstsq), with a bound active the fit of the other column alone; a column given
     (the baseline's from its fit) is used instead of a difference."""
-    from cosim.diagnose.fitting import linearised_fit
+    from cosim.diagnose.fitting import LinearisedFit
+    from cosim.fitting import FreeParameter
 
     rng = np.random.default_rng(3)
     a = rng.normal(size=(2, 40))
@@ -139,16 +140,18 @@ def test_linearised_fit_of_a_linear_replay_is_its_least_squares_fit():
                              evaluate=lambda x: (a.T @ (x * np.array([2.0, 0.5])))[None, :])
     measured = (a.T @ [1.0, -0.3])[None, :] + rng.normal(0.0, 0.1, (1, 40))
     weights, mask = np.array([10.0]), np.ones(40, bool)
-    free = linearised_fit(replay, measured, weights, mask, [0.5, 0.5], ([-5.0, -5.0], [5.0, 5.0]), {})
+    wide = {"p": FreeParameter(0.5, -5.0, 5.0), "q": FreeParameter(0.5, -5.0, 5.0)}
+    free = LinearisedFit(replay, weights, mask, wide, {}).fit(measured)
     best = np.linalg.lstsq(10 * a.T, 10 * measured[0], rcond=None)
-    np.testing.assert_allclose(free["predicted"], best[1][0], rtol=1e-6)
-    np.testing.assert_allclose([free["parameters"]["p"], free["parameters"]["q"]], best[0], rtol=1e-6)
-    bounded = linearised_fit(replay, measured, weights, mask, [0.5, 0.5], ([-5.0, 0.0], [5.0, 5.0]),
-                             {"p": 10 * a[0]})  # d(weighted residual)/dp: weight times p's outputs
+    np.testing.assert_allclose(free.chi2_predicted_, best[1][0], rtol=1e-6)
+    np.testing.assert_allclose([free.parameters_["p"], free.parameters_["q"]], best[0], rtol=1e-6)
+    positive_q = {**wide, "q": FreeParameter(0.5, 0.0, 5.0)}
+    bounded = LinearisedFit(replay, weights, mask, positive_q,
+                            {"p": 10 * a[0]}).fit(measured)  # d(weighted residual)/dp: weight times p's outputs
     alone = np.linalg.lstsq(10 * a[:1].T, 10 * measured[0], rcond=None)
-    np.testing.assert_allclose(bounded["predicted"], alone[1][0], rtol=1e-6)
-    np.testing.assert_allclose(bounded["parameters"]["p"], alone[0][0], rtol=1e-6)
-    assert bounded["parameters"]["q"] == pytest.approx(0.0, abs=1e-9) and bounded["replays"] == 2
+    np.testing.assert_allclose(bounded.chi2_predicted_, alone[1][0], rtol=1e-6)
+    np.testing.assert_allclose(bounded.parameters_["p"], alone[0][0], rtol=1e-6)
+    assert bounded.parameters_["q"] == pytest.approx(0.0, abs=1e-9) and bounded.replays_ == 2
 
 
 def test_a_rival_must_also_leave_a_residual_like_the_winners():

@@ -13,7 +13,9 @@ import pytest
 
 from cosim.diagnose.advice import change_here, change_on, gap_locations, plausible
 from cosim.diagnose.analysis import cut_segments, in_segment
-from cosim.diagnose.workflow import _verdict, answer, decide
+from cosim.diagnose.answer import answer, verdict as _verdict
+from cosim.diagnose.kinds import Staircase
+from cosim.diagnose.workflow import decide
 
 SIGMA = 0.5  # N, the constructed noise
 LEVELS = (0.0, 0.5, 1.0, 1.5, 1.0, 0.5, 0.0, 0.5, 1.0, 1.5, 1.0, 0.5)
@@ -21,7 +23,7 @@ PER = 100  # samples a hold
 
 
 def _job(**kw):
-    return SimpleNamespace(kind="staircase", model="M", gap_sigmas=3.0, min_gap_removed=0.5, min_delta_bic=10.0,
+    return SimpleNamespace(kind=Staircase(), model="M", gap_sigmas=3.0, min_gap_removed=0.5, min_delta_bic=10.0,
                            **kw)
 
 
@@ -51,7 +53,7 @@ def _candidate(effect, score, delta_bic):
 
 def _decide(candidates, **stage):
     samples, noise, split, before = _stage(**stage)
-    scores = SimpleNamespace(base={"predicted": before}, candidates=tuple(candidates), fits={})
+    scores = SimpleNamespace(base=SimpleNamespace(outputs=before), candidates=tuple(candidates), fits={})
     return decide(_job(), samples, noise, split, scores), samples
 
 

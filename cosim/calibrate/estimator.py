@@ -6,7 +6,7 @@ import numpy as np
 
 from cosim.calibrate.problem import Transcription
 from cosim.calibrate.shooting import SingleShooting
-from cosim.errors import ConfigError, NotFittedError
+from cosim.fitting import Estimator, bounds, free_parameters, starts
 
 __all__ = ["Calibrator", "gauss_newton_uncertainty"]
 
@@ -53,7 +53,7 @@ def gauss_newton_uncertainty(jac, cost, fitted, scale=1.0):
     return std, correlation
 
 
-class Calibrator:
+class Calibrator(Estimator):
     """Least-squares calibration of model parameters (fit/predict contract: ``__init__`` only stores settings).
 
     Parameters
@@ -62,7 +62,7 @@ class Calibrator:
     outputs : list of str
         Model outputs compared with the experiment's measured columns, in order.
     free : dict
-        name -> (start, lower, upper) for each parameter to fit.
+        name -> :class:`~cosim.fitting.FreeParameter` (or ``(start, lower, upper)``) for each parameter to fit.
     fixed : dict, optional
         name -> value: parameters held at values other than the model defaults.
     substeps : int, default 1
@@ -101,8 +101,8 @@ class Calibrator:
     def transcription(self, experiment):
         """The problem for ``experiment``: a :class:`Transcription` (NLP) or, for single shooting, a
         :class:`SingleShooting` (also used for derivative checks)."""
-        starts = np.array([v[0] for v in self.free.values()], dtype=float)
-        scale = np.where(starts != 0, np.abs(starts), 1.0)
+        start = starts(free_parameters(self.free))
+        scale = np.where(start != 0, np.abs(start), 1.0)
         if self.method == "single_shooting":
             return SingleShooting(self.model, experiment, self.outputs, list(self.free), fixed=self.fixed,
                                   scale=scale)
@@ -111,18 +111,15 @@ class Calibrator:
 
     def fit(self, experiment, start=None):
         """Fit the free parameters to ``experiment``; ``start`` overrides the starting values (multi-start)."""
-        for name, (s, lo, hi) in self.free.items():
-            if not lo <= s <= hi:
-                raise ConfigError(f"parameter {name}: start {s:g} is outside its bounds [{lo:g}, {hi:g}]")
+        free = free_parameters(self.free)
         tr = self.transcription(experiment)
-        starts = np.array([v[0] for v in self.free.values()] if start is None else start, dtype=float)
-        q0 = starts / tr.scale
+        initial = starts(free) if start is None else np.asarray(start, dtype=float)
+        q0 = initial / tr.scale
         cost_before, _, X0, _ = tr.evaluate(q0)
-        lower = np.array([v[1] for v in self.free.values()]) / tr.scale
-        upper = np.array([v[2] for v in self.free.values()]) / tr.scale
+        lower, upper = (b / tr.scale for b in bounds(free))
         if self.method == "single_shooting":
             q, iterations, success, status = self._gauss_newton(tr, q0, lower, upper)
-            return self._finish(tr, q, starts, cost_before, iterations, success, status, tr.jacobian(q))
+            return self._finish(tr, q, initial, cost_before, iterations, success, status, tr.jacobian(q))
         n_states = X0.size
         solver = ca.nlpsol("calibration", "ipopt", tr.nlp, {
             "ipopt": {"print_level": 0, "max_iter": self.max_iter, "tol": 1e-10, "sb": "yes"},
@@ -134,7 +131,7 @@ class Calibrator:
         stats = solver.stats()
         q = np.array(solution["x"], dtype=float).ravel()[n_states:]
         X = tr.evaluate(q)[2]
-        return self._finish(tr, q, starts, cost_before, int(stats.get("iter_count", 0)),
+        return self._finish(tr, q, initial, cost_before, int(stats.get("iter_count", 0)),
                             bool(stats.get("success", False)), str(stats.get("return_status", "")),
                             tr.reduced_jacobian(X, q))
 
@@ -146,7 +143,7 @@ class Calibrator:
         status = f"least_squares (trust region, exact Jacobian): {solution.message}"
         return solution.x, int(solution.njev or solution.nfev), bool(solution.success), status
 
-    def _finish(self, tr, q, starts, cost_before, iterations, success, status, jac):
+    def _finish(self, tr, q, initial, cost_before, iterations, success, status, jac):
         """Store the fit and its uncertainty: covariance s^2 (J^T J)^-1 at the optimum."""
         cost_after, residual, _, Y = tr.evaluate(q)
         std, self.correlation_ = gauss_newton_uncertainty(jac, cost_after, tr.experiment.fitted_entries(), tr.scale)
@@ -156,14 +153,13 @@ class Calibrator:
         self.cost_before_, self.cost_after_ = cost_before, cost_after
         self.iterations_, self.success_, self.return_status_ = iterations, success, status
         self.predicted_ = Y
-        self.start_ = dict(zip(names, starts.tolist()))
+        self.start_ = dict(zip(names, initial.tolist()))
         return self
 
     def predict(self, experiment, parameters=None):
         """Model outputs at the samples of ``experiment`` for ``parameters`` (default: the fitted ones)."""
         if parameters is None:
-            if not hasattr(self, "parameters_"):
-                raise NotFittedError("Calibrator.predict needs fit() first, or explicit parameters")
+            self._check_fitted("predict (without explicit parameters)")
             parameters = self.parameters_
         tr = self.transcription(experiment)
         q = np.array([parameters[n] for n in self.free]) / tr.scale

@@ -6,6 +6,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from cosim.calibrate.estimator import gauss_newton_uncertainty
+from cosim.fitting import Estimator, bounds, free_parameters, starts
 from cosim.fmi import FmuInstance, rk4_steps
 
 __all__ = ["simulate_fmu_experiment", "FmuCalibrator"]
@@ -46,7 +47,7 @@ def simulate_fmu_experiment(fmu, experiment, inputs, outputs, parameters, subste
     return result
 
 
-class FmuCalibrator:
+class FmuCalibrator(Estimator):
     """Least squares through an FMU with finite-difference derivatives (scipy ``least_squares``, 'trf').
 
     Parameters
@@ -54,7 +55,7 @@ class FmuCalibrator:
     fmu : path-like
     inputs, outputs : list of str
     free : dict
-        name -> (start, lower, upper).
+        name -> :class:`~cosim.fitting.FreeParameter` (or ``(start, lower, upper)``).
     fixed : dict, optional
     substeps : int, default 1
     """
@@ -76,10 +77,10 @@ class FmuCalibrator:
 
     def fit(self, experiment):
         """Fit; sets ``parameters_``, ``std_errors_``, ``cost_before_``, ``cost_after_``, ``evaluations_``."""
-        start = np.array([s for s, _, _ in self.free.values()])
-        bounds = (np.array([lo for _, lo, _ in self.free.values()]), np.array([hi for _, _, hi in self.free.values()]))
+        free = free_parameters(self.free)
+        start = starts(free)
         r0 = self._residual(start, experiment)
-        solution = least_squares(self._residual, start, bounds=bounds, args=(experiment,), x_scale=np.abs(start),
+        solution = least_squares(self._residual, start, bounds=bounds(free), args=(experiment,), x_scale=np.abs(start),
                                  xtol=1e-10, ftol=1e-10)
         std, self.correlation_ = gauss_newton_uncertainty(solution.jac, solution.cost, experiment.fitted_entries())
         self.start_ = dict(zip(self.free, start.tolist()))

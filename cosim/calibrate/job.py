@@ -51,7 +51,7 @@ class CalibrationJob:
     method: str
     substeps: int
     max_iter: int
-    free: dict  # name -> (start, min, max)
+    free: dict  # name -> FreeParameter
     starts: int
     seed: int
     scheduler: str

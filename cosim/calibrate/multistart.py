@@ -7,6 +7,7 @@ import numpy as np
 
 from cosim.calibrate.estimator import Calibrator
 from cosim.experiment import align_experiment
+from cosim.fitting import starts
 from cosim.parallel import map_on_dask
 
 __all__ = ["fit_multistart", "start_points"]
@@ -16,10 +17,11 @@ def start_points(free, count, seed):
     """The job's start values first, then ``count - 1`` points drawn in the bounds (log-uniform where the
     bounds are positive and span more than two decades), reproducible from ``seed``."""
     rng = np.random.default_rng(seed)
-    points = [np.array([s for s, _, _ in free.values()])]
+    points = [starts(free)]
     for _ in range(count - 1):
         point = []
-        for _, lo, hi in free.values():
+        for p in free.values():
+            lo, hi = p.lower, p.upper
             if lo > 0 and hi / lo > 100:
                 point.append(float(np.exp(rng.uniform(np.log(lo), np.log(hi)))))
             else:
@@ -73,7 +75,7 @@ def _fit_one_fmu(job, start):
     inputs, outputs = info.names("input"), info.names("output")
     experiment = _experiment(job, inputs, outputs)
     fitted = [o for o, _, _ in job.signals]
-    free = {n: (float(s), lo, hi) for (n, (_, lo, hi)), s in zip(job.free.items(), start)}
+    free = {n: p.at(s) for (n, p), s in zip(job.free.items(), start)}
     fit = FmuCalibrator(job.fmu, inputs, fitted, free, fixed=job.fixed, substeps=job.substeps).fit(experiment)
     names = list(job.free)
     return {

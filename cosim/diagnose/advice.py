@@ -6,35 +6,20 @@ An effect is *plausible but not identifiable* here when the held-out data cannot
 :func:`~cosim.diagnose.workflow.rivals_of`), or, when no effect is named, when it removes at least half of
 ``min_gap_removed`` of the held-out gap and improves the fitted segments more than its parameters cost
 (ΔBIC > 0). Its expected signature is computed twice: on the data given (its fit's replay against the baseline's)
-and on the experiment that shows it (:data:`SHOWN_BY`): the shipped job of that experiment replayed with the
-baseline as calibrated here, once without and once with the effect at the size fitted here.
+and on the experiment that shows it (the effect's ``shown_by`` and ``shown_in``,
+:class:`~cosim.diagnose.effects.Effect`): the shipped job of that experiment replayed with the baseline as
+calibrated here, once without and once with the effect at the size fitted here. The words of the answer are in
+:mod:`cosim.diagnose.answer`.
 """
 
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["SHOWN_BY", "MAX_ADVISED", "gap_locations", "plausible", "change_here", "change_on"]
+__all__ = ["MAX_ADVISED", "gap_locations", "plausible", "change_here", "change_on"]
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 MAX_ADVISED = 3  # plausible effects whose signature on another experiment is computed (a replay of each)
-
-# effect -> (the experiment that shows it, the shipped job of that experiment under examples/ or "" for none),
-# as docs/guide/diagnose.md ("Which experiment shows which effect") states it
-SHOWN_BY = {
-    "backdrive_efficiency": ("static current staircase, force measured", "diagnose_static.toml"),
-    "loadcell_filter": ("static current staircase, force measured", "diagnose_static.toml"),
-    "gear_play": ("current-step impact, force and encoder", "diagnose_impact.toml"),
-    "contact_damping": ("current-step impact, force and encoder", "diagnose_impact.toml"),
-    "coating_relaxation": ("current-step impact on coated fingers, force and encoder", "diagnose_impact.toml"),
-    "load_dependent_friction": ("current-step impact, force and encoder", "diagnose_impact.toml"),
-    "stiction": ("slide: the jaws stop and restart against the guides, current and encoder at 1 kHz", ""),
-    "cogging": ("speed run: slow speeds under a PI speed loop, current and encoder at 1 kHz",
-                "diagnose_speed.toml"),
-    "hand_mass": ("haptic frequency response", "diagnose_haptic.toml"),
-    "vibration_mode": ("haptic frequency response", "diagnose_haptic.toml"),
-    "loop_delay": ("haptic frequency response", "diagnose_haptic.toml"),
-}
 
 
 def gap_locations(rows, limit=5):
@@ -92,22 +77,24 @@ def change_on(effect, parameters, baseline_parameters, folder, this=None):
     from cosim.diagnose.job import load_diagnose_job
     from cosim.errors import ConfigError
 
-    experiment, name = SHOWN_BY.get(effect, ("", ""))
-    entry = {"experiment": experiment or "no experiment is known to show it", "job": name, "computed": False}
-    if not name or not (EXAMPLES / name).is_file():
-        entry["why"] = "no job of that experiment ships with cosim" if not name else f"{EXAMPLES / name} not found"
+    shown = EFFECTS[effect]
+    name = shown.shown_in
+    entry = {"experiment": shown.shown_by, "job": name, "computed": False}
+    shipped = EXAMPLES / name
+    if not name or not shipped.is_file():
+        entry["why"] = "no job of that experiment ships with cosim" if not name else f"{shipped} not found"
         return entry
-    entry["job"] = str(EXAMPLES / name)
+    entry["job"] = str(shipped)
     try:
-        job = load_diagnose_job(EXAMPLES / name)
+        job = load_diagnose_job(shipped)
         path, variant = write_variant(job.source, job.model, EFFECTS[effect], folder)
     except ConfigError as err:  # the shipped job's model does not take the effect: said in the answer
         entry["why"] = str(err)
         return entry
-    if (job.kind, job.model) == this:
+    if (job.kind.name, job.model) == this:
         entry["why"] = "the data given are that experiment: more records or a lower noise would show it"
         return entry
-    base = {n: baseline_parameters.get(n, start) for n, (start, _, _) in job.free.items()}
+    base = {n: baseline_parameters.get(n, p.start) for n, p in job.free.items()}
     added = {n: v for n, v in parameters.items() if n not in job.free}
     before = _replay(job, lower(job.source, job.model), base)
     after = _replay(job, lower(path, variant), {**base, **added})
@@ -121,14 +108,12 @@ def change_on(effect, parameters, baseline_parameters, folder, this=None):
 
 def _replay(job, model, values):
     """The job's first record replayed by ``model`` at the parameter ``values``: its outputs, (n_signals, N)."""
-    from cosim.diagnose.fitting import Replay
-    from cosim.diagnose.frequency import FrequencyReplay
     from cosim.diagnose.job import load_records
 
     experiment, trial = load_records(job, model)[0]
-    kind = FrequencyReplay if job.kind == "frequency" else Replay
     names = list(values)
     scale = np.array([abs(values[n]) or 1.0 for n in names])
     fixed = {n: v for n, v in {**job.fixed, **trial}.items() if n not in values}
-    replay = kind(model, experiment, [o for o, _, _ in job.signals], names, scale, fixed=fixed, rtol=job.rtol)
+    replay = job.kind.replay(model, experiment, [o for o, _, _ in job.signals], names, scale, fixed=fixed,
+                             rtol=job.rtol)
     return replay.outputs(values)

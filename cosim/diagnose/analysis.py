@@ -285,3 +285,10 @@ def cross_correlation(residual, u, lags=20):
     band = 1.96 / np.sqrt(n)
     return {"ccf": cc.tolist(), "band": band, "outside": int(np.sum(np.abs(cc) > band)),
             "independent": bool(np.all(np.abs(cc) <= band))}
+
+
+def rmse_per_signal(predicted, measured, mask):
+    """RMS and largest error of each signal on ``mask``: two lists, one value per row of ``predicted`` and
+    ``measured`` (n_signals, N)."""
+    r = (predicted - measured)[:, mask]
+    return [float(np.sqrt(np.mean(x ** 2))) for x in r], [float(np.max(np.abs(x))) for x in r]

@@ -66,6 +66,10 @@ class Effect:
         Where and how it shows in a residual (for the report).
     frees : tuple of (str, float, float)
         Existing baseline parameters the effect frees, with bounds (parameter-only effects).
+    shown_by : str
+        The experiment that shows it (docs/guide/diagnose.md, "Which experiment shows which effect").
+    shown_in : str
+        The shipped example job of that experiment (a file under ``examples/``), "" when none ships.
     """
 
     name: str
@@ -76,6 +80,8 @@ class Effect:
     bindings: tuple = ()
     signature: str = ""
     frees: tuple = ()
+    shown_by: str = "no experiment is known to show it"
+    shown_in: str = ""
 
 
 @dataclass(frozen=True)
@@ -99,6 +105,7 @@ EFFECTS = {
                                     "Gear mesh efficiency when the load back-drives the motor"),),
         slot="drive.mesh", replacement="Gripper.Effects.DirectionalMeshEfficiency", bindings=_same("eta_b"),
         signature="release branch: the force held on the way down differs, the rising branch fits",
+        shown_by="static current staircase, force measured", shown_in="diagnose_static.toml",
     ),
     "load_dependent_friction": Effect(
         name="load_dependent_friction",
@@ -106,6 +113,7 @@ EFFECTS = {
         parameters=(EffectParameter("mu_F", 0.02, 0.0, 0.5, "1", "Guide friction force per unit gripping force"),),
         slot="drive.lfric", replacement="Gripper.Effects.LoadDependentFriction", bindings=_same("mu_F"),
         signature="hysteresis that scales with the force: both branches' slopes change",
+        shown_by="current-step impact, force and encoder", shown_in="diagnose_impact.toml",
     ),
     "stiction": Effect(
         name="stiction",
@@ -116,6 +124,7 @@ EFFECTS = {
                     EffectParameter("F_cj", "F_cj", 0.0, 10.0, "N", "Sliding guide friction per jaw")),
         slot="drive.guide", replacement="Gripper.Effects.StribeckGuide", bindings=(("F_s", "F_sj"),),
         signature="held force offsets after stops, first motion delayed (breakaway), plateaus",
+        shown_by="slide: the jaws stop and restart against the guides, current and encoder at 1 kHz",
     ),
     "cogging": Effect(
         name="cogging",
@@ -126,6 +135,8 @@ EFFECTS = {
         slot="cog", replacement="Gripper.Effects.CoggingTorque",
         bindings=(("T_cog", "T_cog"), ("phase", "phase_cog")),
         signature="force errors that vary from step to step with the rotor's rest angle",
+        shown_by="speed run: slow speeds under a PI speed loop, current and encoder at 1 kHz",
+        shown_in="diagnose_speed.toml",
     ),
     "loadcell_filter": Effect(
         name="loadcell_filter",
@@ -134,6 +145,7 @@ EFFECTS = {
                     EffectParameter("F_off", 0.0, -20.0, 20.0, "N", "Load-cell offset")),
         slot="lc", replacement="Gripper.Effects.LoadCell", bindings=_same("tau_lc", "F_off"),
         signature="a bias where the true force is zero, a lag after each step",
+        shown_by="static current staircase, force measured", shown_in="diagnose_static.toml",
     ),
     "contact_damping": Effect(
         name="contact_damping",
@@ -142,6 +154,7 @@ EFFECTS = {
                                     "Hunt-Crossley damping per unit elastic contact force", starts=(1.0,)),),
         slot="drive.contact", replacement="Gripper.Effects.HuntCrossleyContact", bindings=_same("lambda_hc"),
         signature="impact peak and rebound: dissipation that grows with penetration",
+        shown_by="current-step impact, force and encoder", shown_in="diagnose_impact.toml",
     ),
     "gear_play": Effect(
         name="gear_play",
@@ -149,6 +162,7 @@ EFFECTS = {
         parameters=(),
         frees=(("play", 0.0, 0.1),),
         signature="impact peak and the delay of first force after a reversal",
+        shown_by="current-step impact, force and encoder", shown_in="diagnose_impact.toml",
     ),
     "coating_relaxation": Effect(
         name="coating_relaxation",
@@ -161,6 +175,7 @@ EFFECTS = {
         slot="drive.contact", replacement="Gripper.Effects.RelaxingCoatingContact",
         bindings=_same("k_rel", "tau_rel"),
         signature="coated fingers: the force held after the impact decays with tau_rel (bare fingers: no change)",
+        shown_by="current-step impact on coated fingers, force and encoder", shown_in="diagnose_impact.toml",
     ),
     # The haptic device + user (Haptic.Device7 and the other Haptic.Device* models).
     "hand_mass": Effect(
@@ -173,6 +188,7 @@ EFFECTS = {
                     EffectParameter("b2", 0.02, 0.0, 0.5, "N.m.s/rad", "Viscous friction of m2 to ground")),
         slot="hand", replacement="Haptic.Effects.HandMass", bindings=_same("mh", "kh", "bh", "b2"),
         signature="below ~20 Hz: a second pole/zero pair (the hand's mode) the lumped m2 on ks, bs cannot shape",
+        shown_by="haptic frequency response", shown_in="diagnose_haptic.toml",
     ),
     "vibration_mode": Effect(
         name="vibration_mode",
@@ -183,6 +199,7 @@ EFFECTS = {
                     EffectParameter("b3", 0.01, 1e-5, 0.5, "N.m.s/rad", "Modal damping of the second mode")),
         slot="mode", replacement="Haptic.Effects.SideMode", bindings=_same("m3", "k3", "b3"),
         signature="a narrow antiresonance/resonance pair near sqrt(k3/m3), a phase wiggle there",
+        shown_by="haptic frequency response", shown_in="diagnose_haptic.toml",
     ),
     "loop_delay": Effect(
         name="loop_delay",
@@ -191,6 +208,7 @@ EFFECTS = {
                                     starts=(0.3e-3, 3e-3)),),
         slot="delay", replacement="Haptic.Effects.PadeDelay", bindings=(("T", "T_d"),),
         signature="phase lag growing linearly with frequency (360 T_d deg/Hz), magnitude unchanged",
+        shown_by="haptic frequency response", shown_in="diagnose_haptic.toml",
     ),
 }
 

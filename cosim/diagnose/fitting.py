@@ -5,8 +5,10 @@ the lowered Modelica equations) and scipy's trust-region least squares. The Jaco
 differences of whole replays: on the stiff gripper the forward-sensitivity Jacobian costs more than the replays
 of a difference per parameter (measured on the shipped static job, 3 parameters: one replay 7.7 s, the exact
 Jacobian 80 s; docs/dev/diagnose-history.md). The difference Jacobian at a fit's optimum is kept
-(``jacobian``): it screens the candidates (:func:`linearised_fit`) without a replay of its columns.
+(``columns_``): it screens the candidates (:class:`LinearisedFit`) without a replay of its columns.
 """
+
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear
@@ -14,8 +16,9 @@ from scipy.optimize import least_squares, lsq_linear
 from cosim.calibrate.shooting import SingleShooting
 from cosim.errors import ConfigError
 from cosim.experiment import Experiment
+from cosim.fitting import Estimator
 
-__all__ = ["Replay", "Trials", "fit_samples", "linearised_fit", "check_parameters", "weighted"]
+__all__ = ["Replay", "Trials", "Fit", "Screen", "SampleFit", "LinearisedFit", "check_parameters", "weighted"]
 
 
 def check_parameters(model, names):
@@ -80,7 +83,7 @@ class Replay:
 
 class Trials:
     """Replays of several records (repeated trials) with shared free parameters, their outputs end to end: what
-    :func:`fit_samples` fits when a diagnosis covers more than one record.
+    :class:`SampleFit` fits when a diagnosis covers more than one record.
 
     Parameters
     ----------
@@ -115,84 +118,194 @@ def _residual_function(replay, measured, weights, mask):
     return residual, outputs
 
 
-def fit_samples(replay, measured, weights, mask, start, bounds, max_nfev=40):
-    """Least-squares fit of the replay's free parameters on the samples in ``mask``.
+@dataclass(frozen=True)
+class Fit:
+    """One model fitted on a set of samples: what a worker returns and the workflow's stages read.
+
+    Attributes
+    ----------
+    label : str
+        ``"baseline"`` or the effect's name.
+    free : dict
+        name -> :class:`~cosim.fitting.FreeParameter`: the parameters the fit varied, from the start it took.
+    parameters : dict
+        name -> fitted value.
+    outputs : ndarray, shape (n_signals, N)
+        The replay at the fitted values, every sample.
+    chi2 : float
+        Weighted sum of squares on the fitted samples.
+    success : bool
+        The trust-region solver's own verdict.
+    columns : dict
+        name -> d(weighted residual on the fitted samples)/d(value) at the optimum, by forward differences.
+    """
+
+    label: str
+    free: dict
+    parameters: dict
+    outputs: np.ndarray
+    chi2: float
+    success: bool = True
+    columns: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Screen:
+    """A candidate screened without a fit (:class:`LinearisedFit` from its best start).
+
+    Attributes
+    ----------
+    effect : str
+    start : dict
+        name -> FreeParameter: the start whose step predicts the lowest chi-square (its fold fits start there).
+    chi2 : float
+        At the start.
+    chi2_predicted : float
+        After one bounded Gauss-Newton step.
+    delta_bic : float
+        The baseline's chi-square minus ``chi2_predicted`` minus the added parameters' BIC penalty.
+    refitted : bool
+        Whether its fold fits ran (the screen's order decides, :func:`~cosim.diagnose.workflow.score_candidates`).
+    """
+
+    effect: str
+    start: dict
+    chi2: float
+    chi2_predicted: float
+    delta_bic: float = 0.0
+    refitted: bool = False
+
+
+class SampleFit(Estimator):
+    """Least-squares fit of a replay's free parameters on the samples in ``mask`` (the fitting contract of
+    :mod:`cosim.fitting`).
 
     Parameters
     ----------
     replay : Replay, Trials or cosim.diagnose.frequency.FrequencyReplay
-    measured : ndarray, shape (n_signals, N)
     weights : ndarray, shape (n_signals,) or (n_signals, N)
         1 / noise level of each signal (or of each sample).
     mask : ndarray of bool, shape (N,)
-    start : ndarray
-        Starting values (physical units).
-    bounds : (ndarray, ndarray)
-        Lower and upper bounds.
-    max_nfev : int
+    free : dict
+        name -> :class:`~cosim.fitting.FreeParameter` for each of ``replay.free``.
+    max_nfev : int, default 40
         Iteration limit of the trust-region solver.
 
-    Returns
-    -------
-    dict
-        ``parameters`` (dict), ``predicted`` (n_signals, N), ``chi2`` (weighted sum of squares on ``mask``),
-        ``success``, ``columns`` (name -> d(weighted residual on ``mask``)/d(value) at the optimum, by forward
-        differences).
+    Attributes
+    ----------
+    parameters_ : dict
+        Fitted values.
+    outputs_ : ndarray, shape (n_signals, N)
+        The replay at ``parameters_``.
+    chi2_ : float
+        Weighted sum of squares on ``mask``.
+    success_ : bool
+    columns_ : dict
+        name -> d(weighted residual on ``mask``)/d(value) at the optimum, by forward differences.
     """
-    scale = replay.scale
-    lo, hi = np.asarray(bounds[0], float) / scale, np.asarray(bounds[1], float) / scale
-    q0 = np.clip(np.asarray(start, float) / scale, lo, hi)
-    residual, outputs = _residual_function(replay, measured, weights, mask)
-    jacobian = np.zeros((int(mask.sum()) * measured.shape[0], 0))
-    if len(q0):
-        solution = least_squares(residual, q0, bounds=(lo, hi), method="trf", jac="2-point", diff_step=DIFF_STEP,
-                                 x_scale=1.0, xtol=1e-6, ftol=1e-6, max_nfev=max_nfev)
-        q, success, jacobian = solution.x, bool(solution.success), solution.jac
-    else:
-        q, success = q0, True
-    predicted = outputs.get(np.asarray(q, float).tobytes())
-    predicted = replay.evaluate(q) if predicted is None else predicted
-    r = weighted(predicted - measured, weights)[:, mask]
-    return {"parameters": dict(zip(replay.free, (q * scale).tolist())), "predicted": predicted,
-            "chi2": float(np.sum(r ** 2)), "success": success,
-            "columns": {n: jacobian[:, k] / scale[k] for k, n in enumerate(replay.free)}}
+
+    def __init__(self, replay, weights, mask, free, max_nfev=40):
+        self.replay = replay
+        self.weights = weights
+        self.mask = mask
+        self.free = free
+        self.max_nfev = max_nfev
+
+    def fit(self, measured):
+        """Fit to ``measured`` (n_signals, N); returns ``self``."""
+        replay, weights, mask = self.replay, self.weights, self.mask
+        scale = replay.scale
+        lo, hi = _scaled_bounds(self.free, replay)
+        q0 = np.clip(_scaled_starts(self.free, replay), lo, hi)
+        residual, outputs = _residual_function(replay, measured, weights, mask)
+        jacobian = np.zeros((int(mask.sum()) * measured.shape[0], 0))
+        if len(q0):
+            solution = least_squares(residual, q0, bounds=(lo, hi), method="trf", jac="2-point",
+                                     diff_step=DIFF_STEP, x_scale=1.0, xtol=1e-6, ftol=1e-6, max_nfev=self.max_nfev)
+            q, self.success_, jacobian = solution.x, bool(solution.success), solution.jac
+        else:
+            q, self.success_ = q0, True
+        predicted = outputs.get(np.asarray(q, float).tobytes())
+        self.outputs_ = replay.evaluate(q) if predicted is None else predicted
+        r = weighted(self.outputs_ - measured, weights)[:, mask]
+        self.chi2_ = float(np.sum(r ** 2))
+        self.columns_ = {n: jacobian[:, k] / scale[k] for k, n in enumerate(replay.free)}
+        self.parameters_ = dict(zip(replay.free, (q * scale).tolist()))
+        return self
+
+    def result(self, label):
+        """The fit as a :class:`Fit` labelled ``label`` (what crosses processes: no replay inside)."""
+        self._check_fitted("result")
+        return Fit(label=label, free=dict(self.free), parameters=self.parameters_, outputs=self.outputs_,
+                   chi2=self.chi2_, success=self.success_, columns=self.columns_)
 
 
-def linearised_fit(replay, measured, weights, mask, start, bounds, columns):
-    """The chi-square one bounded Gauss-Newton step from ``start`` predicts: a candidate screened without a fit.
+class LinearisedFit(Estimator):
+    """The chi-square one bounded Gauss-Newton step from the start predicts: a candidate screened without a fit
+    (the fitting contract of :mod:`cosim.fitting`).
 
     Parameters
     ----------
-    replay, measured, weights, mask, start, bounds
-        As for :func:`fit_samples`.
+    replay, weights, mask, free
+        As for :class:`SampleFit`.
     columns : dict
         name -> d(weighted residual on ``mask``)/d(value) [1/unit] known from another fit (a candidate's
         baseline parameters: the baseline's Jacobian at its optimum); the other columns by forward differences,
         one replay each.
 
-    Returns
-    -------
-    dict
-        ``chi2`` at ``start``, ``predicted`` (after the step, within the bounds), ``parameters`` (the step's
-        values), ``replays``.
+    Attributes
+    ----------
+    parameters_ : dict
+        The step's values (within the bounds).
+    chi2_start_ : float
+        At the start.
+    chi2_predicted_ : float
+        After the step.
+    replays_ : int
+        Replays the screen took.
     """
-    scale = replay.scale
-    lo, hi = np.asarray(bounds[0], float) / scale, np.asarray(bounds[1], float) / scale
-    q0 = np.clip(np.asarray(start, float) / scale, lo, hi)
-    residual, _ = _residual_function(replay, measured, weights, mask)
-    r0 = residual(q0)
-    jacobian, replays = np.empty((len(r0), len(q0))), 1
-    for k, name in enumerate(replay.free):
-        if name in columns:
-            jacobian[:, k] = columns[name] * scale[k]
-            continue
-        h = DIFF_STEP * max(1.0, abs(q0[k]))
-        h = h if q0[k] + h <= hi[k] else -h
-        q = q0.copy()
-        q[k] += h
-        r = residual(q)
-        jacobian[:, k] = 0.0 if np.all(r == _FAILED_REPLAY) else (r - r0) / h  # a failed replay: no evidence
-        replays += 1
-    step = lsq_linear(jacobian, -r0, bounds=(lo - q0, hi - q0 + 1e-15))
-    return {"chi2": float(r0 @ r0), "predicted": float(np.sum((r0 + jacobian @ step.x) ** 2)),
-            "parameters": dict(zip(replay.free, ((q0 + step.x) * scale).tolist())), "replays": replays}
+
+    def __init__(self, replay, weights, mask, free, columns):
+        self.replay = replay
+        self.weights = weights
+        self.mask = mask
+        self.free = free
+        self.columns = columns
+
+    def fit(self, measured):
+        """Take the step against ``measured`` (n_signals, N); returns ``self``."""
+        replay = self.replay
+        scale = replay.scale
+        lo, hi = _scaled_bounds(self.free, replay)
+        q0 = np.clip(_scaled_starts(self.free, replay), lo, hi)
+        residual, _ = _residual_function(replay, measured, self.weights, self.mask)
+        r0 = residual(q0)
+        jacobian, replays = np.empty((len(r0), len(q0))), 1
+        for k, name in enumerate(replay.free):
+            if name in self.columns:
+                jacobian[:, k] = self.columns[name] * scale[k]
+                continue
+            h = DIFF_STEP * max(1.0, abs(q0[k]))
+            h = h if q0[k] + h <= hi[k] else -h
+            q = q0.copy()
+            q[k] += h
+            r = residual(q)
+            jacobian[:, k] = 0.0 if np.all(r == _FAILED_REPLAY) else (r - r0) / h  # a failed replay: no evidence
+            replays += 1
+        step = lsq_linear(jacobian, -r0, bounds=(lo - q0, hi - q0 + 1e-15))
+        self.chi2_start_ = float(r0 @ r0)
+        self.chi2_predicted_ = float(np.sum((r0 + jacobian @ step.x) ** 2))
+        self.parameters_ = dict(zip(replay.free, ((q0 + step.x) * scale).tolist()))
+        self.replays_ = replays
+        return self
+
+
+def _scaled_starts(free, replay):
+    """The starts of ``free`` in the replay's order, over its scale."""
+    return np.array([free[n].start for n in replay.free], float) / replay.scale
+
+
+def _scaled_bounds(free, replay):
+    """The bounds of ``free`` in the replay's order, over its scale."""
+    return (np.array([free[n].lower for n in replay.free], float) / replay.scale,
+            np.array([free[n].upper for n in replay.free], float) / replay.scale)

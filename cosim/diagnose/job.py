@@ -24,7 +24,7 @@ from pathlib import Path
 
 from cosim.diagnose.effects import EFFECTS, applicable, variant_text
 from cosim.errors import ConfigError
-from cosim.experiment import align_experiment
+from cosim.diagnose.kinds import KINDS, kind_of
 from cosim.tomldoc import bounded_parameters, number, read_text, read_toml, sections, signal_tables, string, values
 
 __all__ = ["DiagnoseJob", "load_diagnose_job", "load_experiment", "load_records"]
@@ -62,8 +62,8 @@ class DiagnoseJob:
         ``(start, stop)`` of the data used, s.
     decimate : int
         Keep every n-th sample.
-    kind : {"staircase", "impact", "frequency"}
-        The experiment's kind.
+    kind : cosim.diagnose.kinds.ExperimentKind
+        The experiment's kind (``experiment.kind``; a staircase without ``steady_s`` is a speed run).
     duration, steady_s, min_hold_s : float
         Length the data must cover, the steady tail of each hold that enters the cost, the shortest hold, s.
     signals : tuple
@@ -73,7 +73,7 @@ class DiagnoseJob:
     max_nfev : int
         Least-squares evaluations per fit.
     free : dict
-        Baseline parameter -> ``(start, min, max)``.
+        Baseline parameter -> :class:`~cosim.fitting.FreeParameter`.
     effects : tuple of str
         The candidate effects.
     min_gap_removed, min_delta_bic, gap_sigmas : float
@@ -98,14 +98,14 @@ class DiagnoseJob:
     inputs: dict
     window: tuple
     decimate: int
-    kind: str
+    kind: object  # an ExperimentKind
     duration: float
     steady_s: float
     min_hold_s: float
     signals: tuple  # of (output, column, noise floor)
     rtol: float
     max_nfev: int
-    free: dict  # name -> (start, min, max)
+    free: dict  # name -> FreeParameter
     effects: tuple
     min_gap_removed: float
     min_delta_bic: float
@@ -181,7 +181,7 @@ def load_diagnose_job(path, overrides=()):
     start = number(problems, d, "start", ("data",)) if "start" in d else -math.inf
     stop = number(problems, d, "stop", ("data",)) if "stop" in d else math.inf
     decimate = number(problems, d, "decimate", ("data",), default=1, positive=True, integer=True)
-    if kind not in ("staircase", "impact", "frequency"):
+    if kind not in KINDS:
         problems.add(("experiment", "kind"), f"must be 'staircase', 'impact' or 'frequency'; got {kind!r}")
     sample_rate = number(problems, e, "sample_rate", ("experiment",), default=0.0)
     if sample_rate is not None and sample_rate < 0:
@@ -225,7 +225,8 @@ def load_diagnose_job(path, overrides=()):
     problems.raise_if_any()
     return DiagnoseJob(
         path=path, source=source, model=model, fixed=fixed,
-        records=tuple(records), inputs=dict(inputs), window=(start, stop), decimate=decimate, kind=kind,
+        records=tuple(records), inputs=dict(inputs), window=(start, stop), decimate=decimate,
+        kind=kind_of(kind, steady_s),
         duration=duration, steady_s=steady_s, min_hold_s=min_hold_s, signals=tuple(signals), rtol=rtol,
         max_nfev=max_nfev, free=free, effects=tuple(effects), min_gap_removed=min_gap, min_delta_bic=min_bic,
         gap_sigmas=gap_sigmas, workers=workers, scheduler=scheduler,
@@ -273,14 +274,6 @@ def load_records(job, model):
 
 
 def load_experiment(job, model, path=None):
-    """The data of ``path`` (default: the job's first record) aligned with ``model`` (a LoweredModel): an
-    :class:`~cosim.experiment.Experiment` (mask: every sample, time from 0) with the checks a diagnosis needs
-    (channels, at least 10 samples, a uniform time base, data covering the experiment); for a frequency response,
-    a :class:`~cosim.diagnose.frequency.FrequencyExperiment`."""
-    if job.kind == "frequency":
-        from cosim.diagnose.frequency import load_frequency_experiment
-
-        return load_frequency_experiment(job, model)
-    return align_experiment(job, [u.name for u in model.inputs], [o.name for o in model.outputs], path,
-                            signals_key="compare.signals", min_samples=10, uniform=True, duration=job.duration,
-                            from_zero=True)
+    """The data of ``path`` (default: the job's first record) aligned with ``model`` (a LoweredModel), as the
+    job's kind reads it (:meth:`~cosim.diagnose.kinds.ExperimentKind.load`)."""
+    return job.kind.load(job, model, path)

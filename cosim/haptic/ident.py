@@ -17,7 +17,7 @@ import math
 import numpy as np
 from scipy.optimize import least_squares
 
-from cosim.errors import NotFittedError
+from cosim.fitting import Estimator
 from cosim.freqresp import FrequencyResponse, model_response
 from cosim.haptic.params import PARAMS_11, PARAMS_7, USERS, load_user_params
 
@@ -90,7 +90,10 @@ def arm_ss(values):
     return A, B, C, np.zeros((1, 1))
 
 
-class _FrequencyFit:
+class _FrequencyFit(Estimator):
+    """A parametric model fitted to a measured frequency response (the fitting contract of :mod:`cosim.fitting`);
+    subclasses give the parameter ``names``, the state space of given values and the default start."""
+
     names = ()
 
     def __init__(self, freq_range, fs=None, weighting="coherence", informative_rse=0.02, x0=None, max_nfev=1000,
@@ -191,7 +194,7 @@ class _FrequencyFit:
             rse = np.full(len(theta0), math.inf)
         at_bound = (best.x <= lo_b + 1e-3) | (best.x >= hi_b - 1e-3) | (np.linalg.norm(J, axis=0) == 0)
         rse = np.where(at_bound, math.inf, rse)
-        self.params_ = dict(zip(self.names, np.exp(best.x)))
+        self.parameters_ = dict(zip(self.names, np.exp(best.x)))
         self.relative_se_ = dict(zip(self.names, rse))
         self.rms_log_error_ = float(np.sqrt(2 * best.cost / len(data.f)))
         # a fit that did not reach the noise floor sits in a wrong local minimum: trust none of its values
@@ -201,14 +204,16 @@ class _FrequencyFit:
         self.n_points_ = len(data.f)
         return self
 
-    def _check_fitted(self):
-        if not hasattr(self, "params_"):
-            raise NotFittedError(f"{type(self).__name__} is not fitted; call fit(response) first")
+    @property
+    def params_(self):
+        """The fitted values, as the paper's scripts name them: ``parameters_``."""
+        self._check_fitted("params_")
+        return self.parameters_
 
     def predict(self, f):
         """Return the fitted model's response at ``f`` (Hz), with the ZOH when ``fs`` was given."""
-        self._check_fitted()
-        return self._response(self.params_, np.asarray(f, dtype=float))
+        self._check_fitted("predict")
+        return self._response(self.parameters_, np.asarray(f, dtype=float))
 
 
 class DeviceUserFit(_FrequencyFit):
@@ -244,7 +249,7 @@ class DeviceUserFit(_FrequencyFit):
 
     Attributes
     ----------
-    params_ : dict
+    parameters_ : dict
         Fitted values (SI).
     relative_se_ : dict
         Relative standard errors from the Jacobian.

@@ -206,7 +206,7 @@ def write_identification(out_dir, user=1, position=3, use_fmu=False, fmu_dir="fm
     else:
         plant = tf_user(params)
     fr, fit = device_experiment(plant, params.structure, position=position, seed=seed)
-    rows = [{"parameter": n, "true": params[n], "fitted": fit.params_[n], "rel_error": fit.params_[n] / params[n] - 1,
+    rows = [{"parameter": n, "true": params[n], "fitted": fit.parameters_[n], "rel_error": fit.parameters_[n] / params[n] - 1,
              "rel_se": fit.relative_se_[n], "informative": n in fit.informative_} for n in fit.names]
     written = []
     p = out / "identification.csv"
@@ -263,8 +263,8 @@ def write_arm(out_dir, seed=0):
             row = {"axis": axis, "grip": grip}
             for n in ARM_PARAMS:
                 row[f"{n}_true"] = getattr(a, n)
-                row[f"{n}_fit"] = fit.params_[n]
-                row[f"{n}_rel_error"] = fit.params_[n] / getattr(a, n) - 1
+                row[f"{n}_fit"] = fit.parameters_[n]
+                row[f"{n}_rel_error"] = fit.parameters_[n] / getattr(a, n) - 1
             rows.append(row)
     written = []
     p = out / "arm_fits.csv"

@@ -1,0 +1,155 @@
+"""The fits a diagnosis runs in its workers: a :class:`FitTask` names one model (the baseline or a candidate's
+variant), the samples it is fitted on and where it starts; :func:`fit_task` fits it (a
+:class:`~cosim.diagnose.fitting.Fit`), :func:`screen_task` screens it (a :class:`~cosim.diagnose.fitting.Screen`),
+:func:`run_tasks` maps either over the job's Dask workers. Every use of the effect library by the fits is here.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from cosim.diagnose.effects import EFFECTS, Effect, write_variant
+from cosim.diagnose.fitting import LinearisedFit, SampleFit, Screen, Trials
+from cosim.parallel import map_on_dask
+
+__all__ = ["FitTask", "task_of", "variant_of", "fit_task", "screen_task", "run_tasks", "fit_free", "free_at",
+           "added_parameters"]
+
+
+@dataclass(frozen=True)
+class FitTask:
+    """One fit (or screen) for a worker: a plain record, so it crosses processes (the model is lowered there).
+
+    Attributes
+    ----------
+    job : cosim.diagnose.job.DiagnoseJob
+    effect : str
+        The candidate, or ``"baseline"`` for the baseline itself.
+    variant_path, variant_model : str
+        The Modelica file and full name of the model fitted (the baseline's own for ``"baseline"``).
+    baseline : dict
+        name -> FreeParameter: the baseline's free parameters and where they start (its fit's values).
+    weights : ndarray, shape (n_signals,) or (n_signals, N)
+        1 / noise level.
+    mask : ndarray of bool, shape (N,)
+        The samples fitted on.
+    start : dict, optional
+        name -> FreeParameter: the one start to fit from (the screen's best); without it, every start of the
+        effect in turn, the best fit kept.
+    columns : dict
+        The screen's known Jacobian columns (the baseline's at its fit).
+    fold, group : int
+        Which fold, which group of baseline restarts the fit belongs to (bookkeeping of the caller).
+    """
+
+    job: object
+    effect: str
+    variant_path: str
+    variant_model: str
+    baseline: dict
+    weights: np.ndarray
+    mask: np.ndarray
+    start: dict = None
+    columns: dict = field(default_factory=dict)
+    fold: int = 0
+    group: int = 0
+
+
+def task_of(job, effect, weights, mask, path=None, variant=None, **fields):
+    """A :class:`FitTask` of ``effect`` on ``mask`` (the baseline's own model when no variant ``path`` and
+    ``variant`` name are given); ``fields``: the task's other attributes."""
+    return FitTask(job=job, effect=effect, variant_path=str(path or job.source), variant_model=variant or job.model,
+                   baseline=fields.pop("baseline", {}), weights=weights, mask=mask, **fields)
+
+
+def variant_of(job, name, folder):
+    """The job's baseline with the effect ``name`` written into a copy of its package in ``folder``; returns the
+    copy's path and the variant's model name."""
+    return write_variant(job.source, job.model, EFFECTS[name], folder)
+
+
+def _effect(name):
+    """The candidate ``name``, or for ``"baseline"`` an effect that adds nothing."""
+    return Effect("baseline", "", ()) if name == "baseline" else EFFECTS[name]
+
+
+def added_parameters(name):
+    """The parameters the effect ``name`` declares, then the baseline's parameters it frees."""
+    effect = EFFECTS[name]
+    return [p.name for p in effect.parameters] + [n for n, _, _ in effect.frees]
+
+
+def free_at(job, fit):
+    """The job's free baseline parameters (name -> FreeParameter) starting at their values in ``fit``."""
+    return {n: p.at(fit.parameters[n]) for n, p in job.free.items()}
+
+
+def _candidate(task):
+    """A task's lowered model, records and free parameters (name -> FreeParameter) for each of its starts: the
+    baseline's values at its fit on every sample, the effect's start values, then each of the effect's other
+    starts."""
+    from cosim.compile import lower
+    from cosim.diagnose.job import load_records
+    from cosim.fitting import FreeParameter
+
+    job = task.job
+    effect = _effect(task.effect)
+    model = lower(task.variant_path, task.variant_model)
+    records = load_records(job, model)
+    defaults = dict(zip([p.name for p in model.parameters], model.parameter_values))
+    free = dict(task.baseline)
+    for p in effect.parameters:
+        start = p.start if isinstance(p.start, (int, float)) else \
+            free[p.start].start if p.start in free else job.fixed.get(p.start, defaults[p.start])
+        free[p.name] = FreeParameter(p.lower, p.lower, p.upper).clipped(start)
+    for name, lo, hi in effect.frees:
+        free[name] = FreeParameter(lo, lo, hi).clipped(job.fixed.get(name, defaults[name]))
+    trials = [free] + [{**free, p.name: free[p.name].clipped(v)} for p in effect.parameters for v in p.starts]
+    return model, records, trials
+
+
+def _replay(model, records, job, free):
+    """The replay of every record varying the ``free`` parameters (name -> FreeParameter), each record with its
+    trial's fixed values, and the measured channels end to end."""
+    scale = np.array([abs(p.start) if p.start != 0 else 1.0 for p in free.values()], float)
+    replay = Trials([job.kind.replay(model, e, [o for o, _, _ in job.signals], list(free), scale,
+                                     fixed={**job.fixed, **trial}, rtol=job.rtol) for e, trial in records])
+    return replay, np.hstack([e.measured.T for e, _ in records])
+
+
+def fit_free(model, records, job, free, weights, mask, label):
+    """Fit the ``free`` parameters (name -> FreeParameter) on ``mask`` over every record (from
+    :func:`~cosim.diagnose.job.load_records`), each replayed with its trial's fixed values; a Fit labelled
+    ``label``."""
+    replay, measured = _replay(model, records, job, free)
+    return SampleFit(replay, weights, mask, free, max_nfev=job.max_nfev).fit(measured).result(label)
+
+
+def fit_task(task):
+    """One fit in a worker (a candidate's variant, or the baseline itself) on the task's samples, from its
+    ``start`` or else the best of every start; replays every sample."""
+    model, records, trials = _candidate(task)
+    trials = [task.start] if task.start else trials
+    fits = [fit_free(model, records, task.job, trial, task.weights, task.mask, task.effect) for trial in trials]
+    return min(fits, key=lambda fit: fit.chi2)
+
+
+def screen_task(task):
+    """One candidate screened in a worker: the linearised fit (:class:`~cosim.diagnose.fitting.LinearisedFit`)
+    from each of its starts on the task's samples, the baseline's columns from its fit; the best start's."""
+    model, records, trials = _candidate(task)
+    screens = []
+    for trial in trials:
+        replay, measured = _replay(model, records, task.job, trial)
+        step = LinearisedFit(replay, task.weights, task.mask, trial, task.columns).fit(measured)
+        screens.append(Screen(effect=task.effect, start=trial, chi2=step.chi2_start_,
+                              chi2_predicted=step.chi2_predicted_))
+    return min(screens, key=lambda screen: screen.chi2_predicted)
+
+
+def run_tasks(job, tasks, progress, function=fit_task, desc="candidate effects"):
+    """``function`` of every task: in this process (``parallel.workers = 0``, or one task and no scheduler), else
+    on the job's Dask workers."""
+    if job.workers <= 0 or len(tasks) <= 1 and not job.scheduler:
+        return [function(t) for t in tasks]
+    return map_on_dask(function, tasks, job.scheduler, max_workers=job.workers, desc=desc, progress=progress)
