@@ -26,10 +26,11 @@ from pathlib import Path
 
 from cosim.fmi.instance import value_dtype
 from cosim.paramfile import parameters_file_key
-from cosim.tomldoc import format_key, parse_overrides, read_toml
+from cosim.tomldoc import Problems, format_key, parse_overrides, read_toml
 
 __all__ = [
     "load_config",
+    "config_from_data",
     "parse_overrides",
     "record_columns",
     "Config",
@@ -850,6 +851,48 @@ def load_config(path, overrides=()):
     """
     path = Path(path)
     data, problems = read_toml(path, overrides, what="config")
+    return _validated(data, problems, path, tuple(overrides or ()))
+
+
+def config_from_data(data, path):
+    """A run config built in code: ``data`` holds the tables a TOML run config holds (``run``, ``fmus``,
+    ``controllers``, ``connections``, ``record``, ...) and is validated as :func:`load_config` validates a file.
+
+    Parameters
+    ----------
+    data : dict
+        The config's tables, as :func:`tomllib.loads` would return them.
+    path : path-like
+        Where the config would be: relative FMU paths and controller files are resolved against its folder, and
+        it names the config in messages and results (the file need not exist; :func:`cosim.tomldoc.toml_text`
+        writes ``data`` there for ``cosim run`` to repeat the run).
+
+    Returns
+    -------
+    Config
+
+    Raises
+    ------
+    ConfigError
+        Any key is unknown or invalid; the message lists every problem with its key path.
+    """
+    path = Path(path)
+    return _validated(_plain(data), Problems(path, None, {}), path, ())
+
+
+def _plain(value):
+    """``value`` with numpy scalars as Python numbers and paths as strings: what a TOML file would have given."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, Path):
+        return value.as_posix()
+    return value.item() if hasattr(value, "item") and type(value).__module__ == "numpy" else value
+
+
+def _validated(data, problems, path, overrides):
+    """The Config of ``data`` (a config file's tables) or a ConfigError listing every problem."""
     base_dir = path.parent
     _unknown(data, _TOP, problems, ())
     run = _run(data, problems)
@@ -867,4 +910,4 @@ def load_config(path, overrides=()):
         _bounds(run, solver, fmus, ctrls, record, problems)
     problems.raise_if_any()
     return Config(path=path, run=run, solver=solver, fmus=fmus, controllers=ctrls, connections=connections,
-                  record=record, plot=plot, summary=summary, raw=data, overrides=tuple(overrides or ()))
+                  record=record, plot=plot, summary=summary, raw=data, overrides=overrides)

@@ -3,7 +3,9 @@ problem with its ``file:line`` (or ``--set key``) and key path before raising on
 
 tomllib gives no line numbers for keys: :class:`Locator` finds them by scanning the text (best effort)."""
 
+import json
 import math
+import numbers
 import re
 import tomllib
 from pathlib import Path
@@ -11,7 +13,8 @@ from pathlib import Path
 from cosim.errors import ConfigError
 from cosim.fitting import FreeParameter
 
-__all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables", "Problems", "Locator", "parse_overrides", "apply_override", "format_key"]
+__all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables",
+           "Problems", "Locator", "parse_overrides", "apply_override", "format_key", "toml_text"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -355,6 +358,7 @@ def sections(data, problems, schema, free_form=("parameters",)):
 
 def bounded_parameters(data, problems, required=True):
     """``[parameters.NAME] start, min, max`` tables as ``{name: FreeParameter}``, checked (start in bounds)."""
+
     tables = data.get("parameters", {})
     if not isinstance(tables, dict):
         problems.add(("parameters",), f"must be tables [parameters.NAME] with start, min, max; got {tables!r}")
@@ -375,3 +379,75 @@ def bounded_parameters(data, problems, required=True):
                 problems.add(where + ("start",), f"{s:g} is outside the bounds [{lo:g}, {hi:g}]")
             free[name] = FreeParameter(s, lo, hi)
     return free
+
+
+# ----------------------------------------------------------------------------------------------
+# writing
+# ----------------------------------------------------------------------------------------------
+_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def toml_text(data, comment=""):
+    """The TOML text of ``data``: what :func:`tomllib.loads` reads back as ``data``.
+
+    Parameters
+    ----------
+    data : dict
+        Tables (dicts) of numbers, booleans, strings, lists and tables; a list of tables is written as an array
+        of tables (``[[connections]]``).
+    comment : str, optional
+        Lines written first, each as a ``#`` comment.
+
+    Returns
+    -------
+    str
+    """
+    lines = [f"# {line}" for line in comment.splitlines()]
+    _write_table(data, (), lines)
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def _write_table(table, prefix, lines):
+    """The body of ``table`` (its values, then its sub-tables and arrays of tables) appended to ``lines``."""
+    nested = {k: v for k, v in table.items() if isinstance(v, dict) or _table_array(v)}
+    lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in table.items() if k not in nested]
+    for key, value in nested.items():
+        path = ".".join(_toml_key(k) for k in (*prefix, key))
+        for item in ([value] if isinstance(value, dict) else value):
+            if not isinstance(value, dict):
+                lines += ["", f"[[{path}]]"]
+            elif not value or not all(isinstance(v, dict) or _table_array(v) for v in value.values()):
+                lines += ["", f"[{path}]"]  # a table holding only tables needs no header of its own
+            _write_table(item, (*prefix, key), lines)
+
+
+def _table_array(value):
+    return isinstance(value, (list, tuple)) and bool(value) and all(isinstance(v, dict) for v in value)
+
+
+def _toml_key(key):
+    return key if _BARE_KEY.match(key) else _toml_string(key)
+
+
+def _toml_string(text):
+    """A TOML basic string: JSON's escapes are TOML's (DEL too must be escaped in TOML)."""
+    return json.dumps(str(text), ensure_ascii=False).replace("\x7f", "\\u007f")
+
+
+def _toml_value(value):
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        v = float(value)
+        return ("nan" if math.isnan(v) else "inf" if v > 0 else "-inf") if not math.isfinite(v) else repr(v)
+    if isinstance(value, str):
+        return _toml_string(value)
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items()) + " }"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, Path):
+        return _toml_string(value.as_posix())
+    raise TypeError(f"toml_text: no TOML form for {type(value).__name__} {value!r}")

@@ -3,12 +3,11 @@ the master's engine, reduced to the trial's row (peak, minimum after the peak, s
 
 :class:`TrialRunner` keeps one :class:`~cosim.master.engine.Engine` per coating alive across trials (its
 controller and loop kernels are compiled or loaded once, ~2 s, against ~0.3 s for a trial) and its FMU
-loaded (:class:`~cosim.master.plant.FmuPool`: loading costs ~40 ms, a tenth of a trial); a trial
-changes only the values the engine reads at the start of each run: the FMU's parameters and start values,
-the outer loop's packed parameters and the stop instant.
+loaded (:class:`~cosim.master.plant.FmuPool`: loading costs ~40 ms, a tenth of a trial); a trial is a variant
+run of that engine (:meth:`~cosim.master.engine.Engine.run_variant`) with its own FMU parameters and start values,
+outer-loop parameters and stop instant.
 """
 
-import dataclasses
 import math
 import shlex
 
@@ -95,7 +94,6 @@ class TrialRunner:
         self.loop_s = 0.0  # wall time inside the engine's loop, summed over the trials run
         self.kernel_s = 0.0  # wall time compiling or loading the loop's kernel (the first run), summed
         self.stop_s = None  # the stop time (s) of the last trial's run, the longer one of a late trigger
-        self.outer0 = dict(self.engine.controllers[_OUTER].values)  # a trial's outer-loop values start from these
 
     def run(self, spec, plant=None, outer=None):
         """Run one trial.
@@ -129,15 +127,9 @@ class TrialRunner:
     def _simulate(self, params, start, ctrl, stop):
         """Run the engine with a trial's plant values, outer-loop values and stop; (result, impact summary)."""
         eng, base = self.engine, self.base
-        plant = dataclasses.replace(base.fmus[_PLANT], parameters=params, start=start)
-        eng.config = dataclasses.replace(base, run=dataclasses.replace(base.run, stop=stop),
-                                         fmus={**base.fmus, _PLANT: plant})
-        eng.k_stop = eng.tb.ticks(stop - base.run.start)
         self.stop_s = stop
-        outer = eng.controllers[_OUTER]
-        outer.values.update({**self.outer0, **ctrl})
-        outer.p[:] = outer.pack()
-        result = eng.run(progress=False)
+        result = eng.run_variant(stop=stop, parameters={_PLANT: params}, start={_PLANT: start},
+                                 controllers={_OUTER: ctrl})
         self.loop_s += result.wall_s
         self.kernel_s += result.compile_s - eng.compile_s
         summary = base.summary

@@ -12,14 +12,24 @@ calibrated here, once without and once with the effect at the size fitted here. 
 :mod:`cosim.diagnose.answer`.
 """
 
+import sysconfig
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["MAX_ADVISED", "gap_locations", "plausible", "change_here", "change_on"]
+__all__ = ["shipped_examples", "MAX_ADVISED", "gap_locations", "plausible", "change_here", "change_on"]
 
-EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 MAX_ADVISED = 3  # plausible effects whose signature on another experiment is computed (a replay of each)
+
+
+def shipped_examples():
+    """The folder of the shipped example jobs the advice replays: ``examples/`` of a checkout (beside the
+    package), or where an install put them (``<data>/share/cosim/examples``: pyproject.toml's data-files, with the
+    Modelica packages they use in ``share/cosim/modelica``)."""
+    checkout = Path(__file__).resolve().parents[2] / "examples"
+    installed = [Path(sysconfig.get_path("data", scheme)) / "share" / "cosim" / "examples"
+                 for scheme in (sysconfig.get_default_scheme(), sysconfig.get_preferred_scheme("user"))]
+    return next((folder for folder in (checkout, *installed) if folder.is_dir()), checkout)
 
 
 def gap_locations(rows, limit=5):
@@ -80,7 +90,7 @@ def change_on(effect, parameters, baseline_parameters, folder, this=None):
     shown = EFFECTS[effect]
     name = shown.shown_in
     entry = {"experiment": shown.shown_by, "job": name, "computed": False}
-    shipped = EXAMPLES / name
+    shipped = shipped_examples() / name
     if not name or not shipped.is_file():
         entry["why"] = "no job of that experiment ships with cosim" if not name else f"{shipped} not found"
         return entry

@@ -20,7 +20,7 @@ import signal
 import time as _time
 import traceback
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -129,6 +129,8 @@ class Engine:
     loop : PythonLoop or CompiledLoop
     fmu_pool : cosim.master.plant.FmuPool or None
         Keeps the FMUs loaded between runs when set (many short runs of one engine); None: each run loads them.
+    base_config : cosim.config.Config
+        The config the engine was built with; ``config`` is the one the last run used (:meth:`run_variant`).
     """
 
     def __init__(self, config, loop=PythonLoop, note="", compile_s=0.0):
@@ -158,6 +160,8 @@ class Engine:
         self.compile_s = compile_s
         self.loop = loop(self)
         self.fmu_pool = None
+        self.base_config = config  # what run_variant's changes apply to
+        self._values = {name: dict(c.values) for name, c in self.controllers.items()}
 
     def _progress_bar(self):
         """A tqdm bar on stderr counting simulated seconds."""
@@ -233,6 +237,50 @@ class Engine:
         result.fault = fault
         return result
 
+    def run_variant(self, stop=None, parameters=None, start=None, controllers=None, progress=False,
+                    faults="raise"):
+        """Run the config the engine was built with, some of its values changed: a variant run (a campaign's
+        trial, a study's case). The engine's controllers (their compiled kernels) and, with ``fmu_pool``, its
+        FMUs are kept; every call starts from ``base_config``, so no change carries over to the next call.
+
+        Parameters
+        ----------
+        stop : float, optional
+            The run's stop time [s] (default: the config's).
+        parameters, start : dict, optional
+            FMU instance -> {name: value}: parameter and start values over the config's.
+        controllers : dict, optional
+            Controller instance -> {parameter: value} over the config's (numeric parameters: the kernel reads
+            them packed).
+        progress, faults
+            As for :meth:`run`.
+
+        Returns
+        -------
+        RunResult
+
+        Raises
+        ------
+        cosim.errors.ConfigError
+            An instance the config does not have, or a stop not after the start.
+        """
+        base = self.base_config
+        parameters, start, controllers = parameters or {}, start or {}, controllers or {}
+        _known(base, "FMU", [*parameters, *start], base.fmus)
+        _known(base, "controller", controllers, self.controllers)
+        stop = base.run.stop if stop is None else float(stop)
+        k_stop = self.tb.ticks(stop - base.run.start)
+        if k_stop < 1:
+            raise ConfigError(f"{base.path}: run_variant: stop = {stop!r} s is not after run.start = "
+                              f"{base.run.start!r} s by one tick of the time base")
+        fmus = {n: replace(s, parameters={**s.parameters, **parameters.get(n, {})},
+                           start={**s.start, **start.get(n, {})}) for n, s in base.fmus.items()}
+        self.config, self.k_stop = replace(base, run=replace(base.run, stop=stop), fmus=fmus), k_stop
+        for name, ctrl in self.controllers.items():
+            ctrl.values = {**self._values[name], **controllers.get(name, {})}
+            ctrl.p[:] = ctrl.pack()
+        return self.run(progress=progress, faults=faults)
+
     def _last_row_time(self):
         rows = int(self.recorder.rows[0])
         return float(self.recorder.times[rows - 1]) if rows else self.config.run.start
@@ -277,6 +325,14 @@ class Engine:
             events=list(events),
             stopped=stopped,
         )
+
+
+def _known(config, kind, names, instances):
+    """A ConfigError when one of ``names`` is not one of the config's ``instances`` of ``kind``."""
+    for name in names:
+        if name not in instances:
+            raise ConfigError(f"{config.path}: run_variant: no {kind} instance {name!r}; the config has "
+                              f"{', '.join(instances) or 'none'}")
 
 
 def _stopped(stop, t_default):
