@@ -65,8 +65,8 @@ from validation import write_section  # noqa: E402
 STAIRCASE_NOISE = 0.3
 
 # The workflow's stages as run_diagnosis calls them (cosim.diagnose.workflow); those a version lacks are skipped.
-STAGES = ("load_samples", "estimate_noise", "_fit", "split_segments", "score_candidates", "_screen", "_fold_fits",
-          "_run_tasks", "_restart_baseline", "decide", "show", "_final_fit", "_rerun_both", "_diagnosis")
+STAGES = ("load_samples", "estimate_noise", "fit_free", "split_segments", "score_candidates", "_screen", "_fold_fits",
+          "run_tasks", "_restart_baseline", "decide", "show", "_final_fit", "_rerun_both", "_diagnosis")
 
 
 def _timed(module, calls, depth):
@@ -92,6 +92,7 @@ def _timed(module, calls, depth):
 
 def time_job(path, workers=None, build=True):
     """Diagnose the job at ``path`` and print the time of each stage."""
+    import cosim.diagnose.show as show_stage
     from cosim.diagnose import fitting, workflow
 
     replays = [0]
@@ -104,6 +105,7 @@ def time_job(path, workers=None, build=True):
     fitting.Replay.evaluate = counted
     calls, depth = [], [0]
     _timed(workflow, calls, depth)
+    _timed(show_stage, calls, depth)  # stage 5's own steps (the winner's final fit, the re-run)
     job = load_diagnose_job(path, [] if workers is None else [f"parallel.workers={workers}"])
     load = os.getloadavg()
     start = time.perf_counter()
