@@ -25,7 +25,9 @@ A truth an experiment lacks is skipped. The effects drawn are "none" and those t
 is drawn from the operating system unless ``--seed`` is given (to re-run a printed draw); every case's seed derives
 from it and is printed with its row; ``--rows`` appends every row to a JSON-lines file. Counts: named right per
 effect with Wilson 95 % intervals, false alarms on "none", named right on the effects the experiment shows and the
-gap above the noise removed when named (the targets of issue 32: >= 85 %, <= 5 %, >= 80 %). ``--validation``
+gap above the noise removed when named (the targets of issue 32: >= 85 %, <= 5 %, >= 80 %). After each case's
+row, the wall time of each stage of its diagnosis (as ``--job`` names them; ``--rows`` keeps them), the CPU time of
+this process and the load average. ``--validation``
 writes each experiment's counts into its section of docs/validation.md, stamped with the commit and the seed.
 
 Run: python benchmarks/diagnose.py --job examples/diagnose_static.toml [--workers W] [--no-build]
@@ -66,11 +68,14 @@ STAIRCASE_NOISE = 0.3
 
 # The workflow's stages as run_diagnosis calls them (cosim.diagnose.workflow); those a version lacks are skipped.
 STAGES = ("load_samples", "estimate_noise", "fit_free", "split_segments", "score_candidates", "_screen", "_fold_fits",
-          "run_tasks", "_restart_baseline", "decide", "show", "_final_fit", "_rerun_both", "_diagnosis")
+          "run_tasks", "_restart_baseline", "decide", "show", "_final_fit", "_rerun_both", "advise", "_diagnosis")
+# (depth, stage, wall s) of every stage call of the drawn cases since the last case began
+STAGE_CALLS = []
 
 
 def _timed(module, calls, depth):
-    """Wrap the STAGES of ``module`` so that each call appends (depth, name, seconds) to ``calls``."""
+    """Wrap the STAGES of ``module`` so that each call appends (depth, name, seconds) to ``calls``; a stage already
+    wrapped is left as it is (its calls go to the list of the first wrapping)."""
     def wrap(name, function):
         @functools.wraps(function)
         def timed(*args, **kwargs):
@@ -83,11 +88,22 @@ def _timed(module, calls, depth):
             finally:
                 depth[0] -= 1
                 calls[index] = (depth[0], name, time.perf_counter() - t0)
+        timed.stage_timed = True
         return timed
 
     for name in STAGES:
-        if hasattr(module, name):
+        if hasattr(module, name) and not getattr(getattr(module, name), "stage_timed", False):
             setattr(module, name, wrap(name, getattr(module, name)))
+
+
+def stage_times(calls):
+    """{stage: wall s} of the outer stages in ``calls`` (from :func:`_timed`: depth 0, and the fitting stages one
+    level inside ``score_candidates`` and ``show``), each summed over its calls."""
+    times = {}
+    for level, name, seconds in calls:
+        if level == 0 or level == 1 and name != "run_tasks":
+            times[name] = times.get(name, 0.0) + seconds
+    return {name: round(seconds, 2) for name, seconds in times.items()}
 
 
 def time_job(path, workers=None, build=True):
@@ -178,7 +194,15 @@ TRUTHS = ("1", "2", "2w", "3", "4")
 def draw_rows(experiment, truths, effects, cases, seed, workers, rows_file=None):
     """Diagnose ``cases`` drawn cases of each effect of each truth of ``experiment`` (those it lacks skipped);
     returns {truth: [row, ...]}, each row also appended to ``rows_file`` (JSON lines) when given. The truths share
-    each case's seed: a paired comparison (the gripper truths draw the same baseline from it)."""
+    each case's seed: a paired comparison (the gripper truths draw the same baseline from it). Each row carries
+    the wall time of each stage of its diagnosis (``stages``), the CPU time of this process (``cpu_seconds``: the
+    fits on Dask workers are not in it) and the load average when it ended (``load``)."""
+    import cosim.diagnose.show as show_stage
+    from cosim.diagnose import workflow
+
+    calls, depth = STAGE_CALLS, [0]
+    _timed(workflow, calls, depth)
+    _timed(show_stage, calls, depth)
     _, functions, default_workers = EXPERIMENTS[experiment]
     workers = default_workers if workers is None else workers
     stream = np.random.default_rng([seed, list(EXPERIMENTS).index(experiment)])  # one stream an experiment
@@ -188,9 +212,13 @@ def draw_rows(experiment, truths, effects, cases, seed, workers, rows_file=None)
         for truth in rows:
             for b, effect in enumerate(effects):
                 case_seed = int(seeds[k, b])
+                calls.clear()
+                cpu = time.process_time()
                 with tempfile.TemporaryDirectory() as folder:
                     row = functions[truth](effect, case_seed, folder, workers)
-                row = {**row, "experiment": experiment, "truth_set": truth, "run_seed": seed}
+                row = {**row, "experiment": experiment, "truth_set": truth, "run_seed": seed,
+                       "stages": stage_times(calls), "cpu_seconds": round(time.process_time() - cpu, 1),
+                       "load": os.getloadavg()[0]}
                 rows[truth].append(row)
                 if rows_file:
                     with open(rows_file, "a", encoding="utf-8") as out:
@@ -198,6 +226,9 @@ def draw_rows(experiment, truths, effects, cases, seed, workers, rows_file=None)
                 print(f"{experiment} truth {truth} case {k} {effect:24s} seed {case_seed:10d} named {row['named']:24s} "
                       f"RMSE {row['rmse_before']:.4g} -> {row['rmse_after']:.4g} (truth's noise {row['noise']:.3g}), gap "
                       f"removed {100 * row['gap_removed']:5.1f} %, {row['seconds']:.0f} s", flush=True)
+                print("    stages (wall s): " + ", ".join(f"{n} {v:.1f}" for n, v in row["stages"].items())
+                      + f"; {row['cpu_seconds']:.0f} s CPU in this process; load average {row['load']:.1f}",
+                      flush=True)
     return rows
 
 
