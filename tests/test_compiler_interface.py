@@ -219,6 +219,22 @@ def test_build_all_skips_unchanged_models(tmp_path):
     assert "built" in list(build_all(models, out_dir=out))[0]
 
 
+def test_a_model_is_lowered_anew_only_when_a_file_of_its_folder_changed(tmp_path):
+    # a diagnosis lowers its baseline and each variant in every stage: the same sources give the same lowered model
+    source = _package(tmp_path, "\n  model M\n    Real x(start = 1);\n  equation\n    der(x) = -x;\n  end M;")
+    first = lower(source, "T.M")
+    assert lower(source, "T.M") is first
+    np.testing.assert_allclose(first.derivatives([3.0], []), [-3.0])  # der(x) = -x
+    source.write_text(source.read_text().replace("-x;", "-2*x;"))
+    np.testing.assert_allclose(lower(source, "T.M").derivatives([3.0], []), [-6.0])
+    # rumoca reads every .mo file of the folder: a change of another file the model uses counts too
+    source.write_text(source.read_text().replace("-2*x;", "-K.k*x;"))
+    (source.parent / "K.mo").write_text("package K\n  constant Real k = 5;\nend K;\n")
+    np.testing.assert_allclose(lower(source, "T.M").derivatives([3.0], []), [-15.0])
+    (source.parent / "K.mo").write_text("package K\n  constant Real k = 7;\nend K;\n")
+    np.testing.assert_allclose(lower(source, "T.M").derivatives([3.0], []), [-21.0])
+
+
 def test_model_list_rejects_unknown_keys(tmp_path):
     from cosim.errors import ConfigError
 

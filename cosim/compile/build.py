@@ -22,11 +22,30 @@ _ENTRY_KEYS = {"name", "model", "source", "description", "fmi_version", "c_sourc
 _FMI_VERSIONS = (2, 3)
 
 
+# Lowered models by source: a diagnosis lowers the same baseline and variants in every stage and every task
+# (0.5 s each, a quarter of an impact case's CPU time); the last few are kept, keyed on what rumoca reads.
+_LOWERED = {}
+_LOWERED_KEPT = 16
+
+
+def _source_key(path, model, modelica_path):
+    """What a lowering of ``model`` depends on: the file, the contents of every ``.mo`` file of its directory
+    (rumoca reads them all) and the libraries' fingerprint."""
+    digest = hashlib.sha256()
+    if path is not None:
+        path = Path(path).resolve()
+        for mo in sorted(path.parent.glob("*.mo")):
+            digest.update(f"{mo.name}\n".encode() + mo.read_bytes())
+    roots = tuple(str(r) for r in modelica_path)
+    return str(path), model, roots, digest.hexdigest(), library_fingerprint(roots) if roots else ""
+
+
 def lower(path, model, modelica_path=()):
     """Parse, flatten and lower Modelica model ``model`` from file ``path`` to a :class:`LoweredModel`.
 
     This is the public, explicit form of the model (CasADi functions ``ode`` and ``out`` of x, u, p, t) that the
-    FMU contains, for calibration and diagnosis with exact derivatives.
+    FMU contains, for calibration and diagnosis with exact derivatives. A model lowered before from the same
+    sources is returned again (a frozen record), not lowered anew.
 
     Parameters
     ----------
@@ -42,7 +61,15 @@ def lower(path, model, modelica_path=()):
     -------
     LoweredModel
     """
-    return lower_system(translate(load_flat_model(path, model, modelica_path)))
+    if path is not None and not Path(path).is_file():
+        return lower_system(translate(load_flat_model(path, model, modelica_path)))  # the loader's error
+    key = _source_key(path, model, modelica_path)
+    if key not in _LOWERED:
+        lowered = lower_system(translate(load_flat_model(path, model, modelica_path)))
+        if len(_LOWERED) >= _LOWERED_KEPT:
+            del _LOWERED[next(iter(_LOWERED))]
+        _LOWERED[key] = lowered
+    return _LOWERED[key]
 
 
 def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_version=3, source=False,
