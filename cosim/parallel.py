@@ -14,7 +14,7 @@ from tqdm import tqdm
 
 from cosim.errors import ConfigError
 
-__all__ = ["open_client", "check_scheduler", "map_on_dask"]
+__all__ = ["open_client", "keep_local_cluster", "check_scheduler", "map_on_dask"]
 
 LOOPBACK = "127.0.0.1"
 
@@ -59,6 +59,50 @@ def open_client(scheduler="", max_workers=None, timeout_s=5.0):
                       dashboard_address=None, worker_dashboard_address=None, scheduler_kwargs=quiet_http,
                       silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
         yield client
+
+
+# The local cluster kept open by keep_local_cluster: its most workers, then (on first use) the client's context
+_KEPT = {}
+
+
+@contextlib.contextmanager
+def keep_local_cluster(max_workers=None):
+    """Inside the block, :func:`map_on_dask` without a scheduler runs on one local cluster, started at its first
+    use and closed when the block ends: a workflow of several parallel maps (a diagnosis: screen, fold fits,
+    restarts, final fit) starts its worker processes once, not once a map (2-5 s each on a 2-core machine), and
+    what a worker keeps between tasks (lowered models) serves the later maps. A nested block uses the outer one's
+    cluster.
+
+    Parameters
+    ----------
+    max_workers : int, optional
+        Most workers of the cluster (as :func:`open_client`).
+    """
+    if _KEPT:
+        yield
+        return
+    _KEPT["max_workers"] = max_workers
+    try:
+        yield
+    finally:
+        context = _KEPT.pop("context", None)
+        _KEPT.clear()
+        if context is not None:
+            context.__exit__(None, None, None)
+
+
+@contextlib.contextmanager
+def _client(scheduler, max_workers):
+    """The kept local cluster's client (:func:`keep_local_cluster`), or a client of :func:`open_client`."""
+    if scheduler or not _KEPT:
+        with open_client(scheduler, max_workers=max_workers) as client:
+            yield client
+        return
+    if "client" not in _KEPT:
+        context = open_client("", max_workers=_KEPT["max_workers"])
+        _KEPT["client"] = context.__enter__()
+        _KEPT["context"] = context
+    yield _KEPT["client"]
 
 
 def check_scheduler(address, timeout_s=5.0):
@@ -111,7 +155,8 @@ def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", pr
     items : sequence
     scheduler : str, default ""
         Address of an existing Dask scheduler; empty: a local cluster of processes on 127.0.0.1 (one per item,
-        at most ``max_workers`` and the number of cores), closed afterwards.
+        at most ``max_workers`` and the number of cores), closed afterwards; inside :func:`keep_local_cluster`,
+        that block's cluster.
     max_workers : int, optional
         Most workers of the local cluster.
     desc : str, default "fits"
@@ -127,7 +172,7 @@ def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", pr
     from distributed import as_completed
 
     workers = max(1, min(len(items), max_workers or len(items)))
-    with open_client(scheduler, max_workers=workers) as client:
+    with _client(scheduler, workers) as client:
         futures = [client.submit(function, item, pure=False) for item in items]
         index = {f.key: k for k, f in enumerate(futures)}
         results = [None] * len(futures)

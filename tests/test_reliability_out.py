@@ -351,6 +351,29 @@ def test_the_local_dask_cluster_listens_on_loopback_only_without_a_dashboard():
         assert map_on_dask(abs, [-1, 2, -3], scheduler=client.scheduler.address, progress=False) == [1, 2, 3]
 
 
+def _pid(_):
+    return os.getpid()
+
+
+@pytest.mark.slow
+def test_maps_inside_keep_local_cluster_share_one_cluster_and_it_closes_after():
+    import psutil
+
+    from cosim.parallel import keep_local_cluster, map_on_dask
+
+    with keep_local_cluster(max_workers=2):
+        first = map_on_dask(_pid, range(4), progress=False)
+        second = map_on_dask(_pid, range(4), progress=False)
+        with keep_local_cluster(max_workers=2):  # nested: the same cluster
+            third = map_on_dask(_pid, range(4), progress=False)
+        workers = set(first) | set(second) | set(third)
+        assert len(workers) <= 2 and os.getpid() not in workers
+        processes = [psutil.Process(pid) for pid in workers]
+    _, alive = psutil.wait_procs(processes, timeout=10)  # the workers' processes end with the block
+    assert not alive
+    assert set(map_on_dask(_pid, range(2), max_workers=2, progress=False)).isdisjoint(workers)
+
+
 def test_a_bad_scheduler_address_is_a_config_error_within_seconds(tmp_path, capsys):
     from diagnose_truth import make_case
     from diagnose_truth import write_job as write_diagnose_job

@@ -61,6 +61,7 @@ from cosim.diagnose.show import show
 from cosim.diagnose.stages import Decision, Samples, Scores, Split
 from cosim.diagnose.tasks import added_parameters, fit_free, free_at, run_tasks, screen_task, task_of, variant_of
 from cosim.experiment import Experiment
+from cosim.parallel import keep_local_cluster
 
 __all__ = ["load_samples", "estimate_noise", "split_segments",
            "score_candidates", "rivals_of", "decide", "show", "run_diagnosis", "advise"]
@@ -410,7 +411,8 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     noise = estimate_noise(job, samples)
     base = fit_free(samples.model, samples.records, job, dict(job.free), noise.weights, samples.mask, "baseline")
     split = split_segments(job, samples, noise)
-    with tempfile.TemporaryDirectory(prefix="cosim-diagnose-") as scratch:  # the variants' Modelica packages
+    with tempfile.TemporaryDirectory(prefix="cosim-diagnose-") as scratch, \
+            keep_local_cluster(job.workers):  # the variants' Modelica packages; one Dask cluster for every stage
         scores = score_candidates(job, samples, noise, split, base, Path(scratch), progress)
         decision = decide(job, samples, noise, split, scores)
         shown = show(job, samples, noise, scores, decision, Path(scratch), build, out)
