@@ -33,7 +33,8 @@ writes each experiment's counts into its section of docs/validation.md, stamped 
 Run: python benchmarks/diagnose.py --job examples/diagnose_static.toml [--workers W] [--no-build]
 Diagnoses a job file as ``cosim diagnose`` does (FMUs built and re-run unless --no-build) and prints the wall time of
 each stage of the workflow (nested stages indented), the replays run in this process (all of them with
-``--workers 0``), the CPU time of this process and the load average before and after: the machine may be shared.
+``--workers 0``), the CPU time of this process and of the processes it started (the Dask workers, the compilers of
+the FMU builds) and the load average before and after: the machine may be shared.
 """
 
 import argparse
@@ -129,11 +130,13 @@ def time_job(path, workers=None, build=True):
         s = workflow.run_diagnosis(job, progress=False, build=build, out=out).to_json()
     wall = time.perf_counter() - start
     cpu = resource.getrusage(resource.RUSAGE_SELF)
+    workers_cpu = resource.getrusage(resource.RUSAGE_CHILDREN)  # the Dask cluster's processes, ended by now
     print(f"{path}: {s['verdict']}")
     print(f"stages (wall s; indented: inside the stage above; {job.workers} Dask workers):")
     for level, name, seconds in calls:
         print(f"  {'  ' * level}{name:{24 - 2 * level}s} {seconds:8.1f}")
-    print(f"total {wall:.1f} s wall, {cpu.ru_utime + cpu.ru_stime:.1f} s CPU in this process, {replays[0]} replays "
+    print(f"total {wall:.1f} s wall, {cpu.ru_utime + cpu.ru_stime:.1f} s CPU in this process and "
+          f"{workers_cpu.ru_utime + workers_cpu.ru_stime:.1f} s in the processes it started, {replays[0]} replays "
           f"in this process; load average (1, 5, 15 min) before {load[0]:.1f} {load[1]:.1f} {load[2]:.1f}, after "
           f"{' '.join(f'{v:.1f}' for v in os.getloadavg())} on {os.cpu_count()} cores")
     for c in s["candidates"]:
