@@ -13,16 +13,17 @@ iteration with the chattering guard; :mod:`cosim.master.plant`). FMU functions a
 Tables (all int64 unless said):
 
 ``fmu`` (n_fmu, N_FMU_COLS)
-    per FMU: component, SetTime, SetContinuousStates, GetDerivatives, DoStep, CompletedIntegratorStep
-    addresses, FMI version, state offset in X, number of states, scratch address (32 bytes for the flags of
+    per FMU: component, SetTime, SetContinuousStates, GetDerivatives, GetReal, SetReal (of float64: GetFloat64,
+    SetFloat64 in FMI 3), DoStep, CompletedIntegratorStep addresses, FMI version, state offset in X, number of states, scratch address (32 bytes for the flags of
     CompletedIntegratorStep / DoStep / UpdateDiscreteStates), then GetEventIndicators, EnterEventMode,
     UpdateDiscreteStates (FMI 2: NewDiscreteStates), EnterContinuousTimeMode, GetContinuousStates addresses.
 ``me``, ``cmp``, ``cs`` (n,)
     FMU indices of the ME FMUs (in order), of those needing CompletedIntegratorStep, of the CS FMUs.
 ``port`` (n_port, N_PORT_COLS)
-    FMU index, value-reference array address, n, offset in the signal buffer, addresses of the Get and Set
-    functions of its type, its type (index in RAW_TYPES: 0 float64, read and written in place in the buffer),
-    and for a typed port the address of its C values (``CompiledLoop`` keeps them, 8-byte aligned).
+    FMU index, value-reference array address, n, offset in the signal buffer, its type (index in RAW_TYPES:
+    0 float64, read and written in place in the buffer with the FMU's GetReal / SetReal), and for a typed port
+    the addresses of the Get and Set functions of its type and of its C values (``CompiledLoop`` keeps them,
+    8-byte aligned).
 ``pgrp`` (n_group, 2)
     port ranges: 0 sampled ports (get), 1 instant inputs (set), then per ME-to-ME level its gets and sets.
 ``rsrc``, ``rdst``, ``rgain`` (float64), ``roff`` (float64), ``rgrp`` (n_group, 2)
@@ -83,12 +84,12 @@ from cosim.master.events import bisection_narrow, bisection_trial, chatter, cros
 __all__ = ["run_chunk", "nonfinite", "FMU_COLS", "PORT_COLS", "RAW_TYPES", "CTL_COLS", "ST", "FF", "FUNCTIONS",
            "KINDS", "DONE", "MORE", "ERROR"]
 
-FMU_COLS = ("component", "SetTime", "SetContinuousStates", "GetDerivatives", "DoStep", "CompletedIntegratorStep",
-            "version", "x_off", "n_states", "scratch", "GetEventIndicators", "EnterEventMode", "UpdateDiscreteStates",
-            "EnterContinuousTimeMode", "GetContinuousStates")
-(_C, _ST, _SX, _GD, _DS, _CI, _V, _XO, _NX, _SC, _GZ, _EEM, _UDS, _ECT, _GX) = range(len(FMU_COLS))
-PORT_COLS = ("fmu", "vr", "n", "buf_off", "Get", "Set", "type", "raw_addr")
-(_PF, _PVR, _PN, _PB, _PGET, _PSET, _PT, _PRA) = range(len(PORT_COLS))
+FMU_COLS = ("component", "SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "SetReal", "DoStep",
+            "CompletedIntegratorStep", "version", "x_off", "n_states", "scratch", "GetEventIndicators",
+            "EnterEventMode", "UpdateDiscreteStates", "EnterContinuousTimeMode", "GetContinuousStates")
+(_C, _ST, _SX, _GD, _GR, _SR, _DS, _CI, _V, _XO, _NX, _SC, _GZ, _EEM, _UDS, _ECT, _GX) = range(len(FMU_COLS))
+PORT_COLS = ("fmu", "vr", "n", "buf_off", "type", "Get", "Set", "raw_addr")
+(_PF, _PVR, _PN, _PB, _PT, _PGET, _PSET, _PRA) = range(len(PORT_COLS))
 RAW_TYPES = ("float64", "float32", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "bool")
 CTL_COLS = ("fn", "period", "route", "u", "nu", "y", "ny", "x", "nx", "p", "np")
 ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "ev_count", "n_log")
@@ -186,29 +187,47 @@ def _to_raw(code, raw, val, n):
 
 
 @numba.njit(cache=True, _nrt=False)
+def _typed_io(fmu, port, j, buf_addr, setter, st):
+    """Get or set the typed port ``j`` (``type`` > 0) through its C values at ``raw_addr``, converted as
+    :class:`cosim.fmi.Port` does; True on an FMI error."""
+    f = port[j, _PF]
+    n = port[j, _PN]
+    code = port[j, _PT]
+    raw = port[j, _PRA]
+    val = buf_addr + 8 * port[j, _PB]
+    if setter:
+        _to_raw(code, raw, val, n)
+    fn = port[j, _PSET] if setter else port[j, _PGET]
+    if fmu[f, _V] == 3:
+        s = native.real3(fn, fmu[f, _C], port[j, _PVR], n, raw, n)
+    else:
+        s = native.real2(fn, fmu[f, _C], port[j, _PVR], n, raw)
+    if s > 1:
+        return _fail(st, f, 4 if setter else 3, s)
+    if not setter:
+        _from_raw(code, raw, val, n)
+    return False
+
+
+@numba.njit(cache=True, _nrt=False)
 def _io(fmu, port, grp, g, buf_addr, setter, st):
     """Get (``setter`` False) or set the ports of group ``g``; True on an FMI error. A float64 port is read and
-    written in place in the signal buffer, a typed one (``type`` > 0) through its C values at ``raw_addr``,
-    converted as :class:`cosim.fmi.Port` does."""
+    written in place in the signal buffer (the hot path, as before typed ports), a typed one by ``_typed_io``."""
     for j in range(grp[g, 0], grp[g, 1]):
-        f = port[j, _PF]
-        n = port[j, _PN]
-        code = port[j, _PT]
-        val = buf_addr + 8 * port[j, _PB]
-        c_val = val
-        if code != 0:
-            c_val = port[j, _PRA]
-            if setter:
-                _to_raw(code, c_val, val, n)
-        fn = port[j, _PSET] if setter else port[j, _PGET]
+        if port[j, _PT] != 0:
+            if _typed_io(fmu, port, j, buf_addr, setter, st):
+                return True
+            continue
+        f = port[j, 0]
+        fn = fmu[f, _SR] if setter else fmu[f, _GR]
+        n = port[j, 2]
+        val = buf_addr + 8 * port[j, 3]
         if fmu[f, _V] == 3:
-            s = native.real3(fn, fmu[f, _C], port[j, _PVR], n, c_val, n)
+            s = native.real3(fn, fmu[f, _C], port[j, 1], n, val, n)
         else:
-            s = native.real2(fn, fmu[f, _C], port[j, _PVR], n, c_val)
+            s = native.real2(fn, fmu[f, _C], port[j, 1], n, val)
         if s > 1:
             return _fail(st, f, 4 if setter else 3, s)
-        if code != 0 and not setter:
-            _from_raw(code, c_val, val, n)
     return False
 
 

@@ -168,7 +168,8 @@ class CompiledLoop:
         for i, n in enumerate(names):
             inst = plant.instances[n]
             ep = inst.entry_points()
-            need = ["SetTime", "SetContinuousStates", "GetDerivatives"] if inst.kind == "ME" else ["DoStep"]
+            need = ["GetReal", "SetReal"] + (["SetTime", "SetContinuousStates", "GetDerivatives"] if inst.kind == "ME"
+                                             else ["DoStep"])
             if inst in plant.completed:
                 need.append("CompletedIntegratorStep")
             if inst.kind == "ME" and (inst.n_indicators or inst in plant.completed or inst.next_event_time < np.inf):
@@ -176,9 +177,9 @@ class CompiledLoop:
             missing = [f for f in need if not ep[f]]
             if missing:  # a call through address 0 would crash the process: refuse here
                 raise FmiCallError("load", "missing entry points", f"{n}: {', '.join(missing)} not exported")
-            row = [ep["component"], ep["SetTime"], ep["SetContinuousStates"], ep["GetDerivatives"], ep["DoStep"],
-                   ep["CompletedIntegratorStep"], inst.version, x_off.get(n, 0), inst.n_states,
-                   scr[i].ctypes.data] + [ep[f] for f in _EVENT_FUNCTIONS]
+            row = [ep["component"], ep["SetTime"], ep["SetContinuousStates"], ep["GetDerivatives"], ep["GetReal"],
+                   ep["SetReal"], ep["DoStep"], ep["CompletedIntegratorStep"], inst.version, x_off.get(n, 0),
+                   inst.n_states, scr[i].ctypes.data] + [ep[f] for f in _EVENT_FUNCTIONS]
             fmu[i] = row
         me = np.array([fidx[i.name] for i in plant.me], dtype=np.int64)
         ev, nz = [], 0
@@ -276,11 +277,13 @@ def _port_table(ports, fidx, buf):
     raw = np.zeros(max(1, sum(slots)), dtype=np.int64)
     table, at = [], 0
     for (inst, port), code, slot in zip(ports, types, slots):
-        get, set_ = inst.port_entry_points(port)
-        if not (get and set_):  # a call through address 0 would crash the process: refuse here
-            raise FmiCallError("load", "missing entry points", f"{inst.name}: the Get/Set functions of "
-                               f"{port.names[0]}'s type are not exported")
+        get = set_ = 0
+        if code:
+            get, set_ = inst.port_entry_points(port)
+            if not (get and set_):  # a call through address 0 would crash the process: refuse here
+                raise FmiCallError("load", "missing entry points", f"{inst.name}: the Get/Set functions of "
+                                   f"{port.names[0]}'s type are not exported")
         table.append((fidx[inst.name], port.vr_address, port.n, (port.values.ctypes.data - buf.ctypes.data) // 8,
-                      get, set_, code, raw.ctypes.data + 8 * at if code else 0))
+                      code, get, set_, raw.ctypes.data + 8 * at if code else 0))
         at += slot
     return np.array(table, dtype=np.int64).reshape(-1, len(PORT_COLS)), raw
