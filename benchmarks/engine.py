@@ -231,8 +231,8 @@ def c_limit(cfg, workdir):
     for (inst, port), row in zip(tab["port_items"], tab["port"]):
         vrs = [inst.info.variables[n].vr for n in port.names]
         lines.append(f"{row[0]} {row[2]} {row[3]} " + " ".join(map(str, vrs)))
-    for key in ("pgrp",):
-        lines.append(str(len(tab[key])) + " " + " ".join(map(str, tab[key].ravel().tolist())))
+    pgrp = tab["pgrp"][:, :2]  # the float64 ports' ranges (the gripper has no typed port)
+    lines.append(str(len(pgrp)) + " " + " ".join(map(str, pgrp.ravel().tolist())))
     lines.append(str(len(tab["rsrc"])))
     for j in range(len(tab["rsrc"])):
         lines.append(f"{tab['rsrc'][j]} {tab['rdst'][j]} {float(tab['rgain'][j])!r} {float(tab['roff'][j])!r}")

@@ -13,19 +13,23 @@ iteration with the chattering guard; :mod:`cosim.master.plant`). FMU functions a
 Tables (all int64 unless said):
 
 ``fmu`` (n_fmu, N_FMU_COLS)
-    per FMU: component, SetTime, SetContinuousStates, GetDerivatives, GetReal, SetReal (of float64: GetFloat64,
-    SetFloat64 in FMI 3), DoStep, CompletedIntegratorStep addresses, FMI version, state offset in X, number of states, scratch address (32 bytes for the flags of
-    CompletedIntegratorStep / DoStep / UpdateDiscreteStates), then GetEventIndicators, EnterEventMode,
-    UpdateDiscreteStates (FMI 2: NewDiscreteStates), EnterContinuousTimeMode, GetContinuousStates addresses.
+    per FMU: component, SetTime, SetContinuousStates, GetDerivatives, GetReal, SetReal (FMI 3: GetFloat64,
+    SetFloat64), DoStep, CompletedIntegratorStep addresses, FMI version, state offset in X, number of states,
+    scratch address (32 bytes for the flags of CompletedIntegratorStep / DoStep / UpdateDiscreteStates), then
+    GetEventIndicators, EnterEventMode, UpdateDiscreteStates (FMI 2: NewDiscreteStates),
+    EnterContinuousTimeMode, GetContinuousStates addresses.
 ``me``, ``cmp``, ``cs`` (n,)
     FMU indices of the ME FMUs (in order), of those needing CompletedIntegratorStep, of the CS FMUs.
-``port`` (n_port, N_PORT_COLS)
-    FMU index, value-reference array address, n, offset in the signal buffer, its type (index in RAW_TYPES:
-    0 float64, read and written in place in the buffer with the FMU's GetReal / SetReal), and for a typed port
-    the addresses of the Get and Set functions of its type and of its C values (``CompiledLoop`` keeps them,
-    8-byte aligned).
-``pgrp`` (n_group, 2)
-    port ranges: 0 sampled ports (get), 1 instant inputs (set), then per ME-to-ME level its gets and sets.
+``port`` (n_port, 4)
+    the float64 ports (read and written in place in the signal buffer with the FMU's GetReal / SetReal): FMU
+    index, value-reference array address, n, offset in the signal buffer.
+``typed`` (n_typed, N_PORT_COLS), or None when the run has no typed port (numba then compiles the loop without
+    their code, as for ``evt``)
+    the ports of other types: the same four columns, then the type (index in RAW_TYPES), the addresses of the
+    Get and Set functions of that type and of the port's C values (``CompiledLoop`` keeps them, 8-byte aligned).
+``pgrp`` (n_group, 4)
+    port ranges, in ``port`` then in ``typed``: 0 sampled ports (get), 1 instant inputs (set), then per ME-to-ME
+    level its gets and sets.
 ``rsrc``, ``rdst``, ``rgain`` (float64), ``roff`` (float64), ``rgrp`` (n_group, 2)
     routing ``buf[dst] = gain buf[src] + off``: group 0 instant FMU-to-FMU, 1 controllers to FMUs,
     then one per controller (its inputs), then one per ME-to-ME level.
@@ -210,14 +214,11 @@ def _typed_io(fmu, port, j, buf_addr, setter, st):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _io(fmu, port, grp, g, buf_addr, setter, st):
-    """Get (``setter`` False) or set the ports of group ``g``; True on an FMI error. A float64 port is read and
-    written in place in the signal buffer (the hot path, as before typed ports), a typed one by ``_typed_io``."""
+def _io(fmu, port, typed, grp, g, buf_addr, setter, st):
+    """Get (``setter`` False) or set the ports of group ``g``; True on an FMI error. Float64 ports are read and
+    written in place in the signal buffer; typed ports (``typed``; None when the run has none: numba then
+    compiles the loop without their code) by ``_typed_io``."""
     for j in range(grp[g, 0], grp[g, 1]):
-        if port[j, _PT] != 0:
-            if _typed_io(fmu, port, j, buf_addr, setter, st):
-                return True
-            continue
         f = port[j, 0]
         fn = fmu[f, _SR] if setter else fmu[f, _GR]
         n = port[j, 2]
@@ -228,6 +229,10 @@ def _io(fmu, port, grp, g, buf_addr, setter, st):
             s = native.real2(fn, fmu[f, _C], port[j, 1], n, val)
         if s > 1:
             return _fail(st, f, 4 if setter else 3, s)
+    if typed is not None:
+        for j in range(grp[g, 2], grp[g, 3]):
+            if _typed_io(fmu, typed, j, buf_addr, setter, st):
+                return True
     return False
 
 
@@ -238,7 +243,7 @@ def _route(buf, rsrc, rdst, rgain, roff, rgrp, g):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _eval(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
+def _eval(t, push, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
     """Set time and states of every ME FMU (``push``), route ME-to-ME connections level by level."""
     if push:
         for i in range(me.shape[0]):
@@ -250,17 +255,18 @@ def _eval(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
             if s > 1:
                 return _fail(st, f, 1, s)
     for lv in range(lvl.shape[0]):
-        if _io(fmu, port, pgrp, lvl[lv, 0], buf_addr, False, st):
+        if _io(fmu, port, typed, pgrp, lvl[lv, 0], buf_addr, False, st):
             return True
         _route(buf, rsrc, rdst, rgain, roff, rgrp, lvl[lv, 1])
-        if _io(fmu, port, pgrp, lvl[lv, 2], buf_addr, True, st):
+        if _io(fmu, port, typed, pgrp, lvl[lv, 2], buf_addr, True, st):
             return True
     return False
 
 
 @numba.njit(cache=True, _nrt=False)
-def _deriv(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr, buf_addr, st):
-    if _eval(t, push, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
+def _deriv(t, push, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr, buf_addr,
+           st):
+    if _eval(t, push, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
         return True
     for i in range(me.shape[0]):
         f = me[i]
@@ -318,13 +324,13 @@ def _copy_row(A, a, B, b):
 @numba.njit(cache=True, _nrt=False)
 def _net_eval(t, net, addrs, st):
     """``_eval`` (push) with the plant's arrays bundled: ``net`` as in run_chunk, ``addrs`` (x, dx, buf)."""
-    return _eval(t, True, net[0], net[1], net[2], net[3], net[4], net[5], net[6], net[7], net[8], net[9], net[10],
+    return _eval(t, True, net[0], net[1], net[2], net[3], net[4], net[5], net[6], net[7], net[8], net[9], net[10], net[11],
                  addrs[0], addrs[2], st)
 
 
 @numba.njit(cache=True, _nrt=False)
 def _net_deriv(t, net, addrs, st):
-    return _deriv(t, True, net[0], net[1], net[2], net[3], net[4], net[5], net[6], net[7], net[8], net[9], net[10],
+    return _deriv(t, True, net[0], net[1], net[2], net[3], net[4], net[5], net[6], net[7], net[8], net[9], net[10], net[11],
                   addrs[0], addrs[1], addrs[2], st)
 
 
@@ -547,8 +553,8 @@ def _rk4_events(ta, tb, n, net, evt, cmp, W, addrs, st):
 
 
 @numba.njit(cache=True, _nrt=False)
-def _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr, buf_addr,
-         st):
+def _rk4(t, t_next, k, h_max, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr,
+         buf_addr, st):
     """RK4 substeps of the ME FMUs' combined state from ``t`` to ``t_next`` when no FMU has events or asks for
     CompletedIntegratorStep (the plain path, as fast as before events existed); True on an FMI error."""
     nX = W.shape[1]
@@ -563,19 +569,19 @@ def _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, 
         t1 = t + L * (j + 1) / n
         h = t1 - ta
         th = ta + 0.5 * h
-        if _deriv(ta, not (synced and j == 0), fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
+        if _deriv(ta, not (synced and j == 0), fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp,
                   x_addr, dx_addr, buf_addr, st):
             return True
         _stage(W, 0, 0.5 * h)
-        if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+        if _deriv(th, True, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
                   buf_addr, st):
             return True
         _stage(W, 1, 0.5 * h)
-        if _deriv(th, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+        if _deriv(th, True, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
                   buf_addr, st):
             return True
         _stage(W, 2, h)
-        if _deriv(t1, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
+        if _deriv(t1, True, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr,
                   buf_addr, st):
             return True
         for i in range(nX):
@@ -613,8 +619,8 @@ def _advance_events(t, t_next, k, net, evt, cmp, W, addrs, st):
 
 
 @numba.njit(cache=True, _nrt=False)
-def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec, times,
-              rows, rec_idx, calls, scr, st, evt, max_instants):
+def run_chunk(fmu, me, cmp, cs, port, typed, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, ctl, ii, ff, buf, W, rec,
+              times, rows, rec_idx, calls, scr, st, evt, max_instants):
     """Run at most ``max_instants`` instants from the state in ``st``; returns DONE, MORE or ERROR.
 
     ``evt`` is ``(ev, Z, E, due, tev, scr, scr64, ff, log)``, or None when no FMU can have events (no event
@@ -639,7 +645,7 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
         return MORE
     if st[_FIRST] == 1:
         st[_FIRST] = 0
-        if _io(fmu, port, pgrp, 1, buf_addr, True, st):
+        if _io(fmu, port, typed, pgrp, 1, buf_addr, True, st):
             return ERROR
     code = MORE
     for _ in range(max_instants):
@@ -648,11 +654,12 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
         t = t0 + (k * den) / num
         # 1. sample
         if n_me > 0:
-            if _eval(t, True, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
+            if _eval(t, True, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr,
+                     st):
                 code = ERROR
                 break
             st[_SYNC] = k
-        if _io(fmu, port, pgrp, 0, buf_addr, False, st):
+        if _io(fmu, port, typed, pgrp, 0, buf_addr, False, st):
             code = ERROR
             break
         # 2. instant FMU-to-FMU routes
@@ -667,7 +674,7 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
                     calls[c] += 1
             # 4. hold: controller outputs to the FMUs
             _route(buf, rsrc, rdst, rgain, roff, rgrp, 1)
-            if _io(fmu, port, pgrp, 1, buf_addr, True, st):
+            if _io(fmu, port, typed, pgrp, 1, buf_addr, True, st):
                 code = ERROR
                 break
         if nonfinite(buf, W):  # Python names the value (cosim.master.finite)
@@ -695,13 +702,12 @@ def run_chunk(fmu, me, cmp, cs, port, pgrp, rsrc, rdst, rgain, roff, rgrp, lvl, 
             plain = True
             if evt is not None:
                 plain = not (evt[0].shape[0] > 0 or cmp.shape[0] > 0 or ff[_TNEXT] <= t_next)
-                if not plain and _advance_events(t, t_next, k, (fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain,
-                                                                 roff, rgrp), evt, cmp, W,
-                                                 (x_addr, dx_addr, buf_addr), st):
+                net = (fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp)
+                if not plain and _advance_events(t, t_next, k, net, evt, cmp, W, (x_addr, dx_addr, buf_addr), st):
                     code = ERROR
                     break
-            if plain and nX > 0 and _rk4(t, t_next, k, h_max, fmu, me, port, pgrp, lvl, buf, rsrc, rdst, rgain, roff,
-                                         rgrp, W, x_addr, dx_addr, buf_addr, st):
+            if plain and nX > 0 and _rk4(t, t_next, k, h_max, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain,
+                                         roff, rgrp, W, x_addr, dx_addr, buf_addr, st):
                 code = ERROR
                 break
         if _do_steps(t, t_next, fmu, cs, scr, st):

@@ -108,9 +108,9 @@ class CompiledLoop:
         self._ff = tab["ff"]
         self._log = tab["evt"][8] if tab["evt"] is not None else None
         self._raw = tab["raw"]  # the typed ports' C values, addressed by the kernel
-        self._args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["port"], tab["pgrp"], tab["rsrc"],
-                      tab["rdst"], tab["rgain"], tab["roff"], tab["rgrp"], tab["lvl"], tab["ctl"], tab["ii"], tab["ff"],
-                      eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st,
+        self._args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["port"], tab["typed"], tab["pgrp"],
+                      tab["rsrc"], tab["rdst"], tab["rgain"], tab["roff"], tab["rgrp"], tab["lvl"], tab["ctl"], tab["ii"],
+                      tab["ff"], eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st,
                       tab["evt"])
         t0 = _time.perf_counter()
         run_chunk(*self._args, 0)  # compile, or load from numba's cache
@@ -196,14 +196,11 @@ class CompiledLoop:
         cmp = np.array([fidx[i.name] for i in plant.completed], dtype=np.int64)
         cs = np.array([fidx[i.name] for i in plant.cs], dtype=np.int64)
 
-        ports, pgrp = [], []
+        groups = []  # the port groups of the kernel's pgrp, each a list of (instance, Port)
 
         def group(items):
-            a = len(ports)
-            for inst, port in items:
-                ports.append((inst, port))
-            pgrp.append((a, len(ports)))
-            return len(pgrp) - 1
+            groups.append(list(items))
+            return len(groups) - 1
 
         group(plant.sample_ports)
         group([ip for items in plant.instant_in_ports.values() for ip in items])
@@ -222,7 +219,7 @@ class CompiledLoop:
         lvl = []
         for gets, arrays, sets in plant.program:
             lvl.append((group(gets), rgroup(arrays), group(sets)))
-        port, raw = _port_table(ports, fidx, buf)
+        port, typed, pgrp, raw = _port_tables(groups, fidx, buf)
         clocks = eng.tb.clocks
         ctl = []
         for name in lay.ctrl_order:
@@ -236,12 +233,12 @@ class CompiledLoop:
         r = np.array(routes, dtype=np.float64).reshape(-1, 4)
         return dict(
             fmu=fmu, me=me, cmp=cmp, cs=cs,
-            port=port, raw=raw, pgrp=np.array(pgrp, dtype=np.int64).reshape(-1, 2),
+            port=port, typed=typed, raw=raw, pgrp=np.array(pgrp, dtype=np.int64).reshape(-1, 4),
             rsrc=r[:, 0].astype(np.int64), rdst=r[:, 1].astype(np.int64),
             rgain=np.ascontiguousarray(r[:, 2]), roff=np.ascontiguousarray(r[:, 3]),
             rgrp=np.array(rgrp, dtype=np.int64).reshape(-1, 2), lvl=np.array(lvl, dtype=np.int64).reshape(-1, 3),
             ctl=np.array(ctl, dtype=np.int64).reshape(-1, len(CTL_COLS)), ii=ii,
-            ff=ff, scr=scr, port_items=ports, fmu_names=names, evt=evt,
+            ff=ff, scr=scr, port_items=[(i, p) for g in groups for i, p in g if p.raw is None], fmu_names=names, evt=evt,
         )
 
     def _raise(self):
@@ -269,21 +266,26 @@ class CompiledLoop:
         raise FmiCallError(fn, f"status {status}", inst.name)  # pragma: no cover - check raised
 
 
-def _port_table(ports, fidx, buf):
-    """The kernel's ``port`` table (see :mod:`cosim.master.ckernel`) of ``(instance, Port)`` pairs, and the array
-    whose 8-byte aligned slots hold the typed ports' C values (it must live as long as the table)."""
-    types = [RAW_TYPES.index(np.dtype(p.raw.dtype).name) if p.raw is not None else 0 for _, p in ports]
-    slots = [0 if code == 0 else -(-p.n * np.dtype(RAW_TYPES[code]).itemsize // 8) for code, (_, p) in zip(types, ports)]
-    raw = np.zeros(max(1, sum(slots)), dtype=np.int64)
-    table, at = [], 0
-    for (inst, port), code, slot in zip(ports, types, slots):
-        get = set_ = 0
-        if code:
+def _port_tables(groups, fidx, buf):
+    """The kernel's ``port`` and ``typed`` tables and the group ranges ``pgrp`` (see :mod:`cosim.master.ckernel`)
+    of the groups of ``(instance, Port)`` pairs, and the array whose 8-byte aligned slots hold the typed ports'
+    C values (it must live as long as the tables). ``typed`` is None when no port is typed."""
+    raw = np.zeros(1 + sum(p.raw.nbytes // 8 + 1 for g in groups for _, p in g if p.raw is not None), dtype=np.int64)
+    plain, typed, pgrp, at = [], [], [], 0
+    for group in groups:
+        a, c = len(plain), len(typed)
+        for inst, port in group:
+            row = (fidx[inst.name], port.vr_address, port.n, (port.values.ctypes.data - buf.ctypes.data) // 8)
+            if port.raw is None:
+                plain.append(row)
+                continue
+            code = RAW_TYPES.index(np.dtype(port.raw.dtype).name)
             get, set_ = inst.port_entry_points(port)
             if not (get and set_):  # a call through address 0 would crash the process: refuse here
                 raise FmiCallError("load", "missing entry points", f"{inst.name}: the Get/Set functions of "
                                    f"{port.names[0]}'s type are not exported")
-        table.append((fidx[inst.name], port.vr_address, port.n, (port.values.ctypes.data - buf.ctypes.data) // 8,
-                      code, get, set_, raw.ctypes.data + 8 * at if code else 0))
-        at += slot
-    return np.array(table, dtype=np.int64).reshape(-1, len(PORT_COLS)), raw
+            typed.append(row + (code, get, set_, raw.ctypes.data + 8 * at))
+            at += port.raw.nbytes // 8 + 1
+        pgrp.append((a, len(plain), c, len(typed)))
+    typed = np.array(typed, dtype=np.int64).reshape(-1, len(PORT_COLS)) if typed else None
+    return np.array(plain, dtype=np.int64).reshape(-1, 4), typed, pgrp, raw
