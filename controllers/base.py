@@ -77,6 +77,8 @@ class Controller:
     # The run summaries this controller's experiments define, chosen by a config's ``[summary] kind``:
     # kind -> a class with ``signals``, ``outputs`` and ``summarize`` (docs/config.md, "[summary]").
     summaries: dict = {}
+    # Names of the values of an output, for plots: output -> {value: name} (e.g. {"mode": {0: "velocity"}}).
+    labels: dict = {}
 
     def __init__(self, rate, jit=True, **params):
         if not rate > 0:
@@ -114,6 +116,11 @@ class Controller:
     def initial_state(self):
         """Return the float64 state array at the start (default: empty)."""
         return np.zeros(0)
+
+    @classmethod
+    def scenario(cls, values):
+        """What a run with these parameter ``values`` does, in a few words for a plot's title ('' says nothing)."""
+        return ""
 
     # -- what the master calls ---------------------------------------------------------------
     def step(self, t):

@@ -162,6 +162,7 @@ class ImpactSummary:
     """
 
     signals = ("force",)  # [summary] keys naming a recorded column
+    event = "t_contact_s"  # the summary key a run's plot zooms on
     outputs = ("t_switch",)  # outputs of the controller it reads (recorded even when the config does not list them)
 
     @staticmethod
@@ -317,6 +318,18 @@ class OuterLoop(Controller):
              "step_s": "s", "top_A": "A"}
     kernel = staticmethod(_outer_kernel)
     summaries = {"static": StaircaseSummary, "impact": ImpactSummary}
+    labels = {"mode": {0: "velocity", 1: "current"}}
+
+    @classmethod
+    def scenario(cls, values):
+        """The profile and its key parameters, e.g. "impact at 1000 rpm, then 1 A for 1.5 s"."""
+        v = {**{k: (d[0] if isinstance(d, tuple) else d) for k, d in cls.parameters.items()}, **values}
+        if v["profile"] == "staircase":
+            return f"current staircase 0-{v['top_A']:g} A in {v['step_A']:g} A steps of {v['step_s']:g} s"
+        ramp = f"velocity ramp to {v['speed_rpm']:g} rpm in {v['ramp_s']:g} s"
+        if v["profile"] == "velocity":
+            return ramp
+        return f"impact: {ramp}, then {v['i_tight']:g} A for {v['hold_s']:g} s"
 
     def pack(self):
         v = self.values

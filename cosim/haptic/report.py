@@ -6,7 +6,8 @@ import numpy as np
 
 from cosim.haptic.margins import MARGIN_COLUMNS, adaptive_damping, margins_table, position_means
 
-__all__ = ["write_margins", "plot_margins", "write_collisions", "write_identification", "write_arm"]
+__all__ = ["write_margins", "plot_margins", "write_collisions", "write_identification",
+           "identification_figure", "write_arm"]
 
 
 def plot_margins(table, path, title="Virtual wall margins"):
@@ -205,19 +206,49 @@ def write_identification(out_dir, user=1, position=3, use_fmu=False, fmu_dir="fm
             return simulate_fmu(path, u, 1000.0, par)
     else:
         plant = tf_user(params)
-    fr, fit = device_experiment(plant, params.structure, position=position, seed=seed)
+    experiment = {"band": (0.1, 150.0), "duration": 20.0, "fs": 1000.0}  # seed 000 Sec. II-C
+    fr, fit = device_experiment(plant, params.structure, position=position, seed=seed, **experiment)
     rows = [{"parameter": n, "true": params[n], "fitted": fit.parameters_[n], "rel_error": fit.parameters_[n] / params[n] - 1,
              "rel_se": fit.relative_se_[n], "informative": n in fit.informative_} for n in fit.names]
     written = []
     p = out / "identification.csv"
     pd.DataFrame(rows).to_csv(p, index=False, float_format="%.6g")
     written.append(p)
+    fig = identification_figure(fr, fit, f"user {user}, position {position}" + (" (FMU)" if use_fmu else ""),
+                                **experiment)
+    p = out / "identification.png"
+    fig.savefig(p, dpi=110, metadata={"Title": fig.axes[0].get_title()})
+    _plt().close(fig)
+    written.append(p)
+    return written
+
+
+def identification_figure(fr, fit, what, band, duration, fs):
+    """The Bode plot of an identification: the Welch estimate and the fitted model over the band the fit used,
+    the title naming that band (its first and last Welch frequencies) beside the excitation's.
+
+    Parameters
+    ----------
+    fr : cosim.freqresp.FrequencyResponse
+    fit : cosim.haptic.ident.DeviceUserFit
+        Fitted on ``fr``.
+    what : str
+        Who was identified (the title's start).
+    band : (float, float)
+        The white-noise torque's band, Hz (:func:`~cosim.haptic.experiments.device_experiment`).
+    duration, fs : float
+        Experiment length (s) and sample rate (Hz).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     plt = _plt()
-    band = fr.band(0.5, 70.0)
+    excitation, band = band, fr.band(*fit.freq_range)
     fig, ax = plt.subplots(3, 1, figsize=(7, 9), sharex=True)
     Hm = fit.predict(band.f)
     ax[0].semilogx(band.f, 20 * np.log10(np.abs(band.H)), ".", ms=3, label="Welch estimate (Hann 4096, 50 %)")
-    ax[0].semilogx(band.f, 20 * np.log10(np.abs(Hm)), "-", label=f"fitted {params.structure}-parameter model")
+    ax[0].semilogx(band.f, 20 * np.log10(np.abs(Hm)), "-", label=f"fitted {fit.structure}-parameter model")
     ax[1].semilogx(band.f, np.degrees(np.unwrap(np.angle(band.H))), ".", ms=3)
     ax[1].semilogx(band.f, np.degrees(np.unwrap(np.angle(Hm))), "-")
     ax[2].semilogx(band.f, band.coherence)
@@ -225,17 +256,14 @@ def write_identification(out_dir, user=1, position=3, use_fmu=False, fmu_dir="fm
     ax[1].set_ylabel("phase (deg)")
     ax[2].set_ylabel("coherence")
     ax[2].set_xlabel("frequency (Hz)")
+    ax[2].set_xlim(band.f[0], band.f[-1])
     ax[0].legend()
-    ax[0].set_title(f"user {user}, position {position}: white-noise torque 0.1-150 Hz, 20 s, 1 kHz"
-                    + (" (FMU)" if use_fmu else ""))
+    ax[0].set_title(f"{what}: fitted {band.f[0]:.2f}-{band.f[-1]:.1f} Hz\nexcitation: white-noise torque "
+                    f"{excitation[0]:g}-{excitation[1]:g} Hz, {duration:g} s at {fs:g} Hz", fontsize=10)
     for a in ax:
         a.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    p = out / "identification.png"
-    fig.savefig(p, dpi=110)
-    plt.close(fig)
-    written.append(p)
-    return written
+    return fig
 
 
 def write_arm(out_dir, seed=0):

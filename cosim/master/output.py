@@ -5,6 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
+from cosim.master.plot import plot_results
+
 __all__ = ["write_results", "plot_results", "read_results"]
 
 
@@ -67,7 +69,8 @@ def write_results(result, config, out_dir, csv=False, summary=None):
         p.write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
         files.append(p)
     if len(result.data) > 1:
-        files.append(plot_results(result, out / config.plot.file, panels=config.plot.panels, title=config.name))
+        files.append(plot_results(result, out / config.plot.file, panels=config.plot.panels, config=config,
+                                  summary=summary))
     return files
 
 
@@ -106,45 +109,3 @@ def read_results(path):
     for n in names:
         data[n] = table.column(n).to_numpy()
     return data, units, meta
-
-
-def plot_results(result, path, panels=(), title=""):
-    """Plot recorded columns against time, one panel per group, labelled axes with units.
-
-    Parameters
-    ----------
-    result : cosim.master.engine.RunResult
-    path : path-like
-        PNG file.
-    panels : sequence of sequence of str
-        Column names per panel; default one panel per recorded column.
-    title : str, optional
-        The figure's title.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    names = [n for n in result.data.dtype.names if n != "time"]
-    panels = [list(p) for p in panels] or [[n] for n in names]
-    panels = [[n for n in p if n in names] for p in panels]
-    panels = [p for p in panels if p]
-    fig, axes = plt.subplots(len(panels), 1, figsize=(8, 1.9 * len(panels) + 0.8), sharex=True, squeeze=False)
-    t = result.data["time"]
-    for ax, panel in zip(axes[:, 0], panels):
-        units = {result.units.get(n, "") for n in panel}
-        for n in panel:
-            ax.plot(t, result.data[n], label=n, lw=0.9)
-        unit = " / ".join(sorted(u for u in units if u)) or "-"
-        ax.set_ylabel(f"{', '.join(panel) if len(panel) < 3 else 'value'} [{unit}]", fontsize=8)
-        if len(panel) > 1:
-            ax.legend(fontsize=7, loc="best")
-        ax.grid(True, lw=0.3)
-    axes[-1, 0].set_xlabel("time [s]")
-    if title:
-        axes[0, 0].set_title(title + (" (interrupted)" if result.interrupted else ""))
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
