@@ -52,7 +52,9 @@ def add_haptic_parser(sub):
     p = sub.add_parser(
         "haptic",
         help="haptic device + user analyses (seed 000 PHANToM, seed 001 arm)",
-        description="Analyses of the PHANToM phi axis held by a user: wall stability margins, identification.",
+        description=("Analyses of the PHANToM phi axis held by a user, and of a user's arm: virtual-wall stability "
+                     "margins (margins), wall contacts run by the master (collisions), identification of the "
+                     "device + user model (identify), the arm model and its robust stability (arm)."),
     )
     hs = p.add_subparsers(dest="haptic_command", metavar="SUBCOMMAND", required=True)
 

@@ -1,0 +1,75 @@
+"""The guides' example outputs are what the commands print (issue #44 item 8): ``docs/guide/make_outputs.py``
+regenerates them and, with ``--check``, fails when a page drifted; the help texts the reference is made of."""
+
+import importlib.util
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from cosim.cli import main
+from test_master_support import ROOT
+
+MAKE_CLI = ROOT / "docs" / "reference" / "make_cli.py"
+
+
+def _module(path):
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+make_outputs = _module(ROOT / "docs" / "guide" / "make_outputs.py")
+
+
+def test_a_drifted_output_fails_the_check_and_is_rewritten(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(textwrap.dedent("""\
+        <!-- output -->
+        ```
+        $ python3 -c "print(6 * 7)"
+        41
+        ```
+        """))
+    problems = make_outputs.check_page(page, write=False, log=lambda line: None)
+    assert len(problems) == 1 and "printed otherwise" in problems[0] and "+42" in problems[0]
+    assert make_outputs.check_page(page, log=lambda line: None) == []
+    assert "$ python3 -c \"print(6 * 7)\"\n42\n```" in page.read_text()
+    assert make_outputs.check_page(page, write=False, log=lambda line: None) == []
+
+
+def test_a_command_block_without_a_marker_is_an_error(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text("```\n$ cosim --version\ncosim 0\n```\n")
+    problems = make_outputs.check_page(page, write=False, log=lambda line: None)
+    assert problems == ["page.md:1: a $ block without <!-- output --> (or slow, or not run: why)"]
+
+
+@pytest.mark.slow
+def test_the_guides_fast_examples_print_what_the_guides_show():
+    # the slow ones (diagnose, calibrate, campaign, haptic margins): python docs/guide/make_outputs.py --check
+    assert make_outputs.main(["--check", "--fast"]) == 0
+
+
+def test_make_cli_help_prints_help_and_writes_nothing():
+    page = ROOT / "docs" / "reference" / "cli.md"
+    before = page.read_bytes()
+    done = subprocess.run([sys.executable, str(MAKE_CLI), "--help"], capture_output=True, text=True)
+    assert done.returncode == 0 and done.stdout.startswith("usage: make_cli.py") and "--check" in done.stdout
+    assert page.read_bytes() == before
+
+
+@pytest.mark.slow
+def test_cli_reference_is_what_the_commands_print():
+    assert subprocess.run([sys.executable, str(MAKE_CLI), "--check"]).returncode == 0
+
+
+def test_haptic_help_describes_its_four_subcommands(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["haptic", "--help"])
+    assert stop.value.code == 0
+    description = capsys.readouterr().out.split("positional arguments")[0]
+    for name in ("margins", "collisions", "identify", "arm"):
+        assert f"({name})" in description
