@@ -12,8 +12,8 @@ compares it with a file the page's commands wrote: a JSON file by its values, an
 ``...`` line in the block stands for lines left out). Wall and compile times differ from run to run and are not
 compared (the summaries' ``wall_s``, ``wall_per_sim_s`` and ``compile_s``, ``... s wall``, ``loaded in ... s``).
 
-The commands run in a temporary folder that links the checkout's folders (``cosim``, ``examples``, ``fmus``, ...),
-so ``out/...`` is written there, never into yours; ``cosim`` and ``python -m`` run this checkout's Python.
+The commands run in a temporary folder that links the checkout's folders (``examples``, ``fmus``, ...), so
+``out/...`` is written there, never into yours; ``cosim`` and ``python -m`` run this checkout's Python and package.
 """
 
 import argparse
@@ -31,7 +31,8 @@ __all__ = ["check_page", "main"]
 
 ROOT = Path(__file__).resolve().parents[2]
 GUIDES = ROOT / "docs" / "guide"
-LINKED = ("cosim", "controllers", "examples", "fmus", "modelica", "docs", "tests", "benchmarks", "pyproject.toml")
+# cosim and controllers are imported from the checkout itself (PYTHONPATH), so numba finds its cache of their kernels
+LINKED = ("examples", "fmus", "modelica", "docs", "tests", "benchmarks", "pyproject.toml")
 MARKER = re.compile(r"<!--\s*(output|file)(?::\s*(.*?))?\s*-->")
 VOLATILE_KEYS = ("wall_s", "wall_per_sim_s", "compile_s")
 VOLATILE = ((re.compile(r"[\d.e+-]+ s wall"), "<t> s wall"), (re.compile(r"loaded in [\d.e+-]+ s"), "loaded in <t> s"),
@@ -68,7 +69,8 @@ def _run(command, cwd):
         words = [sys.executable, "-m", "cosim", *words[1:]]
     elif words[0] in ("python", "python3"):
         words = [sys.executable, *words[1:]]
-    env = {**os.environ, "COLUMNS": "110", "TQDM_DISABLE": "1"}
+    path = os.pathsep.join(filter(None, (str(ROOT), os.environ.get("PYTHONPATH"))))
+    env = {**os.environ, "PYTHONPATH": path, "COLUMNS": "80", "TQDM_DISABLE": "1"}
     done = subprocess.run(words, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     return done.stdout.rstrip("\n")
 
