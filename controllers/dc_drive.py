@@ -123,6 +123,15 @@ class DcSpeedPI(Controller):
              "i_max": "A", "speed_rpm": "rpm", "t_start": "s", "ramp_s": "s", "t_down": "s"}
     kernel = staticmethod(_speed_kernel)
 
+    @classmethod
+    def scenario(cls, values):
+        """The speed reference and the current limit, e.g. "speed step to 4000 rpm at 0.01 s, 3 A limit"."""
+        v = {**cls.parameters, **values}
+        shape = f"ramp to {v['speed_rpm']:g} rpm in {v['ramp_s']:g} s" if v["ramp_s"] > 0 else \
+            f"step to {v['speed_rpm']:g} rpm"
+        down = f", back to 0 from {v['t_down']:g} s" if math.isfinite(v["t_down"]) else ""
+        return f"speed {shape} at {v['t_start']:g} s{down}, {v['i_max']:g} A limit"
+
     def pack(self):
         v = self.values
         _positive("DcSpeedPI", v, ("J", "k_t", "crossover_hz", "i_max"))
