@@ -70,9 +70,20 @@ def _run(command, cwd):
     elif words[0] in ("python", "python3"):
         words = [sys.executable, *words[1:]]
     path = os.pathsep.join(filter(None, (str(ROOT), os.environ.get("PYTHONPATH"))))
-    env = {**os.environ, "PYTHONPATH": path, "COLUMNS": "80", "TQDM_DISABLE": "1"}
+    env = {**os.environ, "PYTHONPATH": path, "COLUMNS": "80"}
     done = subprocess.run(words, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    return done.stdout.rstrip("\n")
+    return _without_bars(done.stdout).rstrip("\n")
+
+
+def _without_bars(text):
+    """``text`` without its progress bars (each line as a terminal leaves it, after its last carriage return; a
+    bar's lines and the blank lines it leaves dropped): what the command prints, not how long it took."""
+    kept = []
+    for line in text.split("\n"):
+        shown = line.split("\r")[-1]
+        if not PROGRESS.search(shown) and (shown.strip() or "\r" not in line and not (kept and not kept[-1].strip())):
+            kept.append(shown)
+    return "\n".join(kept).lstrip("\n")
 
 
 def _commands(body):
