@@ -453,7 +453,7 @@ def _fmu(name, t, base_dir, problems):
     try:
         info = read_model_info(full)
     except FmuFileError as err:
-        problems.add(p + ("path",), str(err))
+        problems.add(p + ("path",), str(err), cause=True)
         return None
     kind = t.get("kind", "ME" if "ME" in info.kinds else "CS")
     if kind not in info.kinds:
@@ -497,7 +497,7 @@ def _controller(name, t, fmus_t, base_dir, problems):
     try:
         cls = load_controller_class(cpath, base_dir)
     except ImportError as err:
-        problems.add(p + ("class",), str(err))
+        problems.add(p + ("class",), str(err), cause=True)
         return None
     for pn in cls.path_parameters:
         if isinstance(params.get(pn), str) and params[pn]:
@@ -529,6 +529,7 @@ class _Instances:
     def __init__(self, fmus, ctrls, declared):
         self.fmus, self.ctrls, self.declared = fmus, ctrls, declared
         self.known = set(fmus) | set(ctrls)
+        self.failed = declared - self.known  # their problem is the cause; what names them is not checked
 
     def _routable(self, inst, causality):
         info = self.fmus[inst].info
@@ -678,15 +679,18 @@ def _record(data, instances, problems):
         sigs = []
     if not sigs and "signals" in s.table:
         problems.add(("record", "signals"), "is empty: list at least one 'instance.variable' to record")
-    good = []
+    good, pending = [], []
     for i, text in enumerate(sigs):
+        if isinstance(text, str) and text.partition(".")[0] in instances.failed:
+            pending.append(_signal(text, problems, ("record", "signals", i)))
+            continue
         sig = instances.recorded(text, ("record", "signals", i), problems)
         if sig is not None and sig[0] in instances.fmus and sig[1] in _RESERVED_COLUMNS:
             problems.add(("record", "signals", i), f"{text}: the column {sig[1]!r} is reserved (the results' "
                                                    "time column); this variable cannot be recorded under its name")
         elif sig is not None and sig not in good:
             good.append(sig)
-    return RecordSpec(float(rate), tuple(good))
+    return RecordSpec(float(rate), tuple(good)), tuple(pending)
 
 
 def record_columns(signals, fmu_names):
@@ -713,7 +717,9 @@ def record_columns(signals, fmu_names):
             for inst, var in signals}
 
 
-def _plot(data, record, fmu_names, problems):
+def _plot(data, record, pending, fmu_names, problems):
+    """The ``[plot]`` table -> PlotSpec; a panel may name a column of ``pending`` (a signal of an instance whose
+    table had a problem, already reported) without a problem of its own."""
     s = _Section(_table(data, "plot", problems, ()), ("plot",), PlotSpec, problems)
     pfile = s.table.get("file", s.defaults["file"])
     if not isinstance(pfile, str) or not pfile.endswith(".png") or "/" in pfile:
@@ -723,7 +729,7 @@ def _plot(data, record, fmu_names, problems):
     if not isinstance(panels, list) or not all(isinstance(x, list) and all(isinstance(y, str) for y in x) for x in panels):
         problems.add(("plot", "panels"), "must be a list of lists of recorded column names")
         panels = []
-    columns = record_columns(record.signals, fmu_names)
+    columns = record_columns(record.signals + pending, fmu_names)
     for i, panel in enumerate(panels):
         for j, name in enumerate(panel):
             if name not in columns:
@@ -745,8 +751,9 @@ def _summary_plugins(kind, name, instances, problems):
     return {} if name is None and kind == "none" else None
 
 
-def _summary(data, instances, record, problems):
-    """The ``[summary]`` table -> SummarySpec, and the record with the controller outputs the summary reads."""
+def _summary(data, instances, record, pending, problems):
+    """The ``[summary]`` table -> SummarySpec, and the record with the controller outputs the summary reads; a
+    column of ``pending`` (see :func:`_plot`) is taken as recorded."""
     t = _table(data, "summary", problems, ())
     kind = t.get("kind", SummarySpec.kind)
     name = t.get("controller", SummarySpec.controller)
@@ -777,7 +784,7 @@ def _summary(data, instances, record, problems):
             problems.add(("summary", key), f"is required: the recorded column the {kind!r} summary reads")
         elif not isinstance(column, str):
             problems.add(("summary", key), f"must be a recorded column name; got {column!r}")
-        elif not any(var == column for _, var in record.signals):
+        elif not any(var == column for _, var in record.signals + pending):
             problems.add(("summary", key), f"{column!r} is not among record.signals")
         columns[key] = column
     outputs = instances.ctrls[name].cls.outputs
@@ -824,6 +831,22 @@ def _bounds(run, solver, fmus, ctrls, record, problems):
                                          f"({record.rate:g} Hz over {span:g} s) needs about {need / 2**30:.3g} GiB "
                                          f"at its peak; {available / 2**30:.3g} GiB of memory is available: lower "
                                          "record.rate, record fewer signals, or shorten run.stop")
+
+
+def _settable_keys(fmus, ctrls):
+    """The keys a config may have beyond those it has (dotted), for "did you mean" on a made-up ``--set`` key: the
+    sections' keys, each FMU's parameters and each controller's."""
+    keys = {f"{section}.{f.name}" for section, spec in (("run", RunSpec), ("solver", SolverSpec),
+                                                          ("record", RecordSpec), ("plot", PlotSpec))
+            for f in fields(spec)}
+    for name, spec in fmus.items():
+        keys |= {f"fmus.{name}.{k}" for k in _FMU}
+        keys |= {f"fmus.{name}.parameters.{v.name}" for v in spec.info.variables.values()
+                 if v.causality == "parameter" and v.variability != "constant"}
+    for name, spec in ctrls.items():
+        keys |= {f"controllers.{name}.{k}" for k in _CTRL}
+        keys |= {f"controllers.{name}.parameters.{pn}" for pn in spec.cls.parameters}
+    return keys
 
 
 # ----------------------------------------------------------------------------------------------
@@ -903,9 +926,10 @@ def _validated(data, problems, path, overrides):
     ctrls = _controllers(ctrl_t, fmus_t, base_dir, problems)
     instances = _Instances(fmus, ctrls, set(fmus_t) | set(ctrl_t))
     connections = _connections(data, instances, problems)
-    record = _record(data, instances, problems)
-    summary, record = _summary(data, instances, record, problems)
-    plot = _plot(data, record, set(fmus_t), problems)
+    record, pending = _record(data, instances, problems)
+    summary, record = _summary(data, instances, record, pending, problems)
+    plot = _plot(data, record, pending, set(fmus_t), problems)
+    problems.keys |= _settable_keys(fmus, ctrls)
     if not problems.items:
         _bounds(run, solver, fmus, ctrls, record, problems)
     problems.raise_if_any()

@@ -13,7 +13,7 @@ import re
 from cosim.errors import ConfigError, UnsupportedConstructError
 
 __all__ = ["find_class", "own_text", "resolve", "class_chain", "modifiers", "replaceables", "check_redeclares",
-           "line_of"]
+           "line_of", "model_names"]
 
 _KINDS = "(?:partial +)?(?:model|block|package|record|function|connector)"
 _REPLACEABLE = re.compile(r"\breplaceable\s+([\w.]+)\s+(\w+)\s*(\((?:[^()]|\([^()]*\))*\))?\s*"
@@ -31,6 +31,27 @@ def find_class(text, name):
         text = match.group(0)
         body = text.partition("\n")[2]  # a member is declared inside, not on the class's own first line
     return text
+
+
+_OPENS = re.compile(r"^\s*(?:(?:partial|encapsulated|final)\s+)*(model|block|class|package|record|function|connector|"
+                    r"type|operator)\s+(\w+)\b(?!\s*=)")
+_ENDS = re.compile(r"^\s*end\s+(\w+)\s*;")
+
+
+def model_names(text):
+    """The full names of the models and blocks declared in ``text`` (``Gripper.GripperPlant``), in order: what
+    ``cosim build --model`` may name, for its "did you mean"."""
+    stack, names = [], []
+    for line in text.splitlines():
+        opened = _OPENS.match(line)
+        if opened:
+            stack.append(opened.group(2))
+            if opened.group(1) in ("model", "block", "class"):
+                names.append(".".join(stack))
+        ended = _ENDS.match(line)
+        if ended and ended.group(1) in stack:
+            del stack[len(stack) - 1 - stack[::-1].index(ended.group(1)):]
+    return names
 
 
 def own_text(body):

@@ -8,6 +8,7 @@ derives from the base class the caller expects.
 import difflib
 import importlib
 import importlib.util
+import pkgutil
 import re
 import sys
 import traceback
@@ -54,18 +55,35 @@ def load_class(spec, base_class, base_dir=None, kind="plugin"):
         try:
             module = importlib.import_module(mod_name)
         except ModuleNotFoundError as err:
-            raise ImportError(f"{kind} module {mod_name!r} not found: {err}") from err
+            raise ImportError(f"{kind} module {mod_name!r} not found: {err}{_close(mod_name, _siblings(mod_name))}"
+                              ) from err
         except Exception as err:  # the user's module failed while it ran: say where
             raise ImportError(_import_failure(kind, mod_name, err)) from err
     cls = getattr(module, cls_name, None)
     if cls is None:
         names = [n for n, v in vars(module).items() if isinstance(v, type) and issubclass(v, base_class)]
-        close = difflib.get_close_matches(cls_name, names, n=3)
-        hint = f"; did you mean {', '.join(close)}?" if close else ""
-        raise ImportError(f"module {mod_name!r} has no class {cls_name!r}{hint}")
+        raise ImportError(f"module {mod_name!r} has no class {cls_name!r}{_close(cls_name, names)}")
     if not (isinstance(cls, type) and issubclass(cls, base_class)):
         raise ImportError(f"{spec!r} is not a subclass of {base_class.__module__}.{base_class.__qualname__}")
     return cls
+
+
+def _close(name, names):
+    """"; did you mean X?" for the names closest to ``name``, case aside (FOC for Foc)."""
+    by_lower = {n.rpartition(".")[2].lower(): n for n in names}  # a module by its own name, not its package's
+    close = difflib.get_close_matches(name.rpartition(".")[2].lower(), list(by_lower), n=3, cutoff=0.6)
+    return f"; did you mean {' or '.join(by_lower[c] for c in close)}?" if close else ""
+
+
+def _siblings(mod_name):
+    """The modules of the package ``mod_name`` would be in (``controllers.foc`` for ``controllers.fco``)."""
+    parent = mod_name.rpartition(".")[0]
+    try:
+        package = importlib.import_module(parent) if parent else None
+    except Exception:  # a parent that cannot be imported has no modules to suggest
+        return []
+    paths = getattr(package, "__path__", None) if package else None
+    return [f"{parent}.{m.name}" for m in pkgutil.iter_modules(paths)] if paths else []
 
 
 def _load_file(mod_name, base_dir, kind):

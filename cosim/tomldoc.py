@@ -3,6 +3,7 @@ problem with its ``file:line`` (or ``--set key``) and key path before raising on
 
 tomllib gives no line numbers for keys: :class:`Locator` finds them by scanning the text (best effort)."""
 
+import difflib
 import json
 import math
 import numbers
@@ -14,7 +15,7 @@ from cosim.errors import ConfigError
 from cosim.fitting import FreeParameter
 
 __all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables",
-           "Problems", "Locator", "parse_overrides", "apply_override", "format_key", "toml_text"]
+           "Problems", "Locator", "parse_overrides", "apply_override", "format_key", "toml_text", "key_paths"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -76,6 +77,14 @@ class Locator:
         return None
 
 
+def key_paths(node, prefix=()):
+    """Every key path of a parsed document, lists' elements by index (``("record", "signals", 0)``)."""
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for k, v in items:
+        yield prefix + (k,)
+        yield from key_paths(v, prefix + (k,))
+
+
 def format_key(path):
     out = ""
     for p in path:
@@ -84,32 +93,72 @@ def format_key(path):
 
 
 class Problems:
-    def __init__(self, file, locator, set_keys):
+    """Every problem of one document, each located at ``file:line`` or at the ``--set`` item that made it.
+
+    A problem added with ``cause=True`` (an FMU or a controller class that cannot be loaded) is listed first: the
+    problems that follow from it are not reported by the loaders, and what is left reads cause first."""
+
+    def __init__(self, file, locator, set_keys, keys=()):
         self.file = file
         self.locator = locator
         self.set_keys = set_keys
+        self.keys = set(keys)  # the document's own key paths, dotted: what --set is told it may have meant
         self.items = []
 
-    def add(self, path, message):
-        path = tuple(path)
-        key = format_key(path)
-        where = None
+    def _set_item(self, path):
+        """The ``--set`` key that wrote ``path`` (or a table above it, or a key below it it created), or None."""
         for n in range(len(path), 0, -1):
             if format_key(path[:n]) in self.set_keys:
-                where = f"--set {self.set_keys[format_key(path[:n])]}"
-                break
-        if where is None:
+                return self.set_keys[format_key(path[:n])]
+        key = format_key(path)
+        for written, item in self.set_keys.items():
+            if key and written.startswith((key + ".", key + "[")):
+                return item
+        return None
+
+    def add(self, path, message, cause=False):
+        path = tuple(path)
+        item = self._set_item(path)
+        if item is not None:
+            where = f"--set {item}"
+        else:
             line = self.locator.line(path) if self.locator else None
             where = f"{self.file}:{line}" if line else f"{self.file}"
-        self.items.append((where, key, message))
+        # a key --set made up: told against every key the document has or may have, once they are all known
+        made_up = item if item is not None and message.startswith("unknown") and item not in self.keys else None
+        self.items.append((where, format_key(path), message, cause, made_up))
+
+    def did_you_mean(self, item):
+        """"; did you mean --set K=...?" for the keys closest to the ``--set`` key ``item``: those that hold its
+        names in order, each as the start of one of theirs (fmus.plant.parameters.eta_g for plant.eta_g,
+        controllers.foc.parameters.bandwidth_hz for foc.bandwidth), the same last name first; then those spelt
+        alike (run.stop for run.stpo) when none does."""
+        names = item.split(".")
+        keys = sorted(self.keys)
+
+        def holds(key):
+            rest = iter(key.split("."))
+            return all(any(part.startswith(n) for part in rest) for n in names)
+
+        def rank(key):
+            return (key.rsplit(".", 1)[-1] != names[-1], -difflib.SequenceMatcher(None, item, key).ratio())
+
+        close = sorted(filter(holds, keys), key=rank) or difflib.get_close_matches(item, keys, n=3, cutoff=0.6)
+        return f"; did you mean {' or '.join(f'--set {k}=...' for k in close[:3])}?" if close else ""
 
     def raise_if_any(self):
         if self.items:
             def order(item):
                 m = re.search(r":(\d+)$", item[0])
-                return (item[0].startswith("--set"), int(m.group(1)) if m else 0)
+                return (not item[3], item[0].startswith("--set"), int(m.group(1)) if m else 0)
 
-            lines = [f"{w}: {k}: {m}" if k else f"{w}: {m}" for w, k, m in sorted(self.items, key=order)]
+            lines = []
+            for where, key, message, _, made_up in sorted(self.items, key=order):
+                if made_up is not None:
+                    key, message = made_up, f"no such key in {self.file}{self.did_you_mean(made_up)}"
+                line = f"{where}: {key}: {message}" if key else f"{where}: {message}"
+                if line not in lines:  # one made-up key is reported once, however many tables it reached
+                    lines.append(line)
             err = ConfigError(
                 f"{len(lines)} problem{'s' if len(lines) > 1 else ''} in {self.file}:\n  - " + "\n  - ".join(lines)
             )
@@ -258,7 +307,8 @@ def read_toml(path, overrides=(), what="config"):
     for (p, v), item in zip(parse_overrides(overrides), overrides or ()):
         apply_override(data, p, v)
         set_keys[format_key(p)] = item.partition("=")[0].strip()
-    return data, Problems(str(path), Locator(text), set_keys)
+    keys = {format_key(k) for k in key_paths(tomllib.loads(text))}
+    return data, Problems(str(path), Locator(text), set_keys, keys)
 
 
 def number(problems, table, key, where, default=None, positive=False, integer=False):

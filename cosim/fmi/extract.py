@@ -9,6 +9,7 @@ import zlib
 from pathlib import Path
 
 from cosim.errors import FmuFileError
+from cosim.fmi.model import REBUILD_HINT
 
 __all__ = ["safe_extract", "MAX_TOTAL_BYTES", "MAX_ENTRIES", "MAX_RATIO"]
 
@@ -89,7 +90,8 @@ def safe_extract(path, target):
                 dest.parent.mkdir(parents=True, exist_ok=True)
                 budget -= _copy(zf, info, dest, path, budget)
     except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError) as err:
-        raise FmuFileError(f"{path}: not a valid zip archive (corrupt or unsupported member): {err}") from err
+        raise FmuFileError(f"{path}: not a valid zip archive (corrupt or unsupported member): {err}; "
+                           f"{REBUILD_HINT}") from err
     for root, _, files in os.walk(target):
         for f in files:
             p = os.path.join(root, f)

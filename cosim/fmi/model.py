@@ -9,7 +9,12 @@ from pathlib import Path
 
 from cosim.errors import FmuFileError
 
-__all__ = ["Variable", "ModelInfo", "read_model_info"]
+__all__ = ["Variable", "ModelInfo", "read_model_info", "BUILD_HINT", "REBUILD_HINT"]
+
+# how to make a missing FMU, and how to replace a damaged one: the end of every message about an FMU file
+BUILD_HINT = ("the project's FMUs are made by `cosim build` (modelica/models.toml -> fmus/), a model of yours by "
+              "`cosim build FILE.mo --model Pkg.Model --out DIR`")
+REBUILD_HINT = "if it is one cosim built, build it again: `cosim build --force`"
 
 
 @dataclass(frozen=True)
@@ -101,9 +106,9 @@ def read_model_info(path):
 
     path = Path(path)
     if not path.is_file():
-        raise FmuFileError(f"FMU file {str(path)!r} does not exist")
+        raise FmuFileError(f"FMU file {str(path)!r} does not exist; {BUILD_HINT}")
     if not zipfile.is_zipfile(path):
-        raise FmuFileError(f"{str(path)!r} is not an FMU (not a zip archive)")
+        raise FmuFileError(f"{str(path)!r} is not an FMU (not a zip archive); {REBUILD_HINT}")
     try:
         md = fmpy.read_model_description(str(path), validate=False)
     except Exception as err:  # fmpy raises plain Exception for every parse problem

@@ -1,0 +1,83 @@
+"""A new user's mistakes get the root cause first and a pointer to the fix (issue #44, "Errors"), through
+``cosim.cli.main`` as a user types them: a missing or damaged FMU without its follow-on problems, a made-up
+``--set`` key with the keys it may have meant, "did you mean" for model names and controller classes."""
+
+import pytest
+from test_master_support import EXAMPLES, gripper_dir, gripper_overrides  # noqa: F401
+
+from cosim.cli import main
+
+IMPACT = str(EXAMPLES / "gripper_impact.toml")
+
+
+def _fails(capsys, argv):
+    """Run the CLI, assert exit 2 with one error message and no traceback; return the message."""
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.count("error:") == 1
+    return err
+
+
+def _run(capsys, tmp_path, *sets):
+    argv = ["run", IMPACT, "--out", str(tmp_path / "o"), "--no-progress"]
+    for s in sets:
+        argv += ["--set", s]
+    return _fails(capsys, argv)
+
+
+def test_missing_fmu_is_the_one_problem_and_says_how_to_build_it(tmp_path, capsys):
+    config = tmp_path / "impact.toml"
+    config.write_text(EXAMPLES.joinpath("gripper_impact.toml").read_text().replace("../fmus/", "fmus/"))
+    err = _fails(capsys, ["run", str(config), "--out", str(tmp_path / "o")])
+    # before: 6 problems, the 5 others about plot.panels and summary.force, which record the missing FMU's signals
+    assert "1 problem in" in err and "plot.panels" not in err and "summary.force" not in err
+    assert f"{config}:16: fmus.plant.path: FMU file '{tmp_path}/fmus/GripperPlant.fmu' does not exist" in err
+    assert "`cosim build`" in err
+
+
+def test_fmu_that_is_not_a_zip_set_on_the_command_line_comes_first(tmp_path, capsys):
+    bad = tmp_path / "GripperPlant.fmu"
+    bad.write_text("not a zip\n")
+    err = _run(capsys, tmp_path, f"fmus.plant.path={bad}")
+    lines = [line for line in err.splitlines() if line.startswith("  - ")]
+    assert lines == [f"  - --set fmus.plant.path: fmus.plant.path: '{bad}' is not an FMU (not a zip archive); "
+                     "if it is one cosim built, build it again: `cosim build --force`"]
+
+
+def test_controller_class_that_cannot_load_hides_its_follow_on_problems(tmp_path, capsys):
+    err = _run(capsys, tmp_path, "controllers.outer.class=controllers.outr:OuterLoop")
+    assert "1 problem in" in err and "summary" not in err and "plot.panels" not in err
+    assert "controller module 'controllers.outr' not found" in err and "did you mean controllers.outer?" in err
+
+
+@pytest.mark.parametrize("item, meant", [
+    ("plant.eta_g=0.7", "--set fmus.plant.parameters.eta_g=..."),     # the FMU instance's parameter
+    ("foc.bandwidth=500", "--set controllers.foc.parameters.bandwidth_hz=..."),
+    ("run.stpo=1", "--set run.stop=..."),                              # a typo
+])
+def test_made_up_set_key_names_its_file_and_the_keys_meant(tmp_path, capsys, item, meant):
+    err = _run(capsys, tmp_path, item)
+    key = item.partition("=")[0]
+    assert f"--set {key}: {key}: no such key in {IMPACT}; did you mean {meant}" in err
+    assert "'plot'" not in err  # before: "plant: unknown key; did you mean 'plot'?", located at the file
+
+
+def test_set_key_of_an_fmu_parameter_not_in_the_file_is_suggested(tmp_path, capsys, gripper_dir):  # noqa: F811
+    # B_r is a parameter of GripperPlant.fmu that gripper_impact.toml does not set: known from the FMU
+    err = _run(capsys, tmp_path, *gripper_overrides(gripper_dir), "plant.B_r=1e-6")
+    assert "did you mean --set fmus.plant.parameters.B_r=...?" in err
+
+
+def test_controller_class_case_slip(tmp_path, capsys):
+    err = _run(capsys, tmp_path, "controllers.foc.class=controllers.foc:Foc")
+    assert "module 'controllers.foc' has no class 'Foc'; did you mean FOC?" in err
+
+
+@pytest.mark.parametrize("source, model, meant", [
+    ("examples/hybrid/BouncingBall.mo", "BouncingBal", "'BouncingBall'"),
+    ("modelica/Gripper/package.mo", "Gripper.GripperPlnt", "'Gripper.GripperPlant'"),
+])
+def test_build_misspelt_model_name(tmp_path, capsys, source, model, meant):
+    root = EXAMPLES.parent
+    err = _fails(capsys, ["build", str(root / source), "--model", model, "--out", str(tmp_path / "f")])
+    assert f"no model named {model!r}" in err and f"did you mean {meant}" in err
