@@ -118,15 +118,18 @@ class Problems:
 
     def add(self, path, message, cause=False):
         path = tuple(path)
+        key = format_key(path)
         item = self._set_item(path)
         if item is not None:
             where = f"--set {item}"
         else:
             line = self.locator.line(path) if self.locator else None
             where = f"{self.file}:{line}" if line else f"{self.file}"
-        # a key --set made up: told against every key the document has or may have, once they are all known
-        made_up = item if item is not None and message.startswith("unknown") and item not in self.keys else None
-        self.items.append((where, format_key(path), message, cause, made_up))
+        # a --set key made up above its last name (plant.eta_g: "plant" is no section): the problem is the key, told
+        # against every key the document has or may have, once they are all known
+        made_up = (item is not None and message.startswith("unknown") and item not in self.keys
+                   and self.set_keys.get(key) != item)
+        self.items.append((where, key, message, cause, item if made_up else None))
 
     def did_you_mean(self, item):
         """"; did you mean --set K=...?" for the keys closest to the ``--set`` key ``item``: those that hold its
@@ -155,7 +158,7 @@ class Problems:
             lines = []
             for where, key, message, _, made_up in sorted(self.items, key=order):
                 if made_up is not None:
-                    key, message = made_up, f"no such key in {self.file}{self.did_you_mean(made_up)}"
+                    key, message = made_up, f"unknown key in {self.file}{self.did_you_mean(made_up)}"
                 line = f"{where}: {key}: {message}" if key else f"{where}: {message}"
                 if line not in lines:  # one made-up key is reported once, however many tables it reached
                     lines.append(line)
