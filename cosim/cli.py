@@ -3,9 +3,10 @@
 import argparse
 import signal
 import sys
+import warnings
 from pathlib import Path
 
-from cosim.errors import CosimError
+from cosim.errors import CosimError, EngineFallbackWarning, ScaleWarning
 
 __all__ = ["main"]
 
@@ -283,6 +284,18 @@ def make_parser():
     return parser
 
 
+def _warning_line(command):
+    """How a warning reads on the terminal: ``cosim COMMAND: warning: message`` (cosim's own warnings say where
+    and what; the Python source line that raised them says nothing to a user)."""
+    def line(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, (ScaleWarning, EngineFallbackWarning)):
+            return f"cosim {command}: warning: {message}\n"
+        return default(message, category, filename, lineno, line)
+
+    default = warnings.formatwarning
+    return line
+
+
 def main(argv=None):
     """Run the CLI; returns the exit status: 0 success, 2 bad input or a failed step, 3 a run stopped by a fault
     (what it recorded is written), 128 + the signal number when interrupted (130 Ctrl-C, 143 SIGTERM).
@@ -301,6 +314,7 @@ def main(argv=None):
     if args.command is None:
         parser.print_help()
         return 2
+    warnings.formatwarning = _warning_line(args.command)
     try:
         return args.func(args)
     except CosimError as err:

@@ -21,10 +21,12 @@ The schema (see docs/config.md for the full reference)::
 import difflib
 import math
 import re
+import warnings
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
 from cosim.fmi.instance import value_dtype
+from cosim.errors import ScaleWarning
 from cosim.paramfile import parameters_file_key
 from cosim.tomldoc import Problems, format_key, parse_overrides, read_toml
 
@@ -407,6 +409,19 @@ def _value_type(info, var, value, problems, where):
         want = {"b": "true or false", "i": "an integer", "u": "an integer"}.get(kind, "a number")
         problems.add(where, f"{var.name!r} is {var.type}: the value must be {want}; got {value!r}"
                      if kind is not None else f"{var.name!r} is {var.type}: it cannot be set from a config")
+    return ok
+
+
+def _in_range(file, var, value, problems, where):
+    """A parameter's value must lie in the range its FMU declares (the Modelica ``min``/``max``, inclusive)."""
+    lo = -math.inf if var.min is None else var.min
+    hi = math.inf if var.max is None else var.max
+    if lo <= value <= hi or isinstance(value, bool):
+        return
+    unit = f" {var.unit}" if var.unit not in ("", "1") else " (no unit: a ratio)" if var.unit == "1" else ""
+    percent = f"; a percentage? {value:g} % is {value / 100:g}" if var.unit == "1" and hi <= 1 < value <= 100 else ""
+    problems.add(where, f"{value!r} is outside the range {file.name} declares for {var.name}: "
+                        f"[{lo:g}, {hi:g}]{unit}{percent}")
 
 
 def _fmu_values(info, file, params, starts, problems, p):
@@ -418,8 +433,8 @@ def _fmu_values(info, file, params, starts, problems, p):
             problems.add(p + ("parameters", pn), f"{file.name} has no parameter {pn!r}{_close(pn, names)}")
         elif var.causality not in ("parameter",) or var.variability == "constant":
             problems.add(p + ("parameters", pn), f"{pn!r} is a {var.variability} {var.causality}, not a settable parameter")
-        else:
-            _value_type(info, var, pv, problems, p + ("parameters", pn))
+        elif _value_type(info, var, pv, problems, p + ("parameters", pn)):
+            _in_range(file, var, pv, problems, p + ("parameters", pn))
     for sn, sv in starts.items():
         var = info.variables.get(sn)
         if var is None:
@@ -849,6 +864,32 @@ def _settable_keys(fmus, ctrls):
     return keys
 
 
+_FAST = 100  # a controller period this many times shorter than the plant's step: a factor 1000 typed by mistake?
+
+
+def _time_scales(run, fmus, ctrls):
+    """Warn (:class:`ScaleWarning`) of a rate or a run length far from the plant's time scale, the step its FMUs
+    declare (``ModelInfo.step``): a controller period more than ``_FAST`` times shorter (the shipped configs run
+    theirs at periods of 1/20 of it and longer), a run shorter than that step. The run goes on: a fast controller
+    on a slow plant can be meant."""
+    span = run.stop - run.start
+    steps = {name: spec.info.step for name, spec in fmus.items() if spec.info.step is not None}
+    messages = []
+    if steps:
+        name = min(steps, key=steps.get)
+        h, file = steps[name], fmus[name].path.name
+        for cn, c in ctrls.items():
+            if c.rate * h > _FAST:
+                messages.append(f"controllers.{cn}.rate = {c.rate:g} Hz: a period of {1 / c.rate:.3g} s, "
+                                f"{c.rate * h:.3g} times shorter than the step {file} declares ({h:.3g} s); the "
+                                f"shipped configs run controllers at periods of 1/20 of their plant's step or longer "
+                                f"(a factor 1000 typed by mistake? {c.rate / 1000:g} Hz)")
+        if span < h:
+            messages.append(f"run.stop - run.start = {span:g} s is shorter than the step {file} declares ({h:.3g} s)")
+    for message in messages:
+        warnings.warn(message, ScaleWarning, stacklevel=3)
+
+
 # ----------------------------------------------------------------------------------------------
 # load
 # ----------------------------------------------------------------------------------------------
@@ -933,5 +974,6 @@ def _validated(data, problems, path, overrides):
     if not problems.items:
         _bounds(run, solver, fmus, ctrls, record, problems)
     problems.raise_if_any()
+    _time_scales(run, fmus, ctrls)
     return Config(path=path, run=run, solver=solver, fmus=fmus, controllers=ctrls, connections=connections,
                   record=record, plot=plot, summary=summary, raw=data, overrides=overrides)

@@ -12,6 +12,7 @@ __all__ = [
     "NotFittedError",
     "HapticDataError",
     "EngineFallbackWarning",
+    "ScaleWarning",
     "EffectSlotError",
     "EventError",
     "SimulationTerminated",
@@ -93,6 +94,11 @@ class HapticDataError(CosimError, ValueError):
 
 class EngineFallbackWarning(UserWarning):
     """The compiled engine was asked for but the run uses the Python engine (the message says why)."""
+
+
+class ScaleWarning(UserWarning):
+    """A config's rate or run length is far from the plant's time scale (a typo of a factor 1000 is likely); the
+    run goes on, the message names the key, its value and the scale it was told against."""
 
 
 class EffectSlotError(ConfigError):

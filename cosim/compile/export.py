@@ -267,6 +267,12 @@ def _float(parent, name, vr, variable=None, **attrs):
     return ET.SubElement(parent, "Float64", attrs)
 
 
+def _range(variable):
+    """The ``min``/``max`` attributes of a parameter's declared physical range (FMI 2.0 and 3.0 spell them alike)."""
+    return {key: repr(float(value)) for key, value in (("min", variable.min), ("max", variable.max))
+            if value is not None}
+
+
 def _solver_settings(variables, layout, cs_step, cs_method):
     """The embedded solver's settings as fixed parameters (an importer sets them before initialisation ends)."""
     _float(variables, "_cs_step", layout.cs, causality="parameter", variability="fixed", initial="exact",
@@ -283,7 +289,7 @@ def _variables(root, model, layout, cs_step, cs_method):
     _float(variables, "time", 0, causality="independent", variability="continuous")
     for k, p in enumerate(model.parameters):
         _float(variables, p.name, layout.p + k, p, causality="parameter", variability="tunable", initial="exact",
-               start=repr(float(p.start)))
+               start=repr(float(p.start)), **_range(p))
     for k, u in enumerate(model.inputs):
         _float(variables, u.name, layout.u + k, u, causality="input", start=repr(float(u.start)))
     outputs = {y.name for y in model.outputs}
@@ -456,7 +462,7 @@ def _variables_2(model, layout, cs_step, cs_method):
     _scalar(variables, index, "time", 0, causality="independent", variability="continuous")
     for k, p in enumerate(model.parameters):
         _scalar(variables, index, p.name, layout.p + k, variable=p, causality="parameter", variability="tunable",
-                initial="exact", start=repr(float(p.start)))
+                initial="exact", start=repr(float(p.start)), **_range(p))
     for k, u in enumerate(model.inputs):
         _scalar(variables, index, u.name, layout.u + k, variable=u, causality="input", start=repr(float(u.start)))
     outputs = {y.name for y in model.outputs}

@@ -351,8 +351,8 @@ def lower_system(system):
         states=tuple(ModelVariable(s.name, s.unit, s.description, float(v)) for s, v in zip(active, x0_values)),
         inputs=tuple(ModelVariable(u.name, u.unit, u.description, _start(u), u.kind) for u in inputs),
         outputs=tuple(ModelVariable(v.name, v.unit, v.description, _start(v)) for v in outputs),
-        parameters=tuple(ModelVariable(p.name, p.unit, p.description, params.defaults[p.name])
-                         for p in params.free),
+        parameters=tuple(ModelVariable(p.name, p.unit, p.description, params.defaults[p.name], min=p.bounds[0],
+                                       max=p.bounds[1]) for p in params.free),
         ode=ode, out=out, observe=observe,
         observed=tuple(ModelVariable(v.name, v.unit, v.description, _start(v)) for v in observed),
         x0=x0, constants=dict(params.constants), notes=tuple(notes), **_parameter_variables(params, P),

@@ -23,6 +23,8 @@ class ModelVariable:
         Start value (parameters: the default; states: the initial value at default parameters).
     kind : str
         ``real``, or for an input: ``integer``, ``boolean`` or ``enumeration`` (its value passed as a float).
+    min, max : float or None
+        A parameter's physical range as declared (``min``/``max`` attributes; None: unbounded on that side).
     """
 
     name: str
@@ -30,6 +32,8 @@ class ModelVariable:
     description: str = ""
     start: float = 0.0
     kind: str = "real"
+    min: float = None
+    max: float = None
 
 
 @dataclass(frozen=True)

@@ -74,6 +74,8 @@ class Variable:
         The variable's symbol.
     start, binding : casadi.SX or None
         The start attribute and the declaration binding, as expressions.
+    bounds : tuple
+        The ``min`` and ``max`` attributes as numbers (None: not declared, or not a constant).
     """
 
     name: str
@@ -89,6 +91,7 @@ class Variable:
     state_select: str = "Default"
     causality: str = "local"
     location: str = ""
+    bounds: tuple = (None, None)
 
 
 @dataclass
@@ -439,6 +442,7 @@ class _Translator:
                 state_select=a.get("state_select") or "Default",
                 causality=a.get("causality") or "local",
                 location=self.flat.locate(_span_of(v.get("declaration"))),
+                bounds=(self._bound(a.get("min")), self._bound(a.get("max"))),
             ))
         self.variables_by_index = variables
         self.reader = EventReader(self, [v for v in variables if v.role in ("discrete_real", "discrete_value")])
@@ -457,6 +461,14 @@ class _Translator:
             if var.name in self.tables.frozen:
                 var.tunable = False
         return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, events)
+
+    def _bound(self, node):
+        """A ``min`` or ``max`` attribute as a float; None when absent or not one constant (an array's, a
+        parameter's)."""
+        if node is None:
+            return None
+        value = self.expr(node)
+        return float(value) if value.numel() == 1 and value.is_constant() else None
 
     def _computed_parameters(self, raw):
         """Real parameters declared ``fixed = false`` (the MSL's ``t0 = time`` in an initial equation): computed by

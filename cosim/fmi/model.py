@@ -3,6 +3,7 @@
 Only the XML is read here (through fmpy's parser); nothing is loaded or executed.
 """
 
+import math
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +38,8 @@ class Variable:
     start : str or None
         Start value as written in the XML.
     description : str
+    min, max : float or None
+        The declared range (the variable's or its type's ``min``/``max``; None: unbounded on that side).
     """
 
     name: str
@@ -47,6 +50,8 @@ class Variable:
     unit: str = ""
     start: str | None = None
     description: str = ""
+    min: float | None = None
+    max: float | None = None
 
 
 @dataclass(frozen=True)
@@ -68,6 +73,9 @@ class ModelInfo:
         For each output, the names of the inputs it depends on directly (``None``: unknown, assume all).
     needs_completed_step : bool
         ME: whether ``CompletedIntegratorStep`` must be called.
+    step : float or None
+        The step the FMU declares for itself in s (the default of a cosim FMU's ``_cs_step``, set per model in
+        modelica/models.toml, else the DefaultExperiment's ``stepSize``): the time scale its rates are told against.
     """
 
     path: Path
@@ -79,10 +87,24 @@ class ModelInfo:
     n_event_indicators: int = 0
     output_deps: dict = field(default_factory=dict, repr=False)
     needs_completed_step: bool = True
+    step: float = None
 
     def names(self, causality):
         """Names of the variables with the given causality, in declaration order."""
         return [v.name for v in self.variables.values() if v.causality == causality]
+
+
+def _attribute(variable, name):
+    """A numeric attribute (``min``, ``max``) of a variable, else of its declared type, as a float; None when
+    neither declares one that reads as a number."""
+    for holder in (variable, variable.declaredType):
+        text = getattr(holder, name, None) if holder is not None else None
+        if text not in (None, ""):
+            try:
+                return float(text)
+            except (TypeError, ValueError):
+                return None
+    return None
 
 
 def read_model_info(path):
@@ -128,6 +150,8 @@ def read_model_info(path):
             unit=unit,
             start=None if v.start is None else str(v.start),
             description=v.description or "",
+            min=_attribute(v, "min"),
+            max=_attribute(v, "max"),
         )
     inputs = {v.name for v in variables.values() if v.causality == "input"}
     deps = {}
@@ -152,4 +176,16 @@ def read_model_info(path):
         n_event_indicators=int(md.numberOfEventIndicators or 0),
         output_deps=deps,
         needs_completed_step=needs,
+        step=_declared_step(md, variables),
     )
+
+
+def _declared_step(md, variables):
+    """The FMU's own step (``_cs_step``'s default, else DefaultExperiment stepSize) in s, or None."""
+    cs = variables.get("_cs_step")
+    text = cs.start if cs is not None else getattr(md.defaultExperiment, "stepSize", None)
+    try:
+        step = float(text)
+    except (TypeError, ValueError):
+        return None
+    return step if math.isfinite(step) and step > 0 else None

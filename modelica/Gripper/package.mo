@@ -17,8 +17,8 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end MeshSlot;
 
     partial model GuideSlot "Jaw-guide friction"
-      parameter Real F_c(unit = "N") = 0.0785 "Coulomb (sliding) friction level";
-      parameter Real v_s(unit = "m/s") = 1e-4 "Regularisation velocity at rest (a law that holds its friction by a bristle ignores it)";
+      parameter Real F_c(unit = "N", min = 0) = 0.0785 "Coulomb (sliding) friction level";
+      parameter Real v_s(unit = "m/s", min = 0) = 1e-4 "Regularisation velocity at rest (a law that holds its friction by a bristle ignores it)";
       input Real v(unit = "m/s") "Jaw velocity, positive closing";
       output Real F(unit = "N") "Friction force against the motion";
     end GuideSlot;
@@ -49,13 +49,13 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
 
   package Components "One physical effect per block; blocks are wired by explicit equations (see the header note)"
     model PMSM "Permanent magnet synchronous motor in the rotor d-q frame with its rotor, eqs. (3)-(7), power-invariant Park transform"
-      parameter Real R_s(unit = "Ohm") = 0.45 "Stator phase resistance";
-      parameter Real L_d(unit = "H") = 2.5e-4 "d-axis inductance";
-      parameter Real L_q(unit = "H") = 2.5e-4 "q-axis inductance";
+      parameter Real R_s(unit = "Ohm", min = 0) = 0.45 "Stator phase resistance";
+      parameter Real L_d(unit = "H", min = 0) = 2.5e-4 "d-axis inductance";
+      parameter Real L_q(unit = "H", min = 0) = 2.5e-4 "q-axis inductance";
       parameter Integer p = 4 "Number of pole pairs";
-      parameter Real Psi_m(unit = "Wb") = 0.009848 "Permanent magnet flux linkage (k_t = p*Psi_m)";
-      parameter Real J(unit = "kg.m2") = 1.01e-5 "Inertia of the rotor and of everything rigidly attached to it";
-      parameter Real B_r(unit = "N.m.s/rad") = 1.01e-5 "Rotor viscous damping, eq. (6)";
+      parameter Real Psi_m(unit = "Wb", min = 0) = 0.009848 "Permanent magnet flux linkage (k_t = p*Psi_m)";
+      parameter Real J(unit = "kg.m2", min = 0) = 1.01e-5 "Inertia of the rotor and of everything rigidly attached to it";
+      parameter Real B_r(unit = "N.m.s/rad", min = 0) = 1.01e-5 "Rotor viscous damping, eq. (6)";
       input Real v_d(unit = "V") "d-axis stator voltage";
       input Real v_q(unit = "V") "q-axis stator voltage";
       input Real tau_load(unit = "N.m") "Load torque on the shaft, against positive rotation";
@@ -93,12 +93,12 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end bristleRate;
 
     model BristleFriction "Coulomb friction carried by an elasto-plastic bristle state: holds a static torque without creep or drift"
-      parameter Real T_c(unit = "N.m") = 7.88e-3 "Coulomb friction torque level";
-      parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle (bristle deflection at the Coulomb level)";
-      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed (bounds the state's rate)";
-      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
-      parameter Real d_pre(unit = "N.m.s/rad") = 0 "Presliding damping (LuGre's sigma_1), faded out above w_pre; 0: none";
-      parameter Real w_pre(unit = "rad/s") = 1 "Speed scale above which the presliding damping fades out";
+      parameter Real T_c(unit = "N.m", min = 0) = 7.88e-3 "Coulomb friction torque level";
+      parameter Real phi_b(unit = "rad", min = 0) = 1e-3 "Presliding angle (bristle deflection at the Coulomb level)";
+      parameter Real tau_b(unit = "s", min = 0) = 1e-4 "Bristle relaxation time at high speed (bounds the state's rate)";
+      parameter Real s_ba(unit = "1", min = 0, max = 1) = 0.5 "Elastic fraction of the bristle range";
+      parameter Real d_pre(unit = "N.m.s/rad", min = 0) = 0 "Presliding damping (LuGre's sigma_1), faded out above w_pre; 0: none";
+      parameter Real w_pre(unit = "rad/s", min = 0) = 1 "Speed scale above which the presliding damping fades out";
       input Real w(unit = "rad/s") "Shaft speed relative to the housing";
       output Real tau_f(unit = "N.m") "Friction torque against the motion";
       Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
@@ -119,10 +119,10 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // tau_in = eta*tau_out, and at standstill any tau_in between eta*tau_out and tau_out/eta is held
       // (the stuck mode of Modelica's LossyGear). tau_in = tau_out + tau_f.
       extends Gripper.Interfaces.MeshSlot;
-      parameter Real eta(unit = "1") = 0.68 "Mesh efficiency";
-      parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the mesh bristle (input side)";
-      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
-      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
+      parameter Real eta(unit = "1", min = 0, max = 1) = 0.68 "Mesh efficiency";
+      parameter Real phi_b(unit = "rad", min = 0) = 1e-3 "Presliding angle of the mesh bristle (input side)";
+      parameter Real tau_b(unit = "s", min = 0) = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1", min = 0, max = 1) = 0.5 "Elastic fraction of the bristle range";
       Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
       Real N(unit = "N.m") "Transmitted load max(|tau_in|, |tau_out|)";
     equation
@@ -132,7 +132,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end MeshEfficiency;
 
     model IdealGear "Ideal reduction gear kinematics and statics, no inertia and no loss"
-      parameter Real ratio(unit = "1") = 28 "Reduction ratio input speed / output speed";
+      parameter Real ratio(unit = "1", min = 0) = 28 "Reduction ratio input speed / output speed";
       input Real phi_in(unit = "rad") "Input angle";
       input Real w_in(unit = "rad/s") "Input speed";
       input Real tau_load_out(unit = "N.m") "Load torque at the output";
@@ -146,7 +146,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end IdealGear;
 
     model RotationalDamper "Viscous damper to the housing"
-      parameter Real d(unit = "N.m.s/rad") = 0.05191 "Damping coefficient";
+      parameter Real d(unit = "N.m.s/rad", min = 0) = 0.05191 "Damping coefficient";
       input Real w(unit = "rad/s") "Shaft speed";
       output Real tau(unit = "N.m") "Damping torque against the motion";
     equation
@@ -154,9 +154,9 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end RotationalDamper;
 
     model ElastoBacklash "Shaft play as an elastic-damped hard stop, force-continuous at contact (cf. MSL ElastoBacklash)"
-      parameter Real b(unit = "rad") = 0.013962634 "Total play (torque is zero for |phi_rel| <= b/2)";
-      parameter Real c(unit = "N.m/rad") = 1000 "Stiffness at the stops";
-      parameter Real d(unit = "N.m.s/rad") = 0.05 "Damping at the stops (limited so that it cannot pull)";
+      parameter Real b(unit = "rad", min = 0) = 0.013962634 "Total play (torque is zero for |phi_rel| <= b/2)";
+      parameter Real c(unit = "N.m/rad", min = 0) = 1000 "Stiffness at the stops";
+      parameter Real d(unit = "N.m.s/rad", min = 0) = 0.05 "Damping at the stops (limited so that it cannot pull)";
       input Real phi_rel(unit = "rad") "Driving-side angle minus driven-side angle";
       input Real w_rel(unit = "rad/s") "Driving-side speed minus driven-side speed";
       output Real tau(unit = "N.m") "Torque transmitted from the driving to the driven side";
@@ -169,7 +169,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end ElastoBacklash;
 
     model RackPinion "Pinion driving n synchronised racks (jaws) symmetrically"
-      parameter Real r_p(unit = "m") = 0.008957 "Pinion pitch radius";
+      parameter Real r_p(unit = "m", min = 0) = 0.008957 "Pinion pitch radius";
       parameter Integer n = 2 "Number of racks (jaws) driven by the pinion";
       input Real tau(unit = "N.m") "Torque on the pinion";
       input Real x(unit = "m") "Jaw displacement";
@@ -184,7 +184,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end RackPinion;
 
     model JawMass "Jaw-finger mass of one jaw (rigid body; carries its share of the pinion inertia)"
-      parameter Real m(unit = "kg") = 0.085 "Moving mass of one jaw";
+      parameter Real m(unit = "kg", min = 0) = 0.085 "Moving mass of one jaw";
       input Real F(unit = "N") "Net force on the jaw, positive closing";
       Real x(unit = "m", start = 0.0, fixed = true) "Jaw displacement, positive closing";
       Real v(unit = "m/s", start = 0.0, fixed = true) "Jaw velocity, positive closing";
@@ -194,9 +194,9 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     end JawMass;
 
     model GreaseViscous "Viscous grease force on the guide surfaces, eq. (11): sum eta*S_i/d * v"
-      parameter Real eta(unit = "Pa.s") = 0.2 "Grease dynamic viscosity";
-      parameter Real S(unit = "m2") = 2e-4 "Area of one sliding surface";
-      parameter Real d(unit = "m") = 5e-5 "Grease layer thickness";
+      parameter Real eta(unit = "Pa.s", min = 0) = 0.2 "Grease dynamic viscosity";
+      parameter Real S(unit = "m2", min = 0) = 2e-4 "Area of one sliding surface";
+      parameter Real d(unit = "m", min = 0) = 5e-5 "Grease layer thickness";
       parameter Integer n_s = 4 "Number of sliding surfaces of one jaw";
       input Real v(unit = "m/s") "Jaw velocity";
       output Real F(unit = "N") "Viscous force against the motion";
@@ -217,15 +217,15 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // that blends from C_p to C_h across the coating's region boundary, limited as in ElastoBacklash so that
       // the force is continuous at first touch and the contact cannot pull.
       parameter Real gap0(unit = "m") = 0.002 "Gap between the bare finger surface and the object at x = 0";
-      parameter Real t_coat(unit = "m") = 0 "Coating thickness (0 for bare fingers)";
-      parameter Real k_f(unit = "N/m") = 1.46e6 "Finger stiffness (FEM)";
-      parameter Real k_obj(unit = "N/m") = 3.53e7 "Object stiffness on one side (cylinder)";
-      parameter Real k_P(unit = "N/m") = 1e12 "Coating first-region stiffness (1e12: no coating)";
-      parameter Real k_H_ratio(unit = "1") = 100 "Coating second-region stiffness / first-region stiffness";
-      parameter Real d_lim(unit = "m") = 0.0015 "Coating deflection at the region boundary";
-      parameter Real C_p(unit = "N.s/m") = 2000 "Contact damping, first region";
-      parameter Real C_h(unit = "N.s/m") = 2000 "Contact damping, second region";
-      parameter Real w_tr(unit = "m") = 5e-6 "Width of the damping blend across the region boundary";
+      parameter Real t_coat(unit = "m", min = 0) = 0 "Coating thickness (0 for bare fingers)";
+      parameter Real k_f(unit = "N/m", min = 0) = 1.46e6 "Finger stiffness (FEM)";
+      parameter Real k_obj(unit = "N/m", min = 0) = 3.53e7 "Object stiffness on one side (cylinder)";
+      parameter Real k_P(unit = "N/m", min = 0) = 1e12 "Coating first-region stiffness (1e12: no coating)";
+      parameter Real k_H_ratio(unit = "1", min = 0) = 100 "Coating second-region stiffness / first-region stiffness";
+      parameter Real d_lim(unit = "m", min = 0) = 0.0015 "Coating deflection at the region boundary";
+      parameter Real C_p(unit = "N.s/m", min = 0) = 2000 "Contact damping, first region";
+      parameter Real C_h(unit = "N.s/m", min = 0) = 2000 "Contact damping, second region";
+      parameter Real w_tr(unit = "m", min = 0) = 5e-6 "Width of the damping blend across the region boundary";
       parameter Real k_H(unit = "N/m") = k_H_ratio*k_P "Coating second-region stiffness";
       parameter Real c_1(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_P "Series compliance, coating first region";
       parameter Real c_2(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_H "Series compliance, coating second region";
@@ -248,7 +248,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // Under a zero-order hold the angle input is a staircase; fed straight into a stiff compliance it makes
       // the lightly preloaded play chatter. Integrating the (held) speed gives a smooth angle, and the
       // correction k_c*(theta_in - theta) removes drift. In a monolithic model theta = theta_in exactly.
-      parameter Real k_c(unit = "1/s") = 2000 "Correction rate towards the angle input";
+      parameter Real k_c(unit = "1/s", min = 0) = 2000 "Correction rate towards the angle input";
       input Real theta_in(unit = "rad") "Angle input (sampled)";
       input Real w_in(unit = "rad/s") "Speed input (sampled)";
       output Real theta(unit = "rad", start = 0.0, fixed = true) "Reconstructed angle";
@@ -281,11 +281,11 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // driving gives tau_out = eta*tau_in, back-driving tau_in = eta_b*tau_out; at standstill any tau_in between
       // eta_b*tau_out and tau_out/eta is held. Both branches vanish at s*tau_out = 0 (continuous).
       extends Gripper.Interfaces.MeshSlot;
-      parameter Real eta(unit = "1") = 0.68 "Mesh efficiency, motor driving the load";
-      parameter Real eta_b(unit = "1") = 0.68 "Mesh efficiency, load back-driving the motor";
-      parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the mesh bristle (input side)";
-      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
-      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
+      parameter Real eta(unit = "1", min = 0, max = 1) = 0.68 "Mesh efficiency, motor driving the load";
+      parameter Real eta_b(unit = "1", min = 0, max = 1) = 0.68 "Mesh efficiency, load back-driving the motor";
+      parameter Real phi_b(unit = "rad", min = 0) = 1e-3 "Presliding angle of the mesh bristle (input side)";
+      parameter Real tau_b(unit = "s", min = 0) = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1", min = 0, max = 1) = 0.5 "Elastic fraction of the bristle range";
       Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
       Real N(unit = "N.m") "Transmitted load max(|tau_in|, |tau_out|)";
     equation
@@ -300,10 +300,10 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // with 1 um, the jaw's um-scale motions in the hold stayed on the bristle's elastic range and the fitted
       // variant missed the held friction of the hidden-effect truth (docs/guide/diagnose.md).
       extends Gripper.Interfaces.LoadFrictionSlot;
-      parameter Real mu_F(unit = "1") = 0.05 "Friction force per unit gripping force";
-      parameter Real x_b(unit = "m") = 1e-7 "Presliding displacement of the bristle";
-      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
-      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range";
+      parameter Real mu_F(unit = "1", min = 0) = 0.05 "Friction force per unit gripping force";
+      parameter Real x_b(unit = "m", min = 0) = 1e-7 "Presliding displacement of the bristle";
+      parameter Real tau_b(unit = "s", min = 0) = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1", min = 0, max = 1) = 0.5 "Elastic fraction of the bristle range";
       Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
     equation
       der(s) = Gripper.Components.bristleRate(v, s, x_b, tau_b, s_ba);
@@ -326,12 +326,12 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // (an implicit solver in the master). g is floored at 1e-3 in the bristle's rate so that F_c = 0 cannot
       // divide by zero.
       extends Gripper.Interfaces.GuideSlot;
-      parameter Real F_s(unit = "N") = 0.3 "Static (breakaway) friction level, > 0";
-      parameter Real v_st(unit = "m/s") = 1e-4 "Stribeck velocity";
-      parameter Real x_b(unit = "m") = 1e-7 "Presliding displacement of the bristle at the static level";
-      parameter Real tau_b(unit = "s") = 1e-6 "Bristle relaxation time at high speed";
-      parameter Real tau_g(unit = "s") = 1e-4 "Lag of the sliding level behind the sliding velocity";
-      parameter Real s_ba(unit = "1") = 0.9 "Elastic fraction of the bristle range";
+      parameter Real F_s(unit = "N", min = 0) = 0.3 "Static (breakaway) friction level, > 0";
+      parameter Real v_st(unit = "m/s", min = 0) = 1e-4 "Stribeck velocity";
+      parameter Real x_b(unit = "m", min = 0) = 1e-7 "Presliding displacement of the bristle at the static level";
+      parameter Real tau_b(unit = "s", min = 0) = 1e-6 "Bristle relaxation time at high speed";
+      parameter Real tau_g(unit = "s", min = 0) = 1e-4 "Lag of the sliding level behind the sliding velocity";
+      parameter Real s_ba(unit = "1", min = 0, max = 1) = 0.9 "Elastic fraction of the bristle range";
       Real s(unit = "1", start = 0.0, fixed = true) "Bristle deflection over x_b, in [-1, 1]";
       Real g(unit = "1", start = 1.0, fixed = true) "Sliding level over F_s";
       Real v_p(unit = "m/s") "Sliding (plastic) part of the jaw velocity";
@@ -345,7 +345,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     model CoggingTorque "Motor cogging (detent) torque, periodic in the rotor angle (effect cogging)"
       extends Gripper.Interfaces.CoggingSlot;
       parameter Real T_cog(unit = "N.m") = 1e-3 "Cogging torque amplitude";
-      parameter Real n_cog(unit = "1") = 24 "Cogging periods per revolution";
+      parameter Real n_cog(unit = "1", min = 0) = 24 "Cogging periods per revolution";
       parameter Real phase(unit = "rad") = 0 "Cogging phase at theta = 0";
     equation
       tau = T_cog*sin(n_cog*theta + phase);
@@ -353,7 +353,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
 
     model LoadCell "Load-cell first-order low-pass and offset (effect loadcell_filter)"
       extends Gripper.Interfaces.LoadCellSlot;
-      parameter Real tau_lc(unit = "s") = 0.01 "Low-pass time constant";
+      parameter Real tau_lc(unit = "s", min = 0) = 0.01 "Low-pass time constant";
       parameter Real F_off(unit = "N") = 0 "Offset (zero error)";
       Real F_f(unit = "N", start = 0.0, fixed = true) "Filtered force";
     equation
@@ -371,16 +371,16 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // that blends from C_p to C_h across the coating's region boundary, limited as in ElastoBacklash so that
       // the force is continuous at first touch and the contact cannot pull.
       parameter Real gap0(unit = "m") = 0.002 "Gap between the bare finger surface and the object at x = 0";
-      parameter Real t_coat(unit = "m") = 0 "Coating thickness (0 for bare fingers)";
-      parameter Real k_f(unit = "N/m") = 1.46e6 "Finger stiffness (FEM)";
-      parameter Real k_obj(unit = "N/m") = 3.53e7 "Object stiffness on one side (cylinder)";
-      parameter Real k_P(unit = "N/m") = 1e12 "Coating first-region stiffness (1e12: no coating)";
-      parameter Real k_H_ratio(unit = "1") = 100 "Coating second-region stiffness / first-region stiffness";
-      parameter Real d_lim(unit = "m") = 0.0015 "Coating deflection at the region boundary";
-      parameter Real C_p(unit = "N.s/m") = 2000 "Contact damping, first region";
-      parameter Real C_h(unit = "N.s/m") = 2000 "Contact damping, second region";
-      parameter Real w_tr(unit = "m") = 5e-6 "Width of the damping blend across the region boundary";
-      parameter Real lambda_hc(unit = "s/m") = 0.1 "Hunt-Crossley damping per unit elastic force";
+      parameter Real t_coat(unit = "m", min = 0) = 0 "Coating thickness (0 for bare fingers)";
+      parameter Real k_f(unit = "N/m", min = 0) = 1.46e6 "Finger stiffness (FEM)";
+      parameter Real k_obj(unit = "N/m", min = 0) = 3.53e7 "Object stiffness on one side (cylinder)";
+      parameter Real k_P(unit = "N/m", min = 0) = 1e12 "Coating first-region stiffness (1e12: no coating)";
+      parameter Real k_H_ratio(unit = "1", min = 0) = 100 "Coating second-region stiffness / first-region stiffness";
+      parameter Real d_lim(unit = "m", min = 0) = 0.0015 "Coating deflection at the region boundary";
+      parameter Real C_p(unit = "N.s/m", min = 0) = 2000 "Contact damping, first region";
+      parameter Real C_h(unit = "N.s/m", min = 0) = 2000 "Contact damping, second region";
+      parameter Real w_tr(unit = "m", min = 0) = 5e-6 "Width of the damping blend across the region boundary";
+      parameter Real lambda_hc(unit = "s/m", min = 0) = 0.1 "Hunt-Crossley damping per unit elastic force";
       parameter Real k_H(unit = "N/m") = k_H_ratio*k_P "Coating second-region stiffness";
       parameter Real c_1(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_P "Series compliance, coating first region";
       parameter Real c_2(unit = "m/N") = 1/k_f + 1/k_obj + 1/k_H "Series compliance, coating second region";
@@ -408,17 +408,17 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       // fingers (k_P = 1e12) give delta_c ~ 0 and the baseline force: the branch has nothing to relax.
       // Damping as in Components.FingerContact. k_rel = 0 is Components.FingerContact.
       parameter Real gap0(unit = "m") = 0.002 "Gap between the bare finger surface and the object at x = 0";
-      parameter Real t_coat(unit = "m") = 0 "Coating thickness (0 for bare fingers)";
-      parameter Real k_f(unit = "N/m") = 1.46e6 "Finger stiffness (FEM)";
-      parameter Real k_obj(unit = "N/m") = 3.53e7 "Object stiffness on one side (cylinder)";
-      parameter Real k_P(unit = "N/m") = 1e12 "Coating first-region stiffness (1e12: no coating)";
-      parameter Real k_H_ratio(unit = "1") = 100 "Coating second-region stiffness / first-region stiffness";
-      parameter Real d_lim(unit = "m") = 0.0015 "Coating deflection at the region boundary";
-      parameter Real C_p(unit = "N.s/m") = 2000 "Contact damping, first region";
-      parameter Real C_h(unit = "N.s/m") = 2000 "Contact damping, second region";
-      parameter Real w_tr(unit = "m") = 5e-6 "Width of the damping blend across the region boundary";
-      parameter Real k_rel(unit = "1") = 1 "Maxwell branch stiffness / coating first-region stiffness";
-      parameter Real tau_rel(unit = "s") = 0.1 "Relaxation time constant of the Maxwell branch";
+      parameter Real t_coat(unit = "m", min = 0) = 0 "Coating thickness (0 for bare fingers)";
+      parameter Real k_f(unit = "N/m", min = 0) = 1.46e6 "Finger stiffness (FEM)";
+      parameter Real k_obj(unit = "N/m", min = 0) = 3.53e7 "Object stiffness on one side (cylinder)";
+      parameter Real k_P(unit = "N/m", min = 0) = 1e12 "Coating first-region stiffness (1e12: no coating)";
+      parameter Real k_H_ratio(unit = "1", min = 0) = 100 "Coating second-region stiffness / first-region stiffness";
+      parameter Real d_lim(unit = "m", min = 0) = 0.0015 "Coating deflection at the region boundary";
+      parameter Real C_p(unit = "N.s/m", min = 0) = 2000 "Contact damping, first region";
+      parameter Real C_h(unit = "N.s/m", min = 0) = 2000 "Contact damping, second region";
+      parameter Real w_tr(unit = "m", min = 0) = 5e-6 "Width of the damping blend across the region boundary";
+      parameter Real k_rel(unit = "1", min = 0) = 1 "Maxwell branch stiffness / coating first-region stiffness";
+      parameter Real tau_rel(unit = "s", min = 0) = 0.1 "Relaxation time constant of the Maxwell branch";
       parameter Real k_H(unit = "N/m") = k_H_ratio*k_P "Coating second-region stiffness";
       parameter Real k_s(unit = "N/m") = 1/(1/k_f + 1/k_obj) "Finger and object in series";
       parameter Real k_m(unit = "N/m") = k_rel*k_P "Maxwell branch stiffness";
@@ -442,50 +442,50 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
 
   package Parameters "Shared top-level parameter declarations (values and sources: docs/models/gripper.md)"
     partial model MotorParameters "PMSM parameters"
-      parameter Real R_s(unit = "Ohm") = 0.45 "Stator phase resistance (estimate)";
-      parameter Real L_d(unit = "H") = 2.5e-4 "d-axis inductance (estimate)";
-      parameter Real L_q(unit = "H") = 2.5e-4 "q-axis inductance (estimate)";
+      parameter Real R_s(unit = "Ohm", min = 0) = 0.45 "Stator phase resistance (estimate)";
+      parameter Real L_d(unit = "H", min = 0) = 2.5e-4 "d-axis inductance (estimate)";
+      parameter Real L_q(unit = "H", min = 0) = 2.5e-4 "q-axis inductance (estimate)";
       parameter Integer p = 4 "Number of pole pairs (estimate)";
-      parameter Real k_t(unit = "N.m/A") = 0.0393939394 "Torque constant T/i_q = 0.13 N.m / 3.3 A";
-      parameter Real J_r(unit = "kg.m2") = 1e-5 "Rotor inertia (estimate)";
-      parameter Real J_g(unit = "kg.m2") = 1e-7 "Gearbox inertia at the motor side (estimate), rigid with the rotor";
-      parameter Real B_r(unit = "N.m.s/rad") = 1.01e-5 "Rotor viscous damping, eq. (6) (estimate)";
+      parameter Real k_t(unit = "N.m/A", min = 0) = 0.0393939394 "Torque constant T/i_q = 0.13 N.m / 3.3 A";
+      parameter Real J_r(unit = "kg.m2", min = 0) = 1e-5 "Rotor inertia (estimate)";
+      parameter Real J_g(unit = "kg.m2", min = 0) = 1e-7 "Gearbox inertia at the motor side (estimate), rigid with the rotor";
+      parameter Real B_r(unit = "N.m.s/rad", min = 0) = 1.01e-5 "Rotor viscous damping, eq. (6) (estimate)";
       parameter Real Psi_m(unit = "Wb") = k_t/p "Flux linkage, power-invariant Park: k_t = p*Psi_m";
     end MotorParameters;
 
     partial model DrivetrainParameters "Gear, play, rack-and-pinion, jaw and contact parameters"
-      parameter Real ratio(unit = "1") = 28 "Gear reduction ratio (paper)";
-      parameter Real eta_g(unit = "1") = 0.68 "Gear efficiency by direction of power flow (0.68 calibrated, 0.75 datasheet)";
-      parameter Real T_max(unit = "N.m") = 0.13 "Motor max torque in eq. (9) (estimate)";
-      parameter Real omega_max(unit = "rad/s") = 628.3185 "Gear max continuous input speed 6000 rpm (paper)";
+      parameter Real ratio(unit = "1", min = 0) = 28 "Gear reduction ratio (paper)";
+      parameter Real eta_g(unit = "1", min = 0, max = 1) = 0.68 "Gear efficiency by direction of power flow (0.68 calibrated, 0.75 datasheet)";
+      parameter Real T_max(unit = "N.m", min = 0) = 0.13 "Motor max torque in eq. (9) (estimate)";
+      parameter Real omega_max(unit = "rad/s", min = 0) = 628.3185 "Gear max continuous input speed 6000 rpm (paper)";
       parameter Real B_g(unit = "N.m.s/rad") = T_max*(1 - eta_g)*ratio^2/omega_max "Bearing damping at the gear output, eq. (9)";
-      parameter Real T_c0(unit = "N.m") = 7.88e-3 "No-load Coulomb drag at the motor shaft (0.2 A dead zone)";
-      parameter Real phi_b(unit = "rad") = 1e-3 "Presliding angle of the bristle frictions (motor side)";
-      parameter Real tau_b(unit = "s") = 1e-4 "Bristle relaxation time at high speed";
-      parameter Real s_ba(unit = "1") = 0.5 "Elastic fraction of the bristle range (elasto-plastic friction)";
-      parameter Real d_pre(unit = "N.m.s/rad") = 0 "Presliding damping of the motor-side drag, faded out above w_pre (0: none)";
-      parameter Real w_pre(unit = "rad/s") = 1 "Speed scale above which the presliding damping fades out";
-      parameter Real play(unit = "rad") = 0.013962634 "Total gear shaft play 0.8 deg (paper)";
-      parameter Real c_play(unit = "N.m/rad") = 1000 "Stiffness at the play stops (gear output)";
-      parameter Real d_play(unit = "N.m.s/rad") = 0.05 "Damping at the play stops (gear output)";
-      parameter Real r_p(unit = "m") = 0.008957 "Pinion pitch radius (estimate)";
-      parameter Real J_p(unit = "kg.m2") = 7.94e-7 "Pinion inertia (estimate)";
-      parameter Real m_jf(unit = "kg") = 0.08 "Jaw + finger mass, each (estimate)";
-      parameter Real eta_grease(unit = "Pa.s") = 0.2 "Grease dynamic viscosity (estimate)";
-      parameter Real S_i(unit = "m2") = 2e-4 "Area of each of the 4 sliding surfaces of a jaw (estimate)";
-      parameter Real d_grease(unit = "m") = 5e-5 "Grease layer thickness (estimate)";
-      parameter Real F_cj(unit = "N") = 0.0785 "Guide Coulomb friction per jaw, mu*R (estimate: 0.1*m_jf*g)";
-      parameter Real v_s(unit = "m/s") = 1e-4 "Regularisation velocity of the guide Coulomb friction";
+      parameter Real T_c0(unit = "N.m", min = 0) = 7.88e-3 "No-load Coulomb drag at the motor shaft (0.2 A dead zone)";
+      parameter Real phi_b(unit = "rad", min = 0) = 1e-3 "Presliding angle of the bristle frictions (motor side)";
+      parameter Real tau_b(unit = "s", min = 0) = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1", min = 0, max = 1) = 0.5 "Elastic fraction of the bristle range (elasto-plastic friction)";
+      parameter Real d_pre(unit = "N.m.s/rad", min = 0) = 0 "Presliding damping of the motor-side drag, faded out above w_pre (0: none)";
+      parameter Real w_pre(unit = "rad/s", min = 0) = 1 "Speed scale above which the presliding damping fades out";
+      parameter Real play(unit = "rad", min = 0) = 0.013962634 "Total gear shaft play 0.8 deg (paper)";
+      parameter Real c_play(unit = "N.m/rad", min = 0) = 1000 "Stiffness at the play stops (gear output)";
+      parameter Real d_play(unit = "N.m.s/rad", min = 0) = 0.05 "Damping at the play stops (gear output)";
+      parameter Real r_p(unit = "m", min = 0) = 0.008957 "Pinion pitch radius (estimate)";
+      parameter Real J_p(unit = "kg.m2", min = 0) = 7.94e-7 "Pinion inertia (estimate)";
+      parameter Real m_jf(unit = "kg", min = 0) = 0.08 "Jaw + finger mass, each (estimate)";
+      parameter Real eta_grease(unit = "Pa.s", min = 0) = 0.2 "Grease dynamic viscosity (estimate)";
+      parameter Real S_i(unit = "m2", min = 0) = 2e-4 "Area of each of the 4 sliding surfaces of a jaw (estimate)";
+      parameter Real d_grease(unit = "m", min = 0) = 5e-5 "Grease layer thickness (estimate)";
+      parameter Real F_cj(unit = "N", min = 0) = 0.0785 "Guide Coulomb friction per jaw, mu*R (estimate: 0.1*m_jf*g)";
+      parameter Real v_s(unit = "m/s", min = 0) = 1e-4 "Regularisation velocity of the guide Coulomb friction";
       parameter Real gap0(unit = "m") = 0.002 "Initial gap bare finger - object, per jaw (condition)";
-      parameter Real t_coat(unit = "m") = 0 "Coating thickness (condition: 0 bare, 0.0025 P1-P3)";
-      parameter Real k_f(unit = "N/m") = 1.46e6 "Finger stiffness, FEM (paper)";
-      parameter Real k_obj(unit = "N/m") = 3.53e7 "Object stiffness per side (condition: ABS 3.53e7, aluminium 1.2e9)";
-      parameter Real k_P(unit = "N/m") = 1e12 "Coating first-region stiffness (condition: 1e12 bare)";
-      parameter Real k_H_ratio(unit = "1") = 100 "Coating second/first region stiffness ratio (paper)";
-      parameter Real d_lim(unit = "m") = 0.0015 "Coating deflection at the region boundary (estimate)";
-      parameter Real C_p(unit = "N.s/m") = 2000 "Contact damping, first region (condition: 10 coatings, 2000 bare)";
-      parameter Real C_h(unit = "N.s/m") = 2000 "Contact damping, second region (paper)";
-      parameter Real w_tr(unit = "m") = 5e-6 "Width of the damping blend across the coating region boundary";
+      parameter Real t_coat(unit = "m", min = 0) = 0 "Coating thickness (condition: 0 bare, 0.0025 P1-P3)";
+      parameter Real k_f(unit = "N/m", min = 0) = 1.46e6 "Finger stiffness, FEM (paper)";
+      parameter Real k_obj(unit = "N/m", min = 0) = 3.53e7 "Object stiffness per side (condition: ABS 3.53e7, aluminium 1.2e9)";
+      parameter Real k_P(unit = "N/m", min = 0) = 1e12 "Coating first-region stiffness (condition: 1e12 bare)";
+      parameter Real k_H_ratio(unit = "1", min = 0) = 100 "Coating second/first region stiffness ratio (paper)";
+      parameter Real d_lim(unit = "m", min = 0) = 0.0015 "Coating deflection at the region boundary (estimate)";
+      parameter Real C_p(unit = "N.s/m", min = 0) = 2000 "Contact damping, first region (condition: 10 coatings, 2000 bare)";
+      parameter Real C_h(unit = "N.s/m", min = 0) = 2000 "Contact damping, second region (paper)";
+      parameter Real w_tr(unit = "m", min = 0) = 5e-6 "Width of the damping blend across the coating region boundary";
     end DrivetrainParameters;
   end Parameters;
 
@@ -587,7 +587,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real tau_load(unit = "N.m") "Load torque on the motor shaft, against positive rotation";
     output Real F_g(unit = "N") "Gripping force (load cell)";
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
-    parameter Real k_c(unit = "1/s") = 2000 "Correction rate of the motor-angle reconstruction";
+    parameter Real k_c(unit = "1/s", min = 0) = 2000 "Correction rate of the motor-angle reconstruction";
     Gripper.Components.AngleReconstruction shaft(k_c = k_c) "Motor angle between communication points";
     replaceable Gripper.DrivetrainMechanics drive(ratio = ratio, eta_g = eta_g, T_max = T_max, omega_max = omega_max, B_g = B_g, T_c0 = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, d_pre = d_pre, w_pre = w_pre, play = play, c_play = c_play, d_play = d_play, r_p = r_p, J_p = J_p, m_jf = m_jf, eta_grease = eta_grease, S_i = S_i, d_grease = d_grease, F_cj = F_cj, v_s = v_s, gap0 = gap0, t_coat = t_coat, k_f = k_f, k_obj = k_obj, k_P = k_P, k_H_ratio = k_H_ratio, d_lim = d_lim, C_p = C_p, C_h = C_h, w_tr = w_tr) "Gear, jaws and contacts";
   equation

@@ -50,8 +50,8 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
 
     model Skin "The 7-parameter user: m2 (hand lumped in) held by the skin ks, bs to the user's reference (default of Device7's slot hand)"
       extends HandSlot;
-      parameter Real ks(unit = "N.m/rad") = 1.6 "Stylus/skin stiffness of m2 to the user's reference";
-      parameter Real bs(unit = "N.m.s/rad") = 0.09 "Stylus/skin damping of m2 to the user's reference";
+      parameter Real ks(unit = "N.m/rad", min = 0) = 1.6 "Stylus/skin stiffness of m2 to the user's reference";
+      parameter Real bs(unit = "N.m.s/rad", min = 0) = 0.09 "Stylus/skin damping of m2 to the user's reference";
     equation
       tau = -ks*(phi_s - phi_ref) - bs*w_s + tau_h;
       tau_b = 0;
@@ -64,12 +64,12 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
       // skin and the user's reference, which adds the pole/zero pair of the hand (seed 000 Sec. II-D); the
       // 11-parameter form also separates the stylus's own viscous friction b2 to ground.
       extends Haptic.Interfaces.HandSlot;
-      parameter Real mh(unit = "kg.m2") = 0.005 "Hand inertia at the phi axis";
-      parameter Real bh(unit = "N.m.s/rad") = 0.2 "Damping of the hand to the user's reference";
-      parameter Real kh(unit = "N.m/rad") = 3 "Stiffness of the hand to the user's reference";
-      parameter Real ks(unit = "N.m/rad") = 3.5 "Stylus/skin stiffness between the stylus and the hand";
-      parameter Real bs(unit = "N.m.s/rad") = 0.02 "Stylus/skin damping between the stylus and the hand";
-      parameter Real b2(unit = "N.m.s/rad") = 0.02 "Viscous friction of the stylus (m2) to ground";
+      parameter Real mh(unit = "kg.m2", min = 0) = 0.005 "Hand inertia at the phi axis";
+      parameter Real bh(unit = "N.m.s/rad", min = 0) = 0.2 "Damping of the hand to the user's reference";
+      parameter Real kh(unit = "N.m/rad", min = 0) = 3 "Stiffness of the hand to the user's reference";
+      parameter Real ks(unit = "N.m/rad", min = 0) = 3.5 "Stylus/skin stiffness between the stylus and the hand";
+      parameter Real bs(unit = "N.m.s/rad", min = 0) = 0.02 "Stylus/skin damping between the stylus and the hand";
+      parameter Real b2(unit = "N.m.s/rad", min = 0) = 0.02 "Viscous friction of the stylus (m2) to ground";
       Real phih(unit = "rad", start = 0.0, fixed = true) "Hand angle";
       Real wh(unit = "rad/s", start = 0.0, fixed = true) "Hand angular velocity";
     equation
@@ -83,9 +83,9 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
       // Seen from the encoder, any further lightly damped structural mode (a link, the gimbal, the base) adds an
       // antiresonance/resonance pair; lumped here as a side resonator with its own frequency sqrt(k3/m3).
       extends Haptic.Interfaces.ModeSlot;
-      parameter Real m3(unit = "kg.m2") = 0.0005 "Modal inertia at the phi axis";
-      parameter Real k3(unit = "N.m/rad") = 70 "Modal stiffness";
-      parameter Real b3(unit = "N.m.s/rad") = 0.01 "Modal damping";
+      parameter Real m3(unit = "kg.m2", min = 0) = 0.0005 "Modal inertia at the phi axis";
+      parameter Real k3(unit = "N.m/rad", min = 0) = 70 "Modal stiffness";
+      parameter Real b3(unit = "N.m.s/rad", min = 0) = 0.01 "Modal damping";
       Real phi3(unit = "rad", start = 0.0, fixed = true) "Modal angle";
       Real w3(unit = "rad/s", start = 0.0, fixed = true) "Modal angular velocity";
     equation
@@ -99,7 +99,7 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
       // phase within 0.1 deg of -wT up to wT = 2.1 rad, 1 deg at 3.1 rad (docs/guide/diagnose.md). Written as
       // N/D = 2 (1 + (sT)^2/10)/D - 1 with D(s) z = u. Needs T > 0.
       extends Haptic.Interfaces.DelaySlot;
-      parameter Real T(unit = "s") = 1e-3 "Delay";
+      parameter Real T(unit = "s", min = 0) = 1e-3 "Delay";
       Real z(unit = "N.m", start = 0.0, fixed = true) "Filter state: D(s) z = u";
       Real dz(unit = "N.m/s", start = 0.0, fixed = true) "der(z)";
       Real ddz(unit = "N.m/s2", start = 0.0, fixed = true) "der(dz)";
@@ -112,11 +112,11 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
   end Effects;
 
   partial model Device "PHANToM phi axis: motor-side mass m1 and stylus-side mass m2 coupled by kc, bc; b1, b2 to ground"
-    parameter Real m1(unit = "kg.m2") = 0.0009 "Motor-side inertia (Table I m1)";
-    parameter Real b1(unit = "N.m.s/rad") = 0.04 "Viscous friction of m1 to ground";
-    parameter Real bc(unit = "N.m.s/rad") = 0.07 "Damping of the coupling m1-m2 (first vibration mode)";
-    parameter Real kc(unit = "N.m/rad") = 94 "Stiffness of the coupling m1-m2 (first vibration mode)";
-    parameter Real m2(unit = "kg.m2") = 0.0013 "Stylus-side inertia (with the lumped user in the 7-parameter form)";
+    parameter Real m1(unit = "kg.m2", min = 0) = 0.0009 "Motor-side inertia (Table I m1)";
+    parameter Real b1(unit = "N.m.s/rad", min = 0) = 0.04 "Viscous friction of m1 to ground";
+    parameter Real bc(unit = "N.m.s/rad", min = 0) = 0.07 "Damping of the coupling m1-m2 (first vibration mode)";
+    parameter Real kc(unit = "N.m/rad", min = 0) = 94 "Stiffness of the coupling m1-m2 (first vibration mode)";
+    parameter Real m2(unit = "kg.m2", min = 0) = 0.0013 "Stylus-side inertia (with the lumped user in the 7-parameter form)";
     input Real tau(unit = "N.m") "Motor torque mapped to the phi axis";
     input Real phi_ref(unit = "rad") "User's intended position: reference of the user's grounded elements";
     input Real tau_h(unit = "N.m") "Extra torque the user's hand applies (intent)";
@@ -142,12 +142,12 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
 
   model Device11 "Device + user, 11-parameter form (seed 000 eq. 2, Fig. 5 top): stylus/skin ks, bs to a hand mass mh held by kh, bh"
     extends Device;
-    parameter Real b2(unit = "N.m.s/rad") = 0.02 "Viscous friction of m2 to ground";
-    parameter Real bs(unit = "N.m.s/rad") = 0.02 "Stylus/skin damping between m2 and the hand";
-    parameter Real ks(unit = "N.m/rad") = 3.5 "Stylus/skin stiffness between m2 and the hand";
-    parameter Real mh(unit = "kg.m2") = 0.0042 "Hand inertia at the phi axis";
-    parameter Real bh(unit = "N.m.s/rad") = 0.1 "Damping of the hand to the user's reference";
-    parameter Real kh(unit = "N.m/rad") = 2.3 "Stiffness of the hand to the user's reference";
+    parameter Real b2(unit = "N.m.s/rad", min = 0) = 0.02 "Viscous friction of m2 to ground";
+    parameter Real bs(unit = "N.m.s/rad", min = 0) = 0.02 "Stylus/skin damping between m2 and the hand";
+    parameter Real ks(unit = "N.m/rad", min = 0) = 3.5 "Stylus/skin stiffness between m2 and the hand";
+    parameter Real mh(unit = "kg.m2", min = 0) = 0.0042 "Hand inertia at the phi axis";
+    parameter Real bh(unit = "N.m.s/rad", min = 0) = 0.1 "Damping of the hand to the user's reference";
+    parameter Real kh(unit = "N.m/rad", min = 0) = 2.3 "Stiffness of the hand to the user's reference";
     Real phih(unit = "rad", start = 0.0, fixed = true) "Hand angle";
     Real wh(unit = "rad/s", start = 0.0, fixed = true) "Hand angular velocity";
     replaceable Haptic.Interfaces.NoDelay delay constrainedby Haptic.Interfaces.DelaySlot "Loop delay of the torque command (none)";
@@ -165,8 +165,8 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
 
   model Device7 "Device + user, 7-parameter form (seed 000 eq. 9, Fig. 5 bottom): m2 (hand lumped in) held by ks, bs"
     extends Device(m1 = 0.0008, m2 = 0.00295, b1 = 0.042, bc = 0.04, kc = 100);
-    parameter Real bs(unit = "N.m.s/rad") = 0.09 "Stylus/skin damping of m2 to the user's reference";
-    parameter Real ks(unit = "N.m/rad") = 1.6 "Stylus/skin stiffness of m2 to the user's reference";
+    parameter Real bs(unit = "N.m.s/rad", min = 0) = 0.09 "Stylus/skin damping of m2 to the user's reference";
+    parameter Real ks(unit = "N.m/rad", min = 0) = 1.6 "Stylus/skin stiffness of m2 to the user's reference";
     replaceable Haptic.Interfaces.Skin hand(ks = ks, bs = bs) constrainedby Haptic.Interfaces.HandSlot "The user's hand (the skin only)";
     replaceable Haptic.Interfaces.NoDelay delay constrainedby Haptic.Interfaces.DelaySlot "Loop delay of the torque command (none)";
     replaceable Haptic.Interfaces.NoMode mode constrainedby Haptic.Interfaces.ModeSlot "Second vibration mode, hung on m1 (none)";
@@ -185,13 +185,13 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
 
   model DeviceArm "Device + the Fu arm (seed 001 eq. 1) at point A, r from the phi axis: grasp k1, b1 to the arm mass M held by k2, b2"
     extends Device;
-    parameter Real b2(unit = "N.m.s/rad") = 0.02 "Viscous friction of m2 to ground";
-    parameter Real r(unit = "m") = 0.17 "Distance from the phi axis to point A (gimbal centre)";
-    parameter Real M(unit = "kg") = 0.2179 "Arm mass";
-    parameter Real k1(unit = "N/m") = 379.5 "Grasp stiffness (stylus to arm mass)";
-    parameter Real b1a(unit = "N.s/m") = 1.839 "Grasp damping (stylus to arm mass); b1 of seed 001";
-    parameter Real k2(unit = "N/m") = 78.75 "Arm stiffness (arm mass to the user's reference)";
-    parameter Real b2a(unit = "N.s/m") = 4.645 "Arm damping (arm mass to ground); b2 of seed 001";
+    parameter Real b2(unit = "N.m.s/rad", min = 0) = 0.02 "Viscous friction of m2 to ground";
+    parameter Real r(unit = "m", min = 0) = 0.17 "Distance from the phi axis to point A (gimbal centre)";
+    parameter Real M(unit = "kg", min = 0) = 0.2179 "Arm mass";
+    parameter Real k1(unit = "N/m", min = 0) = 379.5 "Grasp stiffness (stylus to arm mass)";
+    parameter Real b1a(unit = "N.s/m", min = 0) = 1.839 "Grasp damping (stylus to arm mass); b1 of seed 001";
+    parameter Real k2(unit = "N/m", min = 0) = 78.75 "Arm stiffness (arm mass to the user's reference)";
+    parameter Real b2a(unit = "N.s/m", min = 0) = 4.645 "Arm damping (arm mass to ground); b2 of seed 001";
     Real xA(unit = "m") "Stylus position at point A (arc length r*phi2)";
     Real vA(unit = "m/s") "Stylus velocity at point A";
     Real xM(unit = "m", start = 0.0, fixed = true) "Arm mass position";
@@ -214,11 +214,11 @@ package Haptic "PHANToM Premium 1.0 phi axis held by a user (Puerto et al. 2012,
   end DeviceArm;
 
   model Arm "Fu arm alone (seed 001 eq. 1): force at the stylus in, stylus position out; the stylus point is massless"
-    parameter Real M(unit = "kg") = 0.2179 "Arm mass";
-    parameter Real k1(unit = "N/m") = 379.5 "Grasp stiffness (stylus to arm mass)";
-    parameter Real b1(unit = "N.s/m") = 1.839 "Grasp damping (stylus to arm mass)";
-    parameter Real k2(unit = "N/m") = 78.75 "Arm stiffness (arm mass to ground)";
-    parameter Real b2(unit = "N.s/m") = 4.645 "Arm damping (arm mass to ground)";
+    parameter Real M(unit = "kg", min = 0) = 0.2179 "Arm mass";
+    parameter Real k1(unit = "N/m", min = 0) = 379.5 "Grasp stiffness (stylus to arm mass)";
+    parameter Real b1(unit = "N.s/m", min = 0) = 1.839 "Grasp damping (stylus to arm mass)";
+    parameter Real k2(unit = "N/m", min = 0) = 78.75 "Arm stiffness (arm mass to ground)";
+    parameter Real b2(unit = "N.s/m", min = 0) = 4.645 "Arm damping (arm mass to ground)";
     input Real F(unit = "N") "Force applied at the stylus (force sensor)";
     output Real x(unit = "m") "Stylus (gimbal centre) position";
     Real x1(unit = "m", start = 0.0, fixed = true) "Stylus point position";
