@@ -80,3 +80,23 @@ def test_build_misspelt_model_name(tmp_path, capsys, source, model, meant):
     root = EXAMPLES.parent
     err = _fails(capsys, ["build", str(root / source), "--model", model, "--out", str(tmp_path / "f")])
     assert f"no model named {model!r}" in err and f"did you mean {meant}" in err
+
+
+# ---------------------------------------------------------------------------------------------- unbalanced models
+# Each model's excess counted by hand: which unknowns no equation determines, which equations determine one unknown
+@pytest.mark.parametrize("body, expected", [
+    ("  Real x(start = 1);\n  Real y;\n  Real z;\nequation\n  der(x) = -x;\n  y = 2 * x;\n",
+     "M.mo:4: model M is unbalanced (2 equations for 3 unknowns): 1 equation missing: z (M.mo:4) in no equation"),
+    ("  Real x(start = 1);\n  Real y;\n  Real z;\nequation\n  der(x) = -x;\n  y + z = x;\n",
+     "1 equation missing: y (M.mo:3), z (M.mo:4) determined only by the equations at M.mo:7, too few for them"),
+    ("  Real x(start = 1);\n  Real y;\nequation\n  der(x) = -x;\n  y = 2 * x;\n  y = 3 * x;\n",
+     "model M is unbalanced (3 equations for 2 unknowns): 1 equation too many: the equations at M.mo:6, M.mo:7 "
+     "determine y (M.mo:3), 1 unknown"),
+    ("  Real x(start = 1);\nequation\n  der(x) = -x;\n  x = 2;\n",
+     "1 equation too many: M.mo:5 determine(s) no unknown (only states, parameters, inputs or constants)"),
+])
+def test_unbalanced_model_names_what_is_in_excess_with_its_line(tmp_path, capsys, body, expected):
+    (tmp_path / "M.mo").write_text(f"model M\n{body}end M;\n")
+    err = _fails(capsys, ["build", str(tmp_path / "M.mo"), "--model", "M", "--out", str(tmp_path / "f")])
+    assert expected.replace("M.mo", f"{tmp_path}/M.mo") in err
+    assert "b1c_definition" not in err and "rumoca" not in err  # before: rumoca's internal counts, no line

@@ -7,13 +7,14 @@ import tomllib
 from pathlib import Path
 
 from cosim import __version__
+from cosim.compile.balance import unbalanced_error
 from cosim.compile.divisions import check_divisions
 from cosim.compile.export import DEFAULT_CS_STEP, METHODS, export_fmu
 from cosim.compile.frontend import load_flat_model
 from cosim.compile.library import library_fingerprint, library_path
 from cosim.compile.lower import lower_system
 from cosim.compile.translate import translate
-from cosim.errors import BuildError, ConfigError
+from cosim.errors import BuildError, ConfigError, StructureError
 
 __all__ = ["lower", "build_fmu", "build_all", "mark_fmu_folder", "read_model_list"]
 
@@ -62,14 +63,25 @@ def lower(path, model, modelica_path=()):
     LoweredModel
     """
     if path is not None and not Path(path).is_file():
-        return lower_system(translate(load_flat_model(path, model, modelica_path)))  # the loader's error
+        return _lower_once(path, model, modelica_path)  # the loader's error
     key = _source_key(path, model, modelica_path)
     if key not in _LOWERED:
-        lowered = lower_system(translate(load_flat_model(path, model, modelica_path)))
+        lowered = _lower_once(path, model, modelica_path)
         if len(_LOWERED) >= _LOWERED_KEPT:
             del _LOWERED[next(iter(_LOWERED))]
         _LOWERED[key] = lowered
     return _LOWERED[key]
+
+
+def _lower_once(path, model, modelica_path):
+    """Load, translate and lower ``model``; an unbalanced one names what it has in excess (cosim.compile.balance)."""
+    try:
+        flat = load_flat_model(path, model, modelica_path)
+    except StructureError as err:
+        if getattr(err, "padded", None) is None:
+            raise
+        raise unbalanced_error(err, translate(err.padded)) from None
+    return lower_system(translate(flat))
 
 
 def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_version=3, source=False,

@@ -13,7 +13,7 @@ from cosim.compile.der_expressions import rewrite_der_expressions
 from cosim.compile.library import describe_path, find_class_file, library_session
 from cosim.compile.source_text import locate_rumoca_error
 from cosim.errors import ModelicaError, StructureError
-from cosim.modelica_text import check_redeclares, line_of, model_names
+from cosim.modelica_text import check_redeclares, find_class, line_of, model_names
 from cosim.tomldoc import read_text
 
 __all__ = ["FlatModel", "load_flat_model"]
@@ -123,7 +123,41 @@ def load_flat_model(path, model, modelica_path=()):
         try:
             ir = _load(path, model, files, Path(scratch), roots)
         except rumoca.RumocaError as err:
-            raise _front_end_error(err, path, model, files, roots) from err
+            error = _front_end_error(err, path, model, files, roots)
+            if isinstance(error, StructureError) and not roots:
+                error.padded = _padded(path, model, files, str(err))
+            raise error from err
+    return FlatModel(name=model, path=path, ir=ir)
+
+
+_BALANCE = re.compile(r"balance = (-?\d+)")
+PAD = "_cosim_pad_"  # the names of the unknowns :func:`_padded` adds
+
+
+def _padded(path, model, files, text):
+    """The IR of an unbalanced ``model`` made square for rumoca, so that its equations and unknowns can be told
+    apart (:mod:`cosim.compile.balance`): ``n`` equations ``0.0 = 0.0`` added when it lacks ``n``, ``n`` unknowns
+    ``PAD1..`` (in no equation) when it has ``n`` too many. None when the model's text cannot be padded."""
+    found = _BALANCE.search(text)
+    source = path.read_text(encoding="utf-8")
+    body = find_class(source, model) if found else None
+    if body is None:
+        return None
+    n = int(found.group(1))
+    end = source.index(body) + len(body) - len(body.rsplit("\n", 1)[-1])  # the start of the "end Model;" line
+    pad = (f"equation\n" + "  0.0 = 0.0;\n" * -n if n < 0 else
+           "public\n" + "".join(f"  Real {PAD}{k};\n" for k in range(n)))
+    with tempfile.TemporaryDirectory(prefix="cosim-balance-") as scratch:
+        for mo in files:
+            text_of = source[:end] + pad + source[end:] if mo == path else mo.read_text(encoding="utf-8")
+            (Path(scratch) / mo.name).write_text(text_of, encoding="utf-8")
+        try:
+            ir = rumoca.Session().load(str(Path(scratch) / path.name), model=model).to_dict("dae")
+        except rumoca.RumocaError:
+            return None
+        originals = {str(Path(scratch) / mo.name): str(mo) for mo in files}
+        ir["source_map"]["files"] = [[file_id, originals.get(name, name), text]
+                                     for file_id, name, text in ir["source_map"]["files"]]
     return FlatModel(name=model, path=path, ir=ir)
 
 
