@@ -1,22 +1,29 @@
-"""Mutated job and config files for the fuzz test (tests/test_fuzz.py) and its long run (benchmarks/fuzz.py).
+"""Mutated job and config files, and haptic table requests and arguments, for the fuzz test (tests/test_fuzz.py) and
+its long run (benchmarks/fuzz.py).
 
 A case is a shipped example's TOML text with a few mutations a user could make: a value replaced by a value of
 any type (numbers out of range, strings, lists, tables), a line deleted or duplicated, a key renamed, and
 ``--set`` overrides on existing, extended or made-up key paths with any value or any text. :func:`check` loads the
 case with the real loader and returns the class of the project's error it raised (or "ok"); any other exception
-escapes, which is the failure the fuzz looks for.
+escapes, which is the failure the fuzz looks for. :func:`haptic_cases` and :func:`check_haptic` do the same for the
+haptic command: its table loaders called with any value, its arguments parsed from any text.
 """
 
+import math
 import re
 import tomllib
+import warnings
 from pathlib import Path
 
 from hypothesis import strategies as st
 
 from cosim.calibrate.job import load_job
+from cosim.campaign.job import load_campaign
+from cosim.cli import make_parser
 from cosim.config import load_config
 from cosim.diagnose.job import load_diagnose_job
-from cosim.errors import CosimError
+from cosim.errors import CosimError, ScaleWarning
+from cosim.haptic.params import load_arm_params, load_uncertainty_weight, load_user_params, user_params_table
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -26,10 +33,14 @@ EXAMPLES = {
     "run": ["gripper_static.toml", "gripper_impact_split.toml"],
     "calibrate": ["calibrate_static.toml", "calibrate_contact.toml"],
     "diagnose": ["diagnose_haptic.toml"],
+    "campaign": ["campaign_table1.toml"],
 }
-LOADERS = {"run": load_config, "calibrate": load_job, "diagnose": load_diagnose_job}
+LOADERS = {"run": load_config, "calibrate": load_job, "diagnose": load_diagnose_job, "campaign": load_campaign}
+# the shipped files a mutated example names (the campaign's coatings' run configs), linked beside it
+_BESIDE = ["gripper_impact.toml", "gripper_impact_p3.toml"]
 
-_WORDS = ["plant", "foc", "outer", "F_g", "rate", "x", "0", "signals", "parameters", "class", "path", "kind"]
+_WORDS = ["plant", "foc", "outer", "F_g", "rate", "x", "0", "signals", "parameters", "class", "path", "kind",
+          "campaign", "coatings", "sources", "trials", "P3", "config"]
 _STRINGS = st.sampled_from(["", "plant.F_g", "plant.nope", "controllers.foc:FOC", ":FOC", ".foc:FOC", "foc:",
                             "nope.py:X", "../fmus/GripperPlant.fmu", "data/static_paper.csv", "rk4", "none",
                             "static", "frequency", "x.y.z", "ME", "CS", "auto"]) | st.text(max_size=12)
@@ -112,6 +123,9 @@ def workspace(tmp, fmus):
                          (tmp / "examples" / "data", ROOT / "examples" / "data")):
         if not link.exists():
             link.symlink_to(target, target_is_directory=True)
+    for name in _BESIDE:
+        if not (tmp / "examples" / name).exists():
+            (tmp / "examples" / name).symlink_to(ROOT / "examples" / name)
     return tmp / "examples"
 
 
@@ -122,10 +136,59 @@ def check(loader, folder, case):
     path = Path(folder) / name
     path.write_text(text, encoding="utf-8")
     try:
-        LOADERS[loader](path, overrides)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ScaleWarning)  # a rate far from the plant's scale: said, not refused
+            LOADERS[loader](path, overrides)
     except CosimError as err:
         return type(err).__name__
     return "ok"
 
 
-__all__ = ["EXAMPLES", "LOADERS", "VALUES", "cases", "check", "workspace", "toml_value"]
+# the haptic command: its table loaders (a request of any value), and its sub-commands' arguments (any text)
+HAPTIC_LOADERS = {"user": load_user_params, "arm": load_arm_params, "weight": load_uncertainty_weight,
+                  "table": user_params_table}
+_HAPTIC_ARGS = {"margins": ["--K", "--rate"], "collisions": ["--users", "--K", "--rate"],
+                "identify": ["--user", "--position", "--seed"], "arm": ["--seed"]}
+_TOKENS = (st.sampled_from(["1", "0", "-1", "13", "14", "nan", "inf", "-inf", "1e400", "1,2", "1,x", "", " 3",
+                            "0x10", "1.5", "10", "1e-300"]) | st.text(max_size=8))
+
+
+@st.composite
+def haptic_cases(draw):
+    """("loader", name, positional values) or ("arguments", argv): a haptic table request or a command line."""
+    if draw(st.booleans()):
+        sub = draw(st.sampled_from(sorted(_HAPTIC_ARGS)))
+        argv = ["haptic", sub, "--out", "out"]
+        for flag in draw(st.lists(st.sampled_from(_HAPTIC_ARGS[sub]), max_size=3)):
+            argv += [flag, draw(_TOKENS)]
+        return "arguments", argv
+    name = draw(st.sampled_from(sorted(HAPTIC_LOADERS)))
+    anything = VALUES | st.sampled_from([1, 3, 6, 7, 11, 13, "X", "Z", "nominal", "max", "67ci", 2, 5e-4])
+    least, most = {"user": (2, 4), "arm": (1, 2), "weight": (1, 2), "table": (0, 1)}[name]  # required, all
+    return "loader", name, tuple(draw(anything) for _ in range(draw(st.integers(least, most))))
+
+
+def check_haptic(case):
+    """Run a haptic case: a loader returns or raises a CosimError ("ok" or its name); arguments parse (their
+    numbers then finite and positive where the command needs it) or argparse refuses them (exit status 2). Any
+    other exception propagates."""
+    if case[0] == "loader":
+        try:
+            HAPTIC_LOADERS[case[1]](*case[2])
+        except CosimError as err:
+            return type(err).__name__
+        return "ok"
+    try:
+        args = make_parser().parse_args(case[1])
+    except SystemExit as refused:
+        assert refused.code == 2
+        return "refused"
+    for key in ("K", "rate"):
+        value = getattr(args, key, 1.0)
+        assert math.isfinite(value) and value > 0, (key, value)
+    assert getattr(args, "seed", 0) >= 0
+    return "ok"
+
+
+__all__ = ["EXAMPLES", "LOADERS", "VALUES", "cases", "check", "workspace", "toml_value", "haptic_cases",
+           "check_haptic", "HAPTIC_LOADERS"]

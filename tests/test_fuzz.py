@@ -1,10 +1,11 @@
-"""Fuzz of the run-config, calibration-job and diagnosis-job loaders and of ``--set``: the shipped examples with
-mutated values, lines, keys and overrides (tests/fuzz_cases.py) must load or raise one of the project's own
-errors (a CosimError subclass); any other exception is a bug. benchmarks/fuzz.py runs the same cases by the
-ten thousand and counts them by error class."""
+"""Fuzz of the run-config, calibration-job, diagnosis-job and campaign-job loaders and of ``--set`` (every command
+that takes it): the shipped examples with mutated values, lines, keys and overrides (tests/fuzz_cases.py) must
+load or raise one of the project's own errors (a CosimError subclass); any other exception is a bug. The haptic
+command's table loaders and arguments likewise. benchmarks/fuzz.py runs the same cases by the ten thousand and
+counts them by error class."""
 
 import pytest
-from fuzz_cases import cases, check, workspace
+from fuzz_cases import cases, check, check_haptic, haptic_cases, workspace
 from hypothesis import HealthCheck, given, settings
 from test_master_support import gripper_dir  # noqa: F401
 
@@ -34,3 +35,16 @@ def test_calibration_job_loader_raises_only_cosim_errors(folder, case):
 @given(case=cases("diagnose"))
 def test_diagnosis_job_loader_raises_only_cosim_errors(folder, case):
     assert check("diagnose", folder, case)
+
+
+@settings(max_examples=300, **_SETTINGS)
+@given(case=cases("campaign"))
+def test_campaign_job_loader_raises_only_cosim_errors(folder, case):
+    assert check("campaign", folder, case)
+
+
+@settings(max_examples=400, **_SETTINGS)
+@given(case=haptic_cases())
+def test_haptic_loaders_and_arguments_raise_only_cosim_errors(case, capsys):
+    assert check_haptic(case)
+    capsys.readouterr()  # argparse's usage lines for the refused arguments

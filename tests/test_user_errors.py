@@ -100,3 +100,16 @@ def test_unbalanced_model_names_what_is_in_excess_with_its_line(tmp_path, capsys
     err = _fails(capsys, ["build", str(tmp_path / "M.mo"), "--model", "M", "--out", str(tmp_path / "f")])
     assert expected.replace("M.mo", f"{tmp_path}/M.mo") in err
     assert "b1c_definition" not in err and "rumoca" not in err  # before: rumoca's internal counts, no line
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["margins", "--K", "nan"], "argument --K: expected a number > 0 in N.m/rad; got 'nan'"),
+    (["margins", "--rate", "0"], "argument --rate: expected a number > 0 in Hz; got '0'"),
+    (["arm", "--seed", "-1"], "argument --seed: expected a whole number >= 0; got '-1'"),
+])
+def test_haptic_arguments_out_of_range_are_refused_by_the_parser(tmp_path, capsys, argv, expected):
+    # before: a ValueError traceback from cosim.haptic.margins, or from numpy's seeding
+    with pytest.raises(SystemExit) as refused:
+        main(["haptic", *argv, "--out", str(tmp_path / "o")])
+    assert refused.value.code == 2 and expected in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()

@@ -198,10 +198,13 @@ def _coatings(tables, camp, base, problems):
         if not isinstance(params, dict):
             problems.add(("coatings", name, "parameters"), "must be a table of FMU parameter values")
             params = {}
+        numbers = {}
         for k, v in params.items():
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 problems.add(("coatings", name, "parameters", k), f"must be a number; got {v!r}")
-        out.append(Coating(name, path, {k: float(v) for k, v in params.items()}))
+            else:
+                numbers[k] = float(v)
+        out.append(Coating(name, path, numbers))
     return tuple(out)
 
 
@@ -213,7 +216,7 @@ def _sources(tables, problems):
             problems.add(where, "must be a table: distribution, its two numbers, reason")
             continue
         dist = t.get("distribution")
-        if dist not in _DISTRIBUTIONS:
+        if not isinstance(dist, str) or dist not in _DISTRIBUTIONS:
             problems.add(where + ("distribution",), f"must be one of {', '.join(_DISTRIBUTIONS)}; got {dist!r}")
             continue
         keys = _DISTRIBUTIONS[dist]

@@ -47,6 +47,32 @@ def _int_list(text, flag):
         raise CosimError(f"{flag}: expected comma-separated integers such as 1,2,3; got {text!r}") from err
 
 
+def _positive(unit):
+    """An argparse type: a finite number > 0 (a wall stiffness, a loop rate), refused with its unit otherwise."""
+    import argparse
+    import math
+
+    def read(text):
+        try:
+            value = float(text)
+        except ValueError:
+            value = None
+        if value is None or not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"expected a number > 0 in {unit}; got {text!r}")
+        return value
+
+    return read
+
+
+def _seed(text):
+    """An argparse type: a noise seed, a whole number >= 0 (what numpy's generators take)."""
+    import argparse
+
+    if not text.strip().isdigit():
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0; got {text!r}")
+    return int(text)
+
+
 def add_haptic_parser(sub):
     """Add the ``haptic`` command and its subcommands to an argparse subparsers object."""
     p = sub.add_parser(
@@ -67,8 +93,8 @@ def add_haptic_parser(sub):
             "OUT/margins.png (with --adaptive also the damping table tuned on user 1 and the damped margins)."
         ),
     )
-    m.add_argument("--K", type=float, default=10.0, help="wall stiffness, N.m/rad (default 10)")
-    m.add_argument("--rate", type=float, default=1000.0, help="haptic loop rate, Hz (default 1000)")
+    m.add_argument("--K", type=_positive("N.m/rad"), default=10.0, help="wall stiffness, N.m/rad (default 10)")
+    m.add_argument("--rate", type=_positive("Hz"), default=1000.0, help="haptic loop rate, Hz (default 1000)")
     m.add_argument("--adaptive", action="store_true", help="also tune B per position for PM >= 50 deg (user 1)")
     m.add_argument("--out", required=True, help="output directory")
     m.set_defaults(func=_cmd_margins)
@@ -84,8 +110,8 @@ def add_haptic_parser(sub):
     )
     c.add_argument("--users", default="1", help="comma-separated users, 1..13 (default 1)")
     c.add_argument("--adaptive", action="store_true", help="use the adaptive damping table (tuned on user 1)")
-    c.add_argument("--K", type=float, default=10.0, help="wall stiffness, N.m/rad (default 10)")
-    c.add_argument("--rate", type=float, default=1000.0, help="haptic loop rate, Hz (default 1000)")
+    c.add_argument("--K", type=_positive("N.m/rad"), default=10.0, help="wall stiffness, N.m/rad (default 10)")
+    c.add_argument("--rate", type=_positive("Hz"), default=1000.0, help="haptic loop rate, Hz (default 1000)")
     c.add_argument("--fmus", default="fmus", help="folder with the built Haptic FMUs (default fmus)")
     c.add_argument("--out", required=True, help="output directory")
     c.set_defaults(func=_cmd_collisions)
@@ -102,7 +128,7 @@ def add_haptic_parser(sub):
     i.add_argument("--position", type=int, default=3, help="grasp position 1..6 (default 3)")
     i.add_argument("--fmu", action="store_true", help="simulate through the Haptic FMU instead of the LTI model")
     i.add_argument("--fmus", default="fmus", help="folder with the built Haptic FMUs (default fmus)")
-    i.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    i.add_argument("--seed", type=_seed, default=0, help="noise seed (default 0)")
     i.add_argument("--out", required=True, help="output directory")
     i.set_defaults(func=_cmd_identify)
 
@@ -115,7 +141,7 @@ def add_haptic_parser(sub):
             "and Table IV weights over 0.6-30 Hz; robust stability of the 10 N.m/rad wall. Writes OUT/arm_*."
         ),
     )
-    a.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    a.add_argument("--seed", type=_seed, default=0, help="noise seed (default 0)")
     a.add_argument("--out", required=True, help="output directory")
     a.set_defaults(func=_cmd_arm)
     return p

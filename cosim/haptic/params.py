@@ -173,6 +173,10 @@ def _check_choice(name, value, allowed):
         raise HapticDataError(f"unknown {name} {value!r}; expected one of {list(allowed)}")
 
 
+def _is_number(value):
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+
+
 def load_user_params(user, position, structure=None, zero_as=None):
     """Return one user x grasp-position parameter row of seed 000 Table I in SI units.
 
@@ -205,8 +209,8 @@ def load_user_params(user, position, structure=None, zero_as=None):
     _check_choice("position", position, POSITIONS)
     if structure is not None:
         _check_choice("structure", structure, (7, 11))
-    if zero_as is not None and not (0.0 <= float(zero_as) < 1e-3):
-        raise HapticDataError(f"zero_as must be in [0, 0.001) table units; got {zero_as!r}")
+    if zero_as is not None and not (_is_number(zero_as) and 0.0 <= zero_as < 1e-3):
+        raise HapticDataError(f"zero_as must be a number in [0, 0.001) table units; got {zero_as!r}")
     table = _phantom_table()
     rows = table[(table["user"] == str(user)) & (table["position"] == str(position))]
     if len(rows) != 1:
