@@ -18,7 +18,6 @@ The schema (see docs/config.md for the full reference)::
     [summary]     kind (none, or a summary the controller provides), controller, the summary's signals
 """
 
-import difflib
 import math
 import re
 import warnings
@@ -28,6 +27,7 @@ from pathlib import Path
 from cosim.fmi.instance import value_dtype
 from cosim.errors import ScaleWarning
 from cosim.paramfile import parameters_file_key
+from cosim.tomldoc import did_you_mean as _close
 from cosim.tomldoc import Problems, format_key, parse_overrides, read_toml
 
 __all__ = [
@@ -288,11 +288,6 @@ _RESERVED_COLUMNS = ("time",)
 _SUMMARY = ("kind", "controller")  # and the signals of the chosen summary
 _ENGINES = ("compiled", "python")
 _METHODS = ("rk4", "bdf", "radau", "lsoda")
-
-
-def _close(name, names):
-    close = difflib.get_close_matches(name, list(names), n=4, cutoff=0.5)
-    return f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
 
 
 def _is_num(v):

@@ -5,7 +5,6 @@ A config names the classes it runs by such a string; :func:`load_class` imports 
 derives from the base class the caller expects.
 """
 
-import difflib
 import importlib
 import importlib.util
 import pkgutil
@@ -15,6 +14,7 @@ import traceback
 from pathlib import Path
 
 from controllers.base import Controller
+from cosim.tomldoc import did_you_mean as _close
 
 __all__ = ["load_class", "load_controller_class"]
 
@@ -66,13 +66,6 @@ def load_class(spec, base_class, base_dir=None, kind="plugin"):
     if not (isinstance(cls, type) and issubclass(cls, base_class)):
         raise ImportError(f"{spec!r} is not a subclass of {base_class.__module__}.{base_class.__qualname__}")
     return cls
-
-
-def _close(name, names):
-    """"; did you mean X?" for the names closest to ``name``, case aside (FOC for Foc)."""
-    by_lower = {n.rpartition(".")[2].lower(): n for n in names}  # a module by its own name, not its package's
-    close = difflib.get_close_matches(name.rpartition(".")[2].lower(), list(by_lower), n=3, cutoff=0.6)
-    return f"; did you mean {' or '.join(by_lower[c] for c in close)}?" if close else ""
 
 
 def _siblings(mod_name):

@@ -15,7 +15,7 @@ from cosim.errors import ConfigError
 from cosim.fitting import FreeParameter
 
 __all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables",
-           "Problems", "Locator", "parse_overrides", "apply_override", "format_key", "toml_text", "key_paths"]
+           "Problems", "Locator", "parse_overrides", "apply_override", "format_key", "toml_text", "key_paths", "did_you_mean"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -83,6 +83,25 @@ def key_paths(node, prefix=()):
     for k, v in items:
         yield prefix + (k,)
         yield from key_paths(v, prefix + (k,))
+
+
+def did_you_mean(name, names, n=3, cutoff=0.5):
+    """"; did you mean 'X' or 'Y'?" for the ``names`` closest to ``name`` (difflib's ratio, case aside), or "".
+
+    Dotted names are told apart below the parents they share (``controllers.outer`` for ``controllers.outr``,
+    not ``controllers.foc``) and also by their last names (``Gripper.GripperPlant`` for ``GripperPlnt``)."""
+    def ratio(a, b):
+        return difflib.SequenceMatcher(None, a, b).ratio()
+
+    def score(candidate):
+        a, b = str(name).lower().split("."), str(candidate).lower().split(".")
+        while len(a) > 1 and len(b) > 1 and a[0] == b[0]:
+            a, b = a[1:], b[1:]
+        return max(ratio(".".join(a), ".".join(b)), ratio(a[-1], b[-1]))
+
+    scored = sorted(((score(c), str(c)) for c in set(names)), key=lambda sc: (-sc[0], sc[1]))
+    found = [c for s, c in scored if s >= cutoff][:n]
+    return f"; did you mean {' or '.join(repr(c) for c in found)}?" if found else ""
 
 
 def format_key(path):

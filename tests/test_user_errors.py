@@ -47,7 +47,7 @@ def test_fmu_that_is_not_a_zip_set_on_the_command_line_comes_first(tmp_path, cap
 def test_controller_class_that_cannot_load_hides_its_follow_on_problems(tmp_path, capsys):
     err = _run(capsys, tmp_path, "controllers.outer.class=controllers.outr:OuterLoop")
     assert "1 problem in" in err and "summary" not in err and "plot.panels" not in err
-    assert "controller module 'controllers.outr' not found" in err and "did you mean controllers.outer?" in err
+    assert "controller module 'controllers.outr' not found" in err and "did you mean 'controllers.outer'?" in err
 
 
 @pytest.mark.parametrize("item, meant", [
@@ -69,7 +69,7 @@ def test_set_key_of_an_fmu_parameter_not_in_the_file_is_suggested(tmp_path, caps
 
 def test_controller_class_case_slip(tmp_path, capsys):
     err = _run(capsys, tmp_path, "controllers.foc.class=controllers.foc:Foc")
-    assert "module 'controllers.foc' has no class 'Foc'; did you mean FOC?" in err
+    assert "module 'controllers.foc' has no class 'Foc'; did you mean 'FOC'?" in err
 
 
 @pytest.mark.parametrize("source, model, meant", [

@@ -1,7 +1,6 @@
 """Modelica front end: rumoca parses and flattens a model into its DAE IR; this module maps its failures to
 cosim errors with file and line, and gives source locations for IR spans."""
 
-import difflib
 import re
 import tempfile
 from dataclasses import dataclass
@@ -14,7 +13,7 @@ from cosim.compile.library import describe_path, find_class_file, library_sessio
 from cosim.compile.source_text import locate_rumoca_error
 from cosim.errors import ModelicaError, StructureError
 from cosim.modelica_text import check_redeclares, find_class, line_of, model_names
-from cosim.tomldoc import read_text
+from cosim.tomldoc import did_you_mean, read_text
 
 __all__ = ["FlatModel", "load_flat_model"]
 
@@ -104,7 +103,7 @@ def load_flat_model(path, model, modelica_path=()):
             top = model.split(".", 1)[0]
             held = sorted({p.stem if p.suffix == ".mo" else p.name for r in roots for p in r.iterdir()
                            if p.suffix == ".mo" or (p / "package.mo").is_file()})
-            raise ModelicaError(f"no library holds {top} (for the model {model}){_did_you_mean(top, held)}: looked "
+            raise ModelicaError(f"no library holds {top} (for the model {model}){did_you_mean(top, held)}: looked "
                                 f"in {describe_path(roots)}")
         files = [path]
     else:
@@ -209,17 +208,6 @@ def _missing_class_error(text, files, roots):
     return ModelicaError(f"class {name} not found: looked in {', '.join(folders)}{hint}", file=file, line=line)
 
 
-def _did_you_mean(name, names):
-    """"; did you mean 'X'?" for the names closest to ``name`` (case aside, on the full and the last name)."""
-    by_lower = {n.lower(): n for n in names}
-    close = difflib.get_close_matches(name.lower(), list(by_lower), n=3, cutoff=0.6)
-    short = {n.rsplit(".", 1)[-1].lower(): n for n in names}
-    close += [n for n in difflib.get_close_matches(name.rsplit(".", 1)[-1].lower(), list(short), n=3, cutoff=0.6)
-              if n not in close]
-    found = list(dict.fromkeys(by_lower.get(c) or short[c] for c in close))[:3]
-    return f"; did you mean {' or '.join(repr(n) for n in found)}?" if found else ""
-
-
 def _front_end_error(err, path, model, files, roots=()):
     text = str(err)
     missing = _missing_class_error(text, files, roots)
@@ -227,7 +215,7 @@ def _front_end_error(err, path, model, files, roots=()):
         return missing
     if "resolve/parse failed" in text or "not found" in text.lower():
         names = [n for mo in files for n in model_names(mo.read_text(encoding="utf-8"))]
-        return ModelicaError(f"no model named {model!r} in {path.parent}{_did_you_mean(model, names)}", file=str(path))
+        return ModelicaError(f"no model named {model!r} in {path.parent}{did_you_mean(model, names)}", file=str(path))
     if "unbalanced" in text:
         detail = text.split("unbalanced model:")[-1].strip()
         return StructureError(f"model {model} is unbalanced: {detail} (counted by rumoca {rumoca.version()}, the "
