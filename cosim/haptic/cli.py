@@ -1,41 +1,49 @@
 """Argument parsing of ``cosim haptic ...``: each subcommand calls one library function (lazily imported)."""
 
+from pathlib import Path
+
 __all__ = ["add_haptic_parser"]
+
+
+def _written(args, command, write, **kwargs):
+    """Run ``write(folder, **kwargs)`` into a staging folder moved to ``--out`` (the rule of every command:
+    :func:`cosim.outputs.output_folder`) and print the files at their final place."""
+    from cosim.master.run import interrupt_on_signals
+    from cosim.outputs import output_folder
+
+    out = Path(args.out)
+    with output_folder(out, f"haptic {command}", force=args.force) as staging, interrupt_on_signals():
+        files = [out / Path(p).relative_to(staging) for p in write(staging, **kwargs)]
+    for path in files:
+        print(f"wrote {path}")
+    return 0
 
 
 def _cmd_margins(args):
     from cosim.haptic.report import write_margins
 
-    for path in write_margins(args.out, K=args.K, rate=args.rate, adaptive=args.adaptive):
-        print(f"wrote {path}")
-    return 0
+    return _written(args, "margins", write_margins, K=args.K, rate=args.rate, adaptive=args.adaptive)
 
 
 def _cmd_collisions(args):
     from cosim.haptic.report import write_collisions
 
     users = _int_list(args.users, "--users")
-    for path in write_collisions(args.out, users=users, adaptive=args.adaptive, fmu_dir=args.fmus, K=args.K,
-                                 rate=args.rate):
-        print(f"wrote {path}")
-    return 0
+    return _written(args, "collisions", write_collisions, users=users, adaptive=args.adaptive, fmu_dir=args.fmus,
+                    K=args.K, rate=args.rate)
 
 
 def _cmd_identify(args):
     from cosim.haptic.report import write_identification
 
-    for path in write_identification(args.out, user=args.user, position=args.position, use_fmu=args.fmu,
-                                     fmu_dir=args.fmus, seed=args.seed):
-        print(f"wrote {path}")
-    return 0
+    return _written(args, "identify", write_identification, user=args.user, position=args.position,
+                    use_fmu=args.fmu, fmu_dir=args.fmus, seed=args.seed)
 
 
 def _cmd_arm(args):
     from cosim.haptic.report import write_arm
 
-    for path in write_arm(args.out, seed=args.seed):
-        print(f"wrote {path}")
-    return 0
+    return _written(args, "arm", write_arm, seed=args.seed)
 
 
 def _int_list(text, flag):
@@ -96,7 +104,8 @@ def add_haptic_parser(sub):
     m.add_argument("--K", type=_positive("N.m/rad"), default=10.0, help="wall stiffness, N.m/rad (default 10)")
     m.add_argument("--rate", type=_positive("Hz"), default=1000.0, help="haptic loop rate, Hz (default 1000)")
     m.add_argument("--adaptive", action="store_true", help="also tune B per position for PM >= 50 deg (user 1)")
-    m.add_argument("--out", required=True, help="output directory")
+    m.add_argument("--out", required=True, help="output folder (new, or empty)")
+    m.add_argument("--force", action="store_true", help="replace OUT when it holds a previous cosim output")
     m.set_defaults(func=_cmd_margins)
 
     c = hs.add_parser(
@@ -113,7 +122,8 @@ def add_haptic_parser(sub):
     c.add_argument("--K", type=_positive("N.m/rad"), default=10.0, help="wall stiffness, N.m/rad (default 10)")
     c.add_argument("--rate", type=_positive("Hz"), default=1000.0, help="haptic loop rate, Hz (default 1000)")
     c.add_argument("--fmus", default="fmus", help="folder with the built Haptic FMUs (default fmus)")
-    c.add_argument("--out", required=True, help="output directory")
+    c.add_argument("--out", required=True, help="output folder (new, or empty)")
+    c.add_argument("--force", action="store_true", help="replace OUT when it holds a previous cosim output")
     c.set_defaults(func=_cmd_collisions)
 
     i = hs.add_parser(
@@ -129,7 +139,8 @@ def add_haptic_parser(sub):
     i.add_argument("--fmu", action="store_true", help="simulate through the Haptic FMU instead of the LTI model")
     i.add_argument("--fmus", default="fmus", help="folder with the built Haptic FMUs (default fmus)")
     i.add_argument("--seed", type=_seed, default=0, help="noise seed (default 0)")
-    i.add_argument("--out", required=True, help="output directory")
+    i.add_argument("--out", required=True, help="output folder (new, or empty)")
+    i.add_argument("--force", action="store_true", help="replace OUT when it holds a previous cosim output")
     i.set_defaults(func=_cmd_identify)
 
     a = hs.add_parser(
@@ -142,6 +153,7 @@ def add_haptic_parser(sub):
         ),
     )
     a.add_argument("--seed", type=_seed, default=0, help="noise seed (default 0)")
-    a.add_argument("--out", required=True, help="output directory")
+    a.add_argument("--out", required=True, help="output folder (new, or empty)")
+    a.add_argument("--force", action="store_true", help="replace OUT when it holds a previous cosim output")
     a.set_defaults(func=_cmd_arm)
     return p
