@@ -8,6 +8,10 @@ A controller is a plain Python class with
   string parameters that are file paths (a run config resolves them against its own folder);
 * ``inputs`` / ``outputs``: tuples of signal names (what the config's ``[[connections]]`` wire);
 * ``units``: an optional dict of signal or parameter name to unit string (recorded with results);
+* ``limits``: the values each numeric parameter may take, as an interval (``"(0, inf)"``, ``"[0, 1]"``,
+  ``"[0, inf]"`` when infinity means "never", ``"integer [1, 6]"``); checked when the controller is built, so
+  a value it cannot run with is a :class:`cosim.errors.ParameterError` naming the key before any run (a
+  numeric parameter without an entry takes any finite number);
 * numeric state in numpy arrays: ``self.u`` (inputs, float64), ``self.y`` (outputs, float64),
   ``self.x`` (state, float64) and ``self.p`` (packed numeric parameters, float64);
 * ``step(t)``: read ``self.u``, update ``self.x``, write ``self.y``.
@@ -38,9 +42,12 @@ Example
 """
 
 import difflib
+import math
+import re
 
 import numpy as np
 
+from cosim.errors import ParameterError
 from cosim.jit import compile_kernel
 
 __all__ = ["Controller"]
@@ -74,6 +81,7 @@ class Controller:
     inputs: tuple = ()
     outputs: tuple = ()
     units: dict = {}
+    limits: dict = {}
     # The run summaries this controller's experiments define, chosen by a config's ``[summary] kind``:
     # kind -> a class with ``signals``, ``outputs`` and ``summarize`` (docs/config.md, "[summary]").
     summaries: dict = {}
@@ -81,8 +89,8 @@ class Controller:
     labels: dict = {}
 
     def __init__(self, rate, jit=True, **params):
-        if not rate > 0:
-            raise ValueError(f"{type(self).__name__}: rate must be > 0 Hz; got {rate!r}")
+        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 < rate < math.inf:
+            raise ParameterError(type(self).__name__, "rate", "a number in (0, inf) Hz", rate)
         self.rate = float(rate)
         self.dt = 1.0 / self.rate
         self.values = self._merge(params)
@@ -153,19 +161,45 @@ class Controller:
                     f"{type(self).__name__}: unknown parameter {name!r}{hint} "
                     f"(known: {', '.join(self.parameters) or 'none'})"
                 )
-            default = self.parameters[name]
-            if isinstance(default, tuple):
-                if v not in default:
-                    raise ValueError(
-                        f"{type(self).__name__}: parameter {name!r} must be one of {default}; got {v!r}"
-                    )
-            elif isinstance(default, str):
-                if not isinstance(v, str):
-                    raise TypeError(f"{type(self).__name__}: parameter {name!r} must be a string; got {v!r}")
-            elif isinstance(default, bool):
-                if not isinstance(v, (bool, int)):
-                    raise TypeError(f"{type(self).__name__}: parameter {name!r} must be a bool; got {v!r}")
-            elif isinstance(v, bool) or not isinstance(v, (int, float)):
-                raise TypeError(f"{type(self).__name__}: parameter {name!r} must be a number; got {v!r}")
+            self._check_type(name, v)
             values[name] = v
+        for name, default in self.parameters.items():
+            if isinstance(default, (int, float)) and not isinstance(default, bool):
+                self._check_limit(name, values[name])
         return values
+
+    def _check_type(self, name, v):
+        default = self.parameters[name]
+        if isinstance(default, tuple):
+            if v not in default:
+                self.refuse(name, f"one of {', '.join(map(repr, default))}", v)
+        elif isinstance(default, str):
+            if not isinstance(v, str):
+                self.refuse(name, "a string", v)
+        elif isinstance(default, bool):
+            if not isinstance(v, (bool, int)):
+                self.refuse(name, "true or false", v)
+        elif isinstance(v, bool) or not isinstance(v, (int, float)):
+            self.refuse(name, "a number", v)
+
+    def _check_limit(self, name, v):
+        """Refuse a value outside the parameter's ``limits`` interval (any finite number when it has none)."""
+        spec = self.limits.get(name, "(-inf, inf)")
+        m = _INTERVAL.fullmatch(spec)
+        if m is None:
+            raise ValueError(f"{type(self).__name__}.limits[{name!r}] = {spec!r}: expected an interval such as "
+                             f"'(0, inf)' or 'integer [1, 6]'")
+        whole, lo_closed, lo, hi, hi_closed = m[1], m[2] == "[", float(m[3]), float(m[4]), m[5] == "]"
+        inside = (lo < v or lo_closed and v == lo) and (v < hi or hi_closed and v == hi)
+        if not inside or whole and math.isfinite(v) and v != math.floor(v):
+            unit = self.units.get(name, "")
+            self.refuse(name, f"{'a whole number' if whole else 'a number'} in {spec[len(whole or ''):]}"
+                              f"{' ' + unit if unit and unit != '1' else ''}", v)
+
+    def refuse(self, name, expected, received):
+        """Raise the :class:`cosim.errors.ParameterError` of parameter ``name`` (for checks between parameters
+        that ``limits`` cannot state, in a subclass's ``pack``)."""
+        raise ParameterError(type(self).__name__, name, expected, received)
+
+
+_INTERVAL = re.compile(r"(integer )?([\[(])\s*([-+\w.]+)\s*,\s*([-+\w.]+)\s*([\])])")

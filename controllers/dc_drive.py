@@ -71,12 +71,6 @@ def _speed_kernel(t, u, y, x, p):
     y[1] = w_ref
 
 
-def _positive(cls, values, names):
-    for name in names:
-        if not values[name] > 0:
-            raise ValueError(f"{cls}: parameter {name!r} must be > 0; got {values[name]!r}")
-
-
 class DcCurrentPI(Controller):
     """Armature current PI of a brushed DC motor (back-EMF feedforward, supply limit, anti-windup).
 
@@ -91,14 +85,13 @@ class DcCurrentPI(Controller):
     outputs = ("v",)
     units = {"i_ref": "A", "i": "A", "w": "rad/s", "v": "V", "R": "Ohm", "L": "H", "k_e": "V.s/rad", "V_bus": "V",
              "bandwidth_hz": "Hz"}
+    limits = {"R": "(0, inf)", "L": "(0, inf)", "k_e": "[0, inf)", "V_bus": "(0, inf)", "bandwidth_hz": "(0, inf)"}
     kernel = staticmethod(_current_kernel)
 
     def pack(self):
         v = self.values
-        _positive("DcCurrentPI", v, ("R", "L", "V_bus", "bandwidth_hz"))
         if v["bandwidth_hz"] >= self.rate / 2:
-            raise ValueError(f"DcCurrentPI: bandwidth_hz {v['bandwidth_hz']} must be below half the rate "
-                             f"({self.rate / 2} Hz)")
+            self.refuse("bandwidth_hz", f"below half the rate ({self.rate / 2:g} Hz)", v["bandwidth_hz"])
         kp, ki = foc_gains(v["R"], v["L"], self.rate, v["bandwidth_hz"])
         return np.array([kp, ki, v["k_e"], v["V_bus"]])
 
@@ -121,6 +114,8 @@ class DcSpeedPI(Controller):
     outputs = ("i_ref", "w_ref")
     units = {"w": "rad/s", "i_ref": "A", "w_ref": "rad/s", "J": "kg.m2", "k_t": "N.m/A", "crossover_hz": "Hz",
              "i_max": "A", "speed_rpm": "rpm", "t_start": "s", "ramp_s": "s", "t_down": "s"}
+    limits = {"J": "(0, inf)", "k_t": "(0, inf)", "crossover_hz": "(0, inf)", "i_max": "(0, inf)",
+              "speed_rpm": "(-inf, inf)", "t_start": "(-inf, inf)", "ramp_s": "[0, inf)", "t_down": "(-inf, inf]"}
     kernel = staticmethod(_speed_kernel)
 
     @classmethod
@@ -134,12 +129,8 @@ class DcSpeedPI(Controller):
 
     def pack(self):
         v = self.values
-        _positive("DcSpeedPI", v, ("J", "k_t", "crossover_hz", "i_max"))
         if v["crossover_hz"] >= self.rate / 10:
-            raise ValueError(f"DcSpeedPI: crossover_hz {v['crossover_hz']} must be below a tenth of the rate "
-                             f"({self.rate / 10} Hz)")
-        if v["ramp_s"] < 0:
-            raise ValueError(f"DcSpeedPI: parameter 'ramp_s' must be >= 0; got {v['ramp_s']!r}")
+            self.refuse("crossover_hz", f"below a tenth of the rate ({self.rate / 10:g} Hz)", v["crossover_hz"])
         wc = TWO_PI * v["crossover_hz"]
         kp = v["J"] * wc / v["k_t"]
         return np.array([kp, kp * wc / 4.0 * self.dt, v["i_max"], v["speed_rpm"] * RPM, v["t_start"], v["ramp_s"],

@@ -143,15 +143,15 @@ class FOC(Controller):
     units = {"i_q_ref": "A", "i_d": "A", "i_q": "A", "theta_m": "rad", "w_m": "rad/s", "v_d": "V", "v_q": "V",
              "i_d_meas": "A", "i_q_meas": "A", "R_s": "Ohm", "L_d": "H", "L_q": "H", "psi_m": "Wb", "V_bus": "V",
              "bandwidth_hz": "Hz", "i_d_ref": "A"}
+    limits = {"R_s": "(0, inf)", "L_d": "(0, inf)", "L_q": "(0, inf)", "pole_pairs": "integer [1, inf)",
+              "psi_m": "[0, inf)", "V_bus": "(0, inf)", "bandwidth_hz": "(0, inf)", "enc_cpt": "integer [0, inf)",
+              "i_d_ref": "(-inf, inf)"}
     kernel = staticmethod(_foc_kernel)
 
     def pack(self):
         v = self.values
-        for name in ("R_s", "L_d", "L_q", "V_bus", "bandwidth_hz", "pole_pairs"):
-            if not v[name] > 0:
-                raise ValueError(f"FOC: parameter {name!r} must be > 0; got {v[name]!r}")
         if v["bandwidth_hz"] >= self.rate / 2:
-            raise ValueError(f"FOC: bandwidth_hz {v['bandwidth_hz']} must be below half the rate ({self.rate / 2} Hz)")
+            self.refuse("bandwidth_hz", f"below half the rate ({self.rate / 2:g} Hz)", v["bandwidth_hz"])
         kpd, kid = foc_gains(v["R_s"], v["L_d"], self.rate, v["bandwidth_hz"])
         kpq, kiq = foc_gains(v["R_s"], v["L_q"], self.rate, v["bandwidth_hz"])
         vmax = v["V_bus"] / math.sqrt(3.0) if v["modulation"] == "svpwm" else v["V_bus"] / 2.0

@@ -67,6 +67,8 @@ class VirtualWall(Controller):
     outputs = ("tau", "penetration", "velocity")
     units = {"phi": "rad", "tau": "N.m", "penetration": "rad", "velocity": "rad/s", "phi_wall": "rad",
              "K": "N.m/rad", "B": "N.m.s/rad", "t_step": "s", "tau_step": "N.m"}
+    limits = {"phi_wall": "(-inf, inf)", "K": "[0, inf)", "B": "[0, inf)", "t_step": "(-inf, inf]",
+              "tau_step": "(-inf, inf)"}
     kernel = staticmethod(_wall_kernel)
 
     def _damping(self):
@@ -74,11 +76,7 @@ class VirtualWall(Controller):
 
     def pack(self):
         v = self.values
-        if not v["K"] >= 0:
-            raise ValueError(f"{type(self).__name__}: parameter 'K' must be >= 0 N.m/rad; got {v['K']!r}")
         B = self._damping()
-        if not B >= 0:
-            raise ValueError(f"{type(self).__name__}: damping must be >= 0 N.m.s/rad; got {B!r}")
         return np.array([float(v["phi_wall"]), float(v["K"]), B, self.dt, float(v["t_step"]), float(v["tau_step"])])
 
     def initial_state(self):
@@ -99,13 +97,11 @@ class AdaptiveWall(VirtualWall):
     parameters = {"phi_wall": 0.7, "K": 10.0, "t_step": 1e9, "tau_step": 0.0, "position": 1,
                   **{f"B{i}": b for i, b in enumerate(ADAPTIVE_B_USER1, start=1)}}
     units = {**VirtualWall.units, **{f"B{i}": "N.m.s/rad" for i in range(1, 7)}, "position": "1"}
+    limits = {**VirtualWall.limits, "position": "integer [1, 6]", **{f"B{i}": "[0, inf)" for i in range(1, 7)}}
     kernel = staticmethod(_wall_kernel)
 
     def _damping(self):
-        pos = self.values["position"]
-        if pos not in (1, 2, 3, 4, 5, 6):
-            raise ValueError(f"AdaptiveWall: parameter 'position' must be one of 1..6; got {pos!r}")
-        return float(self.values[f"B{int(pos)}"])
+        return float(self.values[f"B{int(self.values['position'])}"])
 
 
 # UserIntent packed parameters
@@ -142,18 +138,19 @@ class UserIntent(Controller):
     units = {"phi_ref": "rad", "tau_h": "N.m", "phi_start": "rad", "v_approach": "rad/s", "t_start": "s",
              "accel_s": "s", "phi_end": "rad", "tau_final": "N.m", "phi_wall": "rad", "K_wall": "N.m/rad",
              "k_user": "N.m/rad", "t_push": "s", "tau_push": "N.m"}
+    limits = {"phi_start": "(-inf, inf)", "v_approach": "(0, inf)", "t_start": "(-inf, inf)", "accel_s": "(0, inf)",
+              "phi_end": "(-inf, inf)", "tau_final": "[0, inf)", "phi_wall": "(-inf, inf)", "K_wall": "[0, inf)",
+              "k_user": "[0, inf)", "t_push": "(-inf, inf]", "tau_push": "(-inf, inf)"}
     kernel = staticmethod(_intent_kernel)
 
     def pack(self):
         v = self.values
-        if not v["v_approach"] > 0:
-            raise ValueError(f"UserIntent: parameter 'v_approach' must be > 0 rad/s; got {v['v_approach']!r}")
-        if not v["accel_s"] > 0:
-            raise ValueError(f"UserIntent: parameter 'accel_s' must be > 0 s; got {v['accel_s']!r}")
         phi_end = float(v["phi_end"])
         if v["tau_final"] > 0:
-            if not (v["k_user"] > 0 and v["K_wall"] > 0):
-                raise ValueError("UserIntent: 'tau_final' needs 'k_user' > 0 and 'K_wall' > 0 to place phi_end")
+            for name in ("k_user", "K_wall"):
+                if not v[name] > 0:
+                    self.refuse(name, f"a number in (0, inf) {self.units[name]} when tau_final > 0 (it places "
+                                      f"phi_end)", v[name])
             phi_end = v["phi_wall"] + v["tau_final"] * (1.0 / v["K_wall"] + 1.0 / v["k_user"])
         return np.array([float(v["phi_start"]), float(v["v_approach"]), float(v["t_start"]), float(v["accel_s"]),
                          phi_end, float(v["t_push"]), float(v["tau_push"])])

@@ -155,8 +155,9 @@ class ImpactSummary:
     """The impact trial (``profile = "impact"``) in summary.json.
 
     ``peak_force_N`` (largest force), ``min_force_after_peak_N`` (smallest force from the peak to the end
-    of tightening: 0 when the finger bounces off), ``steady_force_N`` (mean force over the last second of
-    tightening, or of the recorded part of it when the run stops earlier, with its ``steady_window_s``),
+    of tightening: 0 when the finger bounces off; None when the peak comes after the tightening),
+    ``steady_force_N`` (mean force over the last second of tightening, or of the recorded part of it when the run
+    stops earlier, with its ``steady_window_s``),
     ``t_switch_s`` (time of the velocity-to-current switch; None when the trigger never fired) and
     ``t_contact_s`` (first time the force exceeds 1 N).
     """
@@ -198,7 +199,7 @@ class ImpactSummary:
         after = (t >= t[ipk]) & (t <= end + 1e-12)
         contact = np.nonzero(f > 1.0)[0]
         out["peak_force_N"] = float(f[ipk])
-        out["min_force_after_peak_N"] = float(np.min(f[after]))
+        out["min_force_after_peak_N"] = float(np.min(f[after])) if after.any() else None  # peak after tightening
         out["t_contact_s"] = float(t[contact[0]]) if len(contact) else None
         if t_sw is not None:
             a = max(end - 1.0, t_sw)
@@ -316,6 +317,11 @@ class OuterLoop(Controller):
              "Kp": "A.s/rad", "Ki": "A/rad", "Kd": "A.s2/rad", "i_max": "A", "i_min": "A", "e_min": "rad/s",
              "speed_rpm": "rpm", "ramp_s": "s", "t_start": "s", "i_tight": "A", "hold_s": "s", "step_A": "A",
              "step_s": "s", "top_A": "A"}
+    limits = {"Kp": "[0, inf)", "Ki": "[0, inf)", "Kd": "[0, inf)", "i_max": "(0, inf)", "i_min": "[0, inf)",
+              "e_min": "[0, inf)", "thr": "(0, 1]", "enc_cpt": "integer [0, inf)", "speed_rpm": "[0, inf)",
+              "ramp_s": "(0, inf)", "t_start": "[0, inf)", "i_tight": "[0, inf)", "hold_s": "(0, inf)",
+              "arm_fraction": "(0, 1]", "direction": "integer [-1, 1]", "step_A": "(0, inf)", "step_s": "(0, inf)",
+              "top_A": "(0, inf)"}
     kernel = staticmethod(_outer_kernel)
     summaries = {"static": StaircaseSummary, "impact": ImpactSummary}
     labels = {"mode": {0: "velocity", 1: "current"}}
@@ -333,11 +339,8 @@ class OuterLoop(Controller):
 
     def pack(self):
         v = self.values
-        for name in ("ramp_s", "step_A", "step_s", "i_max"):
-            if not v[name] > 0:
-                raise ValueError(f"OuterLoop: parameter {name!r} must be > 0; got {v[name]!r}")
-        if v["direction"] not in (1.0, -1.0, 1, -1):
-            raise ValueError(f"OuterLoop: parameter 'direction' must be 1 or -1; got {v['direction']!r}")
+        if v["direction"] == 0:
+            self.refuse("direction", "1 (closing towards positive angles) or -1", v["direction"])
         p = super().pack()
         p[_WSET] = v["speed_rpm"] * TWO_PI / 60.0
         return p

@@ -24,6 +24,7 @@ import warnings
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
+from cosim.errors import ParameterError
 from cosim.fmi.instance import value_dtype
 from cosim.errors import ScaleWarning
 from cosim.paramfile import parameters_file_key
@@ -518,6 +519,9 @@ def _controller(name, t, fmus_t, base_dir, problems):
     if rate is not None and all(pn in cls.parameters for pn in params):
         try:
             cls(rate=rate, jit=False, **params)
+        except ParameterError as err:  # the key, what it must be and what it is
+            key = ("parameters", err.key) if err.key in params else ("rate",) if err.key == "rate" else ("parameters",)
+            problems.add(p + key, str(err))
         except Exception as err:  # the user's constructor may raise anything: name the controller and the values
             given = ", ".join(f"{k}={v!r}" for k, v in params.items()) or "no parameters"
             problems.add(p + ("parameters",), f"{cls.__name__}(rate={rate!r}, {given}) raised "

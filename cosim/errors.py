@@ -7,12 +7,14 @@ __all__ = [
     "StructureError",
     "BuildError",
     "ConfigError",
+    "ParameterError",
     "FmiCallError",
     "FmuFileError",
     "NotFittedError",
     "HapticDataError",
     "EngineFallbackWarning",
     "ScaleWarning",
+    "OutputWarning",
     "EffectSlotError",
     "EventError",
     "SimulationTerminated",
@@ -63,6 +65,30 @@ class ConfigError(CosimError, ValueError):
     """A run config or job file is invalid; the message names the file, line and key."""
 
 
+class ParameterError(CosimError, ValueError):
+    """A controller parameter (or its rate) has a value the controller cannot run with; raised when the
+    controller is built, before a run starts.
+
+    Parameters
+    ----------
+    controller : str
+        The controller class.
+    key : str
+        The parameter (``rate`` for the sample rate).
+    expected : str
+        What the value must be, e.g. ``"a number in (0, inf) s"``.
+    received : object
+        The value given.
+    """
+
+    def __init__(self, controller, key, expected, received):
+        self.controller = controller
+        self.key = key
+        self.expected = expected
+        self.received = received
+        super().__init__(f"{controller}: parameter {key!r}: expected {expected}; received {received!r}")
+
+
 class FmiCallError(CosimError, RuntimeError):
     """An FMI function returned a status worse than warning.
 
@@ -99,6 +125,11 @@ class EngineFallbackWarning(UserWarning):
 class ScaleWarning(UserWarning):
     """A config's rate or run length is far from the plant's time scale (a typo of a factor 1000 is likely); the
     run goes on, the message names the key, its value and the scale it was told against."""
+
+
+class OutputWarning(UserWarning):
+    """A part of a command's output that the results do not depend on (a plot, a summary plugin's keys) could
+    not be made; the results themselves were written (the message says what is missing and why)."""
 
 
 class EffectSlotError(ConfigError):

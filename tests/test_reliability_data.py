@@ -1,0 +1,82 @@
+"""Issue 44 items: controller parameters refused when the controller is built (before a run), and a run's rows
+kept through faults of writing and plotting and through Ctrl-C while they are written.
+
+References are independent of the code under test: hand-written physically wrong values, the rows a run of
+known length and record rate has, the signal number the shell expects (128 + 2).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from test_controllers import _all_controller_classes, required_parameters
+from test_master_support import EXAMPLES, gripper_dir, gripper_overrides  # noqa: F401
+
+from controllers.dc_drive import DcCurrentPI, DcSpeedPI
+from controllers.foc import FOC
+from controllers.haptic import AdaptiveWall, UserIntent, VirtualWall
+from controllers.outer import ImpactSummary, OuterLoop
+from cosim.cli import main
+from cosim.errors import ParameterError
+
+# -- controller parameters, checked when the controller is built -------------------------------------------------
+
+WRONG = [  # values a user may type that no run can use: (class, key, value)
+    (OuterLoop, "hold_s", -1.0),  # issue 44: ran the whole impact, then died in the summary
+    (OuterLoop, "hold_s", 0.0),
+    (OuterLoop, "thr", 1.5),  # eq. (2) compares a speed with thr times an earlier one: a ratio up to 1
+    (OuterLoop, "enc_cpt", 2048.5),
+    (OuterLoop, "ramp_s", math.nan),
+    (FOC, "R_s", 0.0),
+    (FOC, "pole_pairs", 2.5),
+    (FOC, "bandwidth_hz", 13300.0),  # half of 26.6 kHz
+    (VirtualWall, "K", -10.0),
+    (AdaptiveWall, "position", 7),
+    (AdaptiveWall, "B3", -0.1),
+    (UserIntent, "accel_s", 0.0),
+    (DcCurrentPI, "L", -2e-4),
+    (DcSpeedPI, "crossover_hz", 1000.0),  # a tenth of its 10 kHz rate
+]
+
+
+@pytest.mark.parametrize("cls, key, value", WRONG, ids=[f"{c.__name__}.{k}={v}" for c, k, v in WRONG])
+def test_a_wrong_parameter_value_is_a_typed_error_naming_the_key(cls, key, value):
+    with pytest.raises(ParameterError) as err:
+        cls(rate=26600.0 if cls is FOC else 10000.0, jit=False, **{key: value})
+    assert err.value.key == key and err.value.controller == cls.__name__
+    assert err.value.received is value and f"parameter {key!r}: expected " in str(err.value)
+
+
+@pytest.mark.parametrize("cls", _all_controller_classes(), ids=lambda c: f"{c.__module__}.{c.__name__}")
+def test_every_numeric_parameter_of_a_shipped_controller_has_limits(cls, tmp_path):
+    numeric = [n for n, d in cls.parameters.items() if isinstance(d, (int, float)) and not isinstance(d, bool)]
+    assert sorted(set(numeric) - set(cls.limits)) == []
+    required = required_parameters(cls, tmp_path)
+    for name in numeric:  # NaN is never a parameter value
+        with pytest.raises(ParameterError, match=f"parameter {name!r}"):
+            cls(rate=10000.0, jit=False, **required, **{name: math.nan})
+    with pytest.raises(ParameterError, match="'rate'"):
+        cls(rate=math.inf, **required)
+
+
+def test_a_wrong_parameter_stops_cosim_run_before_the_run(tmp_path, capsys, gripper_dir):  # noqa: F811
+    # issue 44: `cosim run examples/gripper_impact.toml --set controllers.outer.parameters.hold_s=-1` simulated
+    # the whole run, then ValueError: zero-size array to reduction operation minimum, exit 1, nothing written
+    out = tmp_path / "o"
+    sets = [a for s in gripper_overrides(gripper_dir) for a in ("--set", s)]
+    code = main(["run", str(EXAMPLES / "gripper_impact.toml"), *sets, "--set", "controllers.outer.parameters.hold_s=-1",
+                 "--out", str(out), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert "--set controllers.outer.parameters.hold_s" in err
+    assert "OuterLoop: parameter 'hold_s': expected a number in (0, inf) s; received -1" in err
+
+
+def test_the_impact_summary_of_a_peak_after_the_tightening():
+    # a hold shorter than the rise of the force: the peak (t = 2 s) comes after the tightening ends (1.5 s)
+    data = np.zeros(4, dtype=[("time", float), ("F", float), ("t_sw", float)])
+    data["time"] = [0.0, 1.0, 2.0, 3.0]
+    data["F"] = [0.0, 5.0, 10.0, 3.0]
+    data["t_sw"] = 1.0
+    s = ImpactSummary.summarize(data, {"hold_s": 0.5}, {"force": "F", "t_switch": "t_sw"})
+    assert s["peak_force_N"] == 10.0 and s["min_force_after_peak_N"] is None and s["t_contact_s"] == 1.0
