@@ -10,8 +10,8 @@ A controller is a plain Python class with
 * ``units``: an optional dict of signal or parameter name to unit string (recorded with results);
 * ``limits``: the values each numeric parameter may take, as an interval (``"(0, inf)"``, ``"[0, 1]"``,
   ``"[0, inf]"`` when infinity means "never", ``"integer [1, 6]"``); checked when the controller is built, so
-  a value it cannot run with is a :class:`cosim.errors.ParameterError` naming the key before any run (a
-  numeric parameter without an entry takes any finite number);
+  a value it cannot run with is a :class:`cosim.errors.ParameterError` naming the key before any run (NaN is
+  outside every interval; a parameter without an entry is not checked: any number);
 * numeric state in numpy arrays: ``self.u`` (inputs, float64), ``self.y`` (outputs, float64),
   ``self.x`` (state, float64) and ``self.p`` (packed numeric parameters, float64);
 * ``step(t)``: read ``self.u``, update ``self.x``, write ``self.y``.
@@ -163,9 +163,9 @@ class Controller:
                 )
             self._check_type(name, v)
             values[name] = v
-        for name, default in self.parameters.items():
-            if isinstance(default, (int, float)) and not isinstance(default, bool):
-                self._check_limit(name, values[name])
+        for name, spec in self.limits.items():
+            if name in values:  # (a subclass may drop a parameter of the class whose limits it extends)
+                self._check_limit(name, spec, values[name])
         return values
 
     def _check_type(self, name, v):
@@ -182,9 +182,8 @@ class Controller:
         elif isinstance(v, bool) or not isinstance(v, (int, float)):
             self.refuse(name, "a number", v)
 
-    def _check_limit(self, name, v):
-        """Refuse a value outside the parameter's ``limits`` interval (any finite number when it has none)."""
-        spec = self.limits.get(name, "(-inf, inf)")
+    def _check_limit(self, name, spec, v):
+        """Refuse a value outside the parameter's ``limits`` interval ``spec``."""
         m = _INTERVAL.fullmatch(spec)
         if m is None:
             raise ValueError(f"{type(self).__name__}.limits[{name!r}] = {spec!r}: expected an interval such as "
