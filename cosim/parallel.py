@@ -6,6 +6,7 @@ login, so it must not answer on the machine's network address.
 """
 
 import contextlib
+import functools
 import logging
 import os
 import sys
@@ -14,7 +15,7 @@ from tqdm import tqdm
 
 from cosim.errors import ConfigError
 
-__all__ = ["open_client", "keep_local_cluster", "check_scheduler", "map_on_dask"]
+__all__ = ["open_client", "keep_local_cluster", "check_scheduler", "map_on_dask", "map_here"]
 
 LOOPBACK = "127.0.0.1"
 
@@ -145,7 +146,7 @@ def check_scheduler(address, timeout_s=5.0):
                           f"e.g. tcp://127.0.0.1:8786, or an empty scheduler for a local cluster")
 
 
-def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", progress=True):
+def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", progress=True, report=False):
     """``[function(item) for item in items]`` on a Dask cluster with a progress bar, results in item order.
 
     Parameters
@@ -163,6 +164,9 @@ def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", pr
         Label of the progress bar.
     progress : bool, default True
         Show the progress bar (on stderr).
+    report : bool, default False
+        Call ``function(item, report=sink)``: each line a task gives ``sink`` (a fit's iteration, cost and time
+        left) shows beside the bar, after the item's number, until the task ends.
 
     Returns
     -------
@@ -172,12 +176,89 @@ def map_on_dask(function, items, scheduler="", max_workers=None, desc="fits", pr
     from distributed import as_completed
 
     workers = max(1, min(len(items), max_workers or len(items)))
-    with _client(scheduler, workers) as client:
-        futures = [client.submit(function, item, pure=False) for item in items]
+    topic = f"cosim-progress-{os.getpid()}-{id(items)}"
+    with _client(scheduler, workers) as client, _Bar(len(items), desc, progress) as bar:
+        if report:
+            client.subscribe_topic(topic, lambda event: bar.line(*event[1]))
+        futures = [client.submit(function, item, **({"report": _WorkerSink(topic, k)} if report else {}),
+                                 pure=False) for k, item in enumerate(items)]
         index = {f.key: k for k, f in enumerate(futures)}
         results = [None] * len(futures)
-        with tqdm(total=len(futures), desc=desc, unit="fit", file=sys.stderr, disable=not progress) as bar:
+        try:
             for future in as_completed(futures):
                 results[index[future.key]] = future.result()
-                bar.update()
+                bar.finished(index[future.key])
+        finally:
+            if report:  # a kept cluster's client outlives this map
+                client.unsubscribe_topic(topic)
         return results
+
+
+def map_here(function, items, desc="fits", progress=True, report=False):
+    """``[function(item) for item in items]`` in this process, with the progress bar of :func:`map_on_dask`.
+
+    Parameters
+    ----------
+    function : callable
+    items : sequence
+    desc : str, default "fits"
+        Label of the progress bar.
+    progress : bool, default True
+        Show the progress bar (on stderr).
+    report : bool, default False
+        As :func:`map_on_dask`'s.
+
+    Returns
+    -------
+    list
+    """
+    results = []
+    with _Bar(len(items), desc, progress) as bar:
+        for k, item in enumerate(items):
+            results.append(function(item, report=functools.partial(bar.line, k)) if report else function(item))
+            bar.finished(k)
+    return results
+
+
+class _WorkerSink:
+    """A task's ``report``: sends its lines from the worker to the client's topic (picklable)."""
+
+    def __init__(self, topic, index):
+        self.topic, self.index = topic, index
+
+    def __call__(self, line):
+        from distributed import get_worker
+
+        get_worker().log_event(self.topic, [self.index, line])
+
+
+class _Bar:
+    """A tqdm bar counting finished items, with the last line of each running item beside it."""
+
+    def __init__(self, total, desc, progress):
+        self.bar = tqdm(total=total, desc=desc, unit="fit", file=sys.stderr, disable=not progress)
+        self.lines = {}
+        self.done = set()
+
+    def line(self, index, text):
+        """Show ``text`` for item ``index`` (numbered from 1 on the bar) while it runs (a worker's last line may
+        arrive after its result)."""
+        if index not in self.done:
+            self.lines[index] = text
+            self._show()
+
+    def finished(self, index):
+        self.done.add(index)
+        self.lines.pop(index, None)
+        self.bar.update()
+        self._show()
+
+    def _show(self):
+        self.bar.set_postfix_str("; ".join(f"#{k + 1} {t}" for k, t in sorted(self.lines.items())), refresh=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.lines.clear()
+        self.bar.close()

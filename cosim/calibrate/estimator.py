@@ -5,6 +5,7 @@ import casadi as ca
 import numpy as np
 
 from cosim.calibrate.problem import Transcription
+from cosim.calibrate.progress import IpoptProgress, watch_residual
 from cosim.calibrate.shooting import SingleShooting
 from cosim.fitting import Estimator, bounds, free_parameters, starts
 
@@ -73,6 +74,9 @@ class Calibrator(Estimator):
         Jacobian from forward sensitivities: for stiff plants over long experiments.
     max_iter : int, default 200
         IPOPT iteration limit.
+    progress : callable, optional
+        Called with a line of text (iteration, cost, step, time left: :mod:`cosim.calibrate.progress`) at most once a
+        second while the fit runs.
 
     Attributes
     ----------
@@ -89,7 +93,7 @@ class Calibrator(Estimator):
         Fitted outputs at the samples.
     """
 
-    def __init__(self, model, outputs, free, fixed=None, substeps=1, method="rk4", max_iter=200):
+    def __init__(self, model, outputs, free, fixed=None, substeps=1, method="rk4", max_iter=200, progress=None):
         self.model = model
         self.outputs = outputs
         self.free = free
@@ -97,6 +101,7 @@ class Calibrator(Estimator):
         self.substeps = substeps
         self.method = method
         self.max_iter = max_iter
+        self.progress = progress
 
     def transcription(self, experiment):
         """The problem for ``experiment``: a :class:`Transcription` (NLP) or, for single shooting, a
@@ -121,14 +126,18 @@ class Calibrator(Estimator):
             q, iterations, success, status = self._gauss_newton(tr, q0, lower, upper)
             return self._finish(tr, q, initial, cost_before, iterations, success, status, tr.jacobian(q))
         n_states = X0.size
-        solver = ca.nlpsol("calibration", "ipopt", tr.nlp, {
-            "ipopt": {"print_level": 0, "max_iter": self.max_iter, "tol": 1e-10, "sb": "yes"},
-            "print_time": False,
-        })
+        options = {"ipopt": {"print_level": 0, "max_iter": self.max_iter, "tol": 1e-10, "sb": "yes"},
+                   "print_time": False}
+        if self.progress is not None:
+            options["iteration_callback"] = watch = IpoptProgress(n_states + q0.size, tr.nlp["g"].numel(), q0.size,
+                                                                  self.progress, self.max_iter)
+        solver = ca.nlpsol("calibration", "ipopt", tr.nlp, options)
         solution = solver(x0=np.concatenate([X0, q0]),
                           lbx=np.concatenate([np.full(n_states, -np.inf), lower]),
                           ubx=np.concatenate([np.full(n_states, np.inf), upper]), lbg=0, ubg=0)
         stats = solver.stats()
+        if self.progress is not None:
+            watch.meter.done()
         q = np.array(solution["x"], dtype=float).ravel()[n_states:]
         X = tr.evaluate(q)[2]
         return self._finish(tr, q, initial, cost_before, int(stats.get("iter_count", 0)),
@@ -138,8 +147,11 @@ class Calibrator(Estimator):
     def _gauss_newton(self, tr, q0, lower, upper):
         from scipy.optimize import least_squares
 
-        solution = least_squares(lambda q: tr.evaluate(q)[1], q0, jac=tr.jacobian, bounds=(lower, upper),
+        residual = watch_residual(lambda q: tr.evaluate(q)[1], self.progress, self.max_iter)
+        solution = least_squares(residual, q0, jac=tr.jacobian, bounds=(lower, upper),
                                  method="trf", x_scale="jac", xtol=1e-8, ftol=1e-10, max_nfev=self.max_iter)
+        if self.progress is not None:
+            residual.meter.done()
         status = f"least_squares (trust region, exact Jacobian): {solution.message}"
         return solution.x, int(solution.njev or solution.nfev), bool(solution.success), status
 

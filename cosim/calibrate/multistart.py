@@ -8,7 +8,7 @@ import numpy as np
 from cosim.calibrate.estimator import Calibrator
 from cosim.experiment import align_experiment
 from cosim.fitting import starts
-from cosim.parallel import map_on_dask
+from cosim.parallel import map_here, map_on_dask
 
 __all__ = ["fit_multistart", "start_points"]
 
@@ -36,8 +36,9 @@ def _experiment(job, inputs, outputs):
     return align_experiment(job, inputs, outputs, segments=job.segments, steady_s=job.steady_s)
 
 
-def _fit_one(job, start):
-    """One fit in a worker: rebuilds the model from its source (CasADi objects do not cross processes)."""
+def _fit_one(job, start, report=None):
+    """One fit in a worker: rebuilds the model from its source (CasADi objects do not cross processes); ``report``
+    gets its progress lines."""
     if job.fmu is not None:
         return _fit_one_fmu(job, start)
     from cosim.compile import lower
@@ -46,7 +47,7 @@ def _fit_one(job, start):
     experiment = _experiment(job, [u.name for u in model.inputs], [o.name for o in model.outputs])
     outputs = [o for o, _, _ in job.signals]
     fit = Calibrator(model, outputs, job.free, fixed=job.fixed, substeps=job.substeps, method=job.method,
-                     max_iter=job.max_iter).fit(experiment, start=start)
+                     max_iter=job.max_iter, progress=report).fit(experiment, start=start)
     return {
         "start": dict(zip(job.free, map(float, start))),
         "parameters": fit.parameters_,
@@ -103,10 +104,10 @@ def fit_multistart(job, progress=True):
     """Fit ``job`` from ``job.starts`` starting points; returns the best fit's dict plus ``runs`` (all of them)."""
     points = start_points(job.free, job.starts, job.seed)
     if len(points) == 1 and not job.scheduler:
-        runs = [_fit_one(job, points[0])]
+        runs = map_here(functools.partial(_fit_one, job), points, desc="fit", progress=progress, report=True)
     else:
         runs = map_on_dask(functools.partial(_fit_one, job), points, job.scheduler, desc="multi-start fits",
-                           progress=progress)
+                           progress=progress, report=True)
     best = min(runs, key=lambda r: (not r["success"], r["cost_after"]))
     return dict(best, runs=[{k: r[k] for k in ("start", "parameters", "cost_after", "iterations", "success")}
                             for r in runs])

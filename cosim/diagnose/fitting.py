@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear
 
+from cosim.calibrate.progress import watch_residual
 from cosim.calibrate.shooting import SingleShooting
 from cosim.errors import ConfigError
 from cosim.experiment import Experiment
@@ -190,6 +191,9 @@ class SampleFit(Estimator):
         name -> :class:`~cosim.fitting.FreeParameter` for each of ``replay.free``.
     max_nfev : int, default 40
         Iteration limit of the trust-region solver.
+    progress : callable, optional
+        Gets a line per second: the replays so far, the cost, the step, the time left
+        (:func:`cosim.calibrate.progress.watch_residual`).
 
     Attributes
     ----------
@@ -204,12 +208,13 @@ class SampleFit(Estimator):
         name -> d(weighted residual on ``mask``)/d(value) at the optimum, by forward differences.
     """
 
-    def __init__(self, replay, weights, mask, free, max_nfev=40):
+    def __init__(self, replay, weights, mask, free, max_nfev=40, progress=None):
         self.replay = replay
         self.weights = weights
         self.mask = mask
         self.free = free
         self.max_nfev = max_nfev
+        self.progress = progress
 
     def fit(self, measured):
         """Fit to ``measured`` (n_signals, N); returns ``self``."""
@@ -218,6 +223,8 @@ class SampleFit(Estimator):
         lo, hi = _scaled_bounds(self.free, replay)
         q0 = np.clip(_scaled_starts(self.free, replay), lo, hi)
         residual, outputs = _residual_function(replay, measured, weights, mask)
+        # 2-point Jacobians: n + 1 replays an iteration
+        residual = watch_residual(residual, self.progress, self.max_nfev * (len(q0) + 1))
         jacobian = np.zeros((int(mask.sum()) * measured.shape[0], 0))
         if len(q0):
             solution = least_squares(residual, q0, bounds=(lo, hi), method="trf", jac="2-point",

@@ -10,7 +10,7 @@ import numpy as np
 
 from cosim.diagnose.effects import EFFECTS, Effect, write_variant
 from cosim.diagnose.fitting import LinearisedFit, SampleFit, Screen, Trials
-from cosim.parallel import map_on_dask
+from cosim.parallel import map_here, map_on_dask
 
 __all__ = ["FitTask", "task_of", "variant_of", "fit_task", "screen_task", "run_tasks", "fit_free", "free_at",
            "added_parameters"]
@@ -117,20 +117,22 @@ def _replay(model, records, job, free):
     return replay, np.hstack([e.measured.T for e, _ in records])
 
 
-def fit_free(model, records, job, free, weights, mask, label):
+def fit_free(model, records, job, free, weights, mask, label, report=None):
     """Fit the ``free`` parameters (name -> FreeParameter) on ``mask`` over every record (from
     :func:`~cosim.diagnose.job.load_records`), each replayed with its trial's fixed values; a Fit labelled
-    ``label``."""
+    ``label``. ``report`` gets the fit's progress lines."""
     replay, measured = _replay(model, records, job, free)
-    return SampleFit(replay, weights, mask, free, max_nfev=job.max_nfev).fit(measured).result(label)
+    return SampleFit(replay, weights, mask, free, max_nfev=job.max_nfev, progress=report).fit(measured).result(label)
 
 
-def fit_task(task):
+def fit_task(task, report=None):
     """One fit in a worker (a candidate's variant, or the baseline itself) on the task's samples, from its
-    ``start`` or else the best of every start; replays every sample."""
+    ``start`` or else the best of every start; replays every sample. ``report`` gets the fits' progress lines."""
     model, records, trials = _candidate(task)
     trials = [task.start] if task.start else trials
-    fits = [fit_free(model, records, task.job, trial, task.weights, task.mask, task.effect) for trial in trials]
+    fits = [fit_free(model, records, task.job, trial, task.weights, task.mask, task.effect,
+                     report and (lambda line, k=k: report(f"{task.effect} start {k + 1}/{len(trials)}: {line}")))
+            for k, trial in enumerate(trials)]
     return min(fits, key=lambda fit: fit.chi2)
 
 
@@ -149,7 +151,9 @@ def screen_task(task):
 
 def run_tasks(job, tasks, progress, function=fit_task, desc="candidate effects"):
     """``function`` of every task: in this process (``parallel.workers = 0``, or one task and no scheduler), else
-    on the job's Dask workers."""
+    on the job's Dask workers; a fit's progress lines (iteration, cost, time left) beside the bar."""
+    report = function is fit_task
     if job.workers <= 0 or len(tasks) <= 1 and not job.scheduler:
-        return [function(t) for t in tasks]
-    return map_on_dask(function, tasks, job.scheduler, max_workers=job.workers, desc=desc, progress=progress)
+        return map_here(function, tasks, desc=desc, progress=progress, report=report)
+    return map_on_dask(function, tasks, job.scheduler, max_workers=job.workers, desc=desc, progress=progress,
+                       report=report)

@@ -61,7 +61,7 @@ from cosim.diagnose.show import show
 from cosim.diagnose.stages import Decision, Samples, Scores, Split
 from cosim.diagnose.tasks import added_parameters, fit_free, free_at, run_tasks, screen_task, task_of, variant_of
 from cosim.experiment import Experiment
-from cosim.parallel import keep_local_cluster
+from cosim.parallel import keep_local_cluster, map_here
 
 __all__ = ["load_samples", "estimate_noise", "split_segments",
            "score_candidates", "rivals_of", "decide", "show", "run_diagnosis", "advise"]
@@ -409,7 +409,9 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     """
     samples = load_samples(job)
     noise = estimate_noise(job, samples)
-    base = fit_free(samples.model, samples.records, job, dict(job.free), noise.weights, samples.mask, "baseline")
+    base = map_here(lambda _, report: fit_free(samples.model, samples.records, job, dict(job.free), noise.weights,
+                                               samples.mask, "baseline", report),
+                    [None], desc="baseline fit", progress=progress, report=True)[0]
     split = split_segments(job, samples, noise)
     with tempfile.TemporaryDirectory(prefix="cosim-diagnose-") as scratch, \
             keep_local_cluster(job.workers):  # the variants' Modelica packages; one Dask cluster for every stage
