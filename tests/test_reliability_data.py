@@ -5,19 +5,25 @@ References are independent of the code under test: hand-written physically wrong
 known length and record rate has, the signal number the shell expects (128 + 2).
 """
 
+import json
 import math
+import os
+import signal
+import warnings
 
 import numpy as np
 import pytest
 from test_controllers import _all_controller_classes, required_parameters
-from test_master_support import EXAMPLES, gripper_dir, gripper_overrides  # noqa: F401
+from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
 
 from controllers.dc_drive import DcCurrentPI, DcSpeedPI
 from controllers.foc import FOC
 from controllers.haptic import AdaptiveWall, UserIntent, VirtualWall
 from controllers.outer import ImpactSummary, OuterLoop
 from cosim.cli import main
-from cosim.errors import ParameterError
+from cosim.errors import OutputWarning, ParameterError
+from cosim.master import read_results
+from cosim.outputs import MARKER
 
 # -- controller parameters, checked when the controller is built -------------------------------------------------
 
@@ -80,3 +86,44 @@ def test_the_impact_summary_of_a_peak_after_the_tightening():
     data["t_sw"] = 1.0
     s = ImpactSummary.summarize(data, {"hold_s": 0.5}, {"force": "F", "t_switch": "t_sw"})
     assert s["peak_force_N"] == 10.0 and s["min_force_after_peak_N"] is None and s["t_contact_s"] == 1.0
+
+
+# -- the rows are written whatever happens while writing -----------------------------------------------------------
+
+def test_a_plot_that_cannot_be_drawn_is_a_warning_and_the_rows_are_written(master_dir, tmp_path, capsys):  # noqa: F811
+    # a recorded signal swinging over +-1e308 (finite, so the run goes on): matplotlib cannot compute its ticks
+    big = '[controllers.big]\nclass = "ctl.py:Sine"\nrate = 100\nparameters = { amp = 1e308, f = 1.0 }\n'
+    cfg = osc_config(master_dir, stop=1.0, extra=big)
+    out = tmp_path / "res"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main(["run", str(cfg), "--out", str(out), "--no-progress", "--set", 'record.signals=["big.u"]']) == 0
+    assert [str(w.message) for w in caught if w.category is OutputWarning][0].startswith("osc: the plot signals.png")
+    data, _, _ = read_results(out / "results.parquet")
+    np.testing.assert_allclose(data["time"], np.arange(101) / 100, atol=1e-12)
+    assert data["big.u"].max() > 0.99e308 and data["big.u"].min() < -0.99e308  # the swing, every row kept
+    assert sorted(os.listdir(out)) == [MARKER, "results.parquet", "summary.json"]
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_ctrl_c_while_the_results_are_written_finishes_the_write(master_dir, tmp_path, capsys, monkeypatch):  # noqa: F811
+    # issue 44: a Ctrl-C while a finished run was written gave exit 130 and nothing written. A real SIGINT is
+    # sent to this process at the instant results.parquet starts being written.
+    import pyarrow.parquet as pq
+
+    write_table = pq.write_table
+
+    def ctrl_c_then_write(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)
+        return write_table(*args, **kwargs)
+
+    monkeypatch.setattr(pq, "write_table", ctrl_c_then_write)
+    cfg = osc_config(master_dir, stop=2.0)
+    out = tmp_path / "res"
+    assert main(["run", str(cfg), "--out", str(out), "--no-progress"]) == 130
+    err = capsys.readouterr().err
+    assert f"finishing writing the results into {out}" in err and "interrupted (SIGINT)" in err
+    data, _, _ = read_results(out / "results.parquet")
+    np.testing.assert_allclose(data["time"], np.arange(201) / 100, atol=1e-12)  # every row of the 2 s run
+    assert json.loads((out / "summary.json").read_text())["rows"] == 201 and (out / "signals.png").is_file()
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

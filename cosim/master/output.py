@@ -1,17 +1,21 @@
 """Write a run's results: Parquet (units and config in the file metadata), CSV, summary.json, PNG plots."""
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
 
+from cosim.errors import OutputWarning
 from cosim.master.plot import plot_results
 
 __all__ = ["write_results", "plot_results", "read_results"]
 
 
 def write_results(result, config, out_dir, csv=False, summary=None):
-    """Write ``results.parquet`` (and ``results.csv``), ``summary.json`` and the plot into ``out_dir``.
+    """Write ``results.parquet`` (and ``results.csv``), ``summary.json`` and the plot into ``out_dir``, in this
+    order: a plot that cannot be drawn (values matplotlib cannot scale, a figure too large) is an
+    :class:`~cosim.errors.OutputWarning`, and the results stay written.
 
     Parameters
     ----------
@@ -27,7 +31,7 @@ def write_results(result, config, out_dir, csv=False, summary=None):
     Returns
     -------
     list of pathlib.Path
-        The files written.
+        The files written (without the plot when it could not be drawn).
     """
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -69,8 +73,13 @@ def write_results(result, config, out_dir, csv=False, summary=None):
         p.write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
         files.append(p)
     if len(result.data) > 1:
-        files.append(plot_results(result, out / config.plot.file, panels=config.plot.panels, config=config,
-                                  summary=summary))
+        path = out / config.plot.file
+        try:
+            files.append(plot_results(result, path, panels=config.plot.panels, config=config, summary=summary))
+        except Exception as exc:  # matplotlib's many failures: the recorded rows matter more than their picture
+            path.unlink(missing_ok=True)
+            warnings.warn(f"{config.name}: the plot {path.name} was not drawn ({type(exc).__name__}: {exc}); "
+                          f"the results are written", OutputWarning, stacklevel=2)
     return files
 
 

@@ -2,6 +2,7 @@
 
 import contextlib
 import signal
+import sys
 import threading
 from pathlib import Path
 
@@ -11,7 +12,7 @@ from cosim.master.output import write_results
 from cosim.master.summary import summarize
 from cosim.outputs import output_folder
 
-__all__ = ["run", "run_config", "interrupt_on_signals"]
+__all__ = ["run", "run_config", "interrupt_on_signals", "SignalsHeld"]
 
 
 def run(config, progress=None):
@@ -36,7 +37,9 @@ def run_config(path, out=None, overrides=(), csv=False, progress=None, force=Fal
     Nothing is written when the config is invalid, ``out`` cannot be used (see
     :func:`cosim.outputs.output_folder`) or the FMUs cannot be loaded (the exception propagates, before the run).
     When the run stops early (Ctrl-C, SIGTERM, an exception in the loop, a NaN), what was recorded is written and
-    ``summary.json`` says why (``stopped``). Results go to a folder beside ``out``, moved into place at the end.
+    ``summary.json`` says why (``stopped``). Results go to a folder beside ``out``, moved into place at the end;
+    a Ctrl-C (or SIGTERM) while they are written waits for the files and the move (:class:`SignalsHeld`), and a
+    plot that cannot be drawn is a warning.
 
     Parameters
     ----------
@@ -61,13 +64,17 @@ def run_config(path, out=None, overrides=(), csv=False, progress=None, force=Fal
     ------
     cosim.errors.RunStopped
         The run stopped on a fault (an exception, a non-finite value); what was recorded was written first.
+    cosim.master.engine.Interrupt
+        A signal came while the results were written: they were written in full first.
     """
     from cosim.config import load_config
 
     config = load_config(path, overrides)
     out = Path(out) if out is not None else Path("out") / config.name
-    with output_folder(out, "run", force=force) as staging, interrupt_on_signals():
+    held = SignalsHeld(out)
+    with interrupt_on_signals(), held, output_folder(out, "run", force=force) as staging:
         result = engine_for(config).run(progress=progress, faults="keep")
+        held.start()
         summary = summarize(result, config)
         files = [out / f.relative_to(staging) for f in write_results(result, config, staging, csv=csv,
                                                                        summary=summary)]
@@ -95,3 +102,44 @@ def interrupt_on_signals():
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
+
+
+class SignalsHeld:
+    """Ctrl-C, SIGTERM and SIGHUP held from :meth:`start` to the end of the block, then raised as an
+    :class:`~cosim.master.engine.Interrupt`: the files being written and their move into place are finished
+    first (cut short, the staging folder would be removed, and the run's rows with it).
+
+    Parameters
+    ----------
+    out : path-like
+        Where the results go (named in the messages).
+    """
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+    def __init__(self, out):
+        self.out = out
+        self.signum = None
+        self._previous = {}
+
+    def __enter__(self):
+        return self
+
+    def start(self):
+        """Hold the signals from now on (only in the main thread, where handlers can be set)."""
+        if threading.current_thread() is threading.main_thread():
+            self._previous = {s: signal.signal(s, self._note) for s in self.SIGNALS}
+
+    def _note(self, signum, frame):
+        if self.signum is None:
+            self.signum = signum
+            print(f"cosim: {signal.Signals(signum).name}: finishing writing the results into {self.out} first",
+                  file=sys.stderr)
+
+    def __exit__(self, exc_type, exc, tb):
+        for s, handler in self._previous.items():
+            signal.signal(s, handler)
+        if self.signum is not None and exc_type is None:
+            print(f"cosim: the results are written in {self.out}", file=sys.stderr)
+            raise Interrupt(self.signum)
+        return False

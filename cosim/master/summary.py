@@ -5,6 +5,9 @@ chosen by ``[summary] kind`` and ``controller``; see docs/config.md): this modul
 """
 
 import math
+import warnings
+
+from cosim.errors import OutputWarning
 
 __all__ = ["summarize"]
 
@@ -23,7 +26,8 @@ def summarize(result, config):
         Run facts (config, overrides, times, rows, controller calls, solver, engine; ``parameters_files``: per
         FMU instance, the parameters file read, its SHA-256 and provenance; ``stopped`` with
         the instance, time and reason when an FMU asked to terminate), then the keys the
-        summary plugin returns; non-finite floats become None.
+        summary plugin returns; non-finite floats become None. A plugin that raises is an
+        :class:`~cosim.errors.OutputWarning` and its error is ``summary_error``: the run's rows still get written.
     """
     out = {
         "config": str(config.path),
@@ -53,5 +57,10 @@ def summarize(result, config):
     if spec.plugin is None:
         return out
     values = result.controller_values.get(spec.controller, {})
-    out.update(spec.plugin.summarize(result.data, values, dict(spec.columns)))
+    try:
+        out.update(spec.plugin.summarize(result.data, values, dict(spec.columns)))
+    except Exception as exc:  # a plugin (maybe the user's) failing on these rows: say so, keep the rows
+        out["summary_error"] = f"{type(exc).__name__}: {exc}"
+        warnings.warn(f"{config.name}: the {spec.kind!r} summary failed ({out['summary_error']}); summary.json has "
+                      f"the run's facts only", OutputWarning, stacklevel=2)
     return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}
