@@ -2,14 +2,20 @@
 progress bar: the multi-start calibration and the diagnosis's candidate fits.
 
 A local cluster listens on 127.0.0.1 only (scheduler and workers) and has no dashboard: its HTTP server has no
-login, so it must not answer on the machine's network address.
+login, so it must not answer on the machine's network address. Its workers' temporary folder (``TMPDIR``: the
+FMUs they unpack, Dask's scratch space) is one folder removed when the cluster is closed, so nothing a worker
+left, even one killed by Ctrl-C, outlives the command. Its workers ignore Ctrl-C (the terminal sends it to every
+process of the command): the command stops them itself, without a traceback from each.
 """
 
 import contextlib
 import functools
 import logging
 import os
+import shutil
+import signal
 import sys
+import tempfile
 
 from tqdm import tqdm
 
@@ -56,10 +62,22 @@ def open_client(scheduler="", max_workers=None, timeout_s=5.0):
     # the scheduler always serves a small HTTP page (health, JSON): on loopback, on a free port (not 8787, which a
     # second cluster would find taken), without the dashboard
     quiet_http = {"dashboard": False, "dashboard_address": f"{LOOPBACK}:0"}
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host=LOOPBACK,
-                      dashboard_address=None, worker_dashboard_address=None, scheduler_kwargs=quiet_http,
-                      silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
-        yield client
+    scratch = tempfile.mkdtemp(prefix="cosim-dask-")
+    try:
+        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host=LOOPBACK,
+                          dashboard_address=None, worker_dashboard_address=None, scheduler_kwargs=quiet_http,
+                          silence_logs=logging.CRITICAL, local_directory=scratch,
+                          env={"TMPDIR": scratch}) as cluster, Client(cluster) as client:
+            client.run(_ignore_ctrl_c)
+            yield client
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _ignore_ctrl_c():
+    """Run in each local worker (in its main thread): ignore SIGINT. A Ctrl-C in the terminal reaches every
+    process of the command, and the command, which closes the cluster, is the one to handle it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 # The local cluster kept open by keep_local_cluster: its most workers, then (on first use) the client's context

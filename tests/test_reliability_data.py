@@ -1,5 +1,6 @@
-"""Issue 44 items: controller parameters refused when the controller is built (before a run), and a run's rows
-kept through faults of writing and plotting and through Ctrl-C while they are written.
+"""Issue 44 items: controller parameters refused when the controller is built (before a run), a run's rows kept
+through faults of writing and plotting and through Ctrl-C while they are written, no temporary folder left by a
+campaign or one of its trials, a campaign's Ctrl-C without the workers' tracebacks.
 
 References are independent of the code under test: hand-written physically wrong values, the rows a run of
 known length and record rate has, the signal number the shell expects (128 + 2).
@@ -9,10 +10,15 @@ import json
 import math
 import os
 import signal
+import subprocess
+import sys
+import tempfile
+import time
 import warnings
 
 import numpy as np
 import pytest
+from test_campaign import GRID, ROOT, job_path  # noqa: F401
 from test_controllers import _all_controller_classes, required_parameters
 from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
 
@@ -127,3 +133,47 @@ def test_ctrl_c_while_the_results_are_written_finishes_the_write(master_dir, tmp
     np.testing.assert_allclose(data["time"], np.arange(201) / 100, atol=1e-12)  # every row of the 2 s run
     assert json.loads((out / "summary.json").read_text())["rows"] == 201 and (out / "signals.png").is_file()
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+# -- no temporary folder outlives its command -----------------------------------------------------------------------
+
+def _temporary_folder(monkeypatch, tmp_path):
+    """This process's and its children's temporary folder, empty: what a command leaves in it is seen."""
+    folder = tmp_path / "tmp"
+    folder.mkdir()
+    monkeypatch.setenv("TMPDIR", str(folder))
+    monkeypatch.setattr(tempfile, "tempdir", str(folder))
+    return folder
+
+
+def test_one_campaign_trial_leaves_no_temporary_folder(job_path, tmp_path, monkeypatch, capsys):  # noqa: F811
+    # issue 44: every `cosim campaign ... --trial K` left a cosim-plant-* folder (the FMU unpacked for the trials)
+    folder = _temporary_folder(monkeypatch, tmp_path)
+    sets = [a for s in GRID for a in ("--set", s)]
+    assert main(["campaign", str(job_path), "--trial", "3", *sets]) == 0
+    assert "peak_force_N = " in capsys.readouterr().out
+    assert os.listdir(folder) == []
+
+
+@pytest.mark.slow
+def test_ctrl_c_on_a_campaign_is_clean_and_no_campaign_leaves_a_temporary_folder(job_path, tmp_path,  # noqa: F811
+                                                                                  monkeypatch):
+    # issue 44: Ctrl-C printed two 25-line tracebacks of the Dask workers before the campaign's own message, and
+    # every campaign left a cosim-plant-* folder a worker. Ctrl-C as a terminal sends it: to the whole group.
+    folder = _temporary_folder(monkeypatch, tmp_path)
+    out = tmp_path / "cut"
+    sets = [a for s in GRID for a in ("--set", s)]
+    proc = subprocess.Popen([sys.executable, "-m", "cosim", "campaign", str(job_path), "--out", str(out), *sets,
+                             "--workers", "2", "--no-progress"], cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)},
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.monotonic() + 240
+    while not list(out.glob("parts/*.parquet")) and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.1)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and err.strip().endswith("the same command resumes")
+    assert [p for p in os.listdir(folder) if p.startswith("cosim-")] == []
+    assert main(["campaign", str(job_path), "--out", str(out), *sets, "--workers", "2", "--no-progress"]) == 0
+    assert [p for p in os.listdir(folder) if p.startswith("cosim-")] == []

@@ -81,5 +81,8 @@ def run_one_trial(path, index, overrides=()):
     spec = specs[index]
     coating = next(c for c in job.coatings if c.name == spec.coating)
     runner = TrialRunner(job, coating)
-    row = runner.run(spec)
+    try:
+        row = runner.run(spec)
+    finally:
+        runner.close()
     return row, run_command(job, spec, runner.stop_s)

@@ -24,7 +24,7 @@ from cosim.campaign.trial import COLUMNS, TrialRunner
 from cosim.errors import ConfigError
 from cosim.paramfile import file_sha256
 
-__all__ = ["batches", "run_batch", "run_trials", "read_parts", "command_line"]
+__all__ = ["batches", "run_batch", "run_trials", "read_parts", "command_line", "close_runners"]
 
 _RUNNERS = {}  # per process: (campaign hash, coating) -> TrialRunner, kept across the batches a worker runs
 
@@ -81,6 +81,13 @@ def run_batch(job, specs, key=""):
     kernel = runner.kernel_s - kernel0  # the first run's kernel compile or load: set-up, not the trials'
     return rows, {"setup_s": t1 - t0 + kernel, "loop_s": runner.loop_s - loop0,
                   "trials_s": time.perf_counter() - t1 - kernel}
+
+
+def close_runners():
+    """Close this process's runners (a Dask worker's, at the end of a campaign): their FMUs unloaded, the folders
+    they were unpacked into removed (a local cluster's workers' folders go with the cluster anyway)."""
+    while _RUNNERS:
+        _RUNNERS.popitem()[1].close()
 
 
 def _inputs(job):
@@ -221,6 +228,8 @@ def run_trials(job, out, workers=None, scheduler="", progress=True, command=""):
             client.cancel(list(futures))
         finally:
             bar.close()
+        if not info["interrupted"]:  # (interrupted: a runner may still be in a cancelled batch's trial)
+            client.run(close_runners)
         info["workers"] = len(client.scheduler_info().get("workers", {}))  # at the end: a remote one may grow
     info["wall_s"] = time.perf_counter() - t0
     return info

@@ -95,6 +95,10 @@ class TrialRunner:
         self.kernel_s = 0.0  # wall time compiling or loading the loop's kernel (the first run), summed
         self.stop_s = None  # the stop time (s) of the last trial's run, the longer one of a late trigger
 
+    def close(self):
+        """Unload the FMU kept between trials (and remove the folder it was unpacked into)."""
+        self.engine.fmu_pool.close()
+
     def run(self, spec, plant=None, outer=None):
         """Run one trial.
 
