@@ -12,11 +12,12 @@ import os
 import secrets
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 
-from cosim.errors import ConfigError
+from cosim.errors import ConfigError, OutputWarning
 
-__all__ = ["MARKER", "output_folder", "check_output", "mark_output", "is_output"]
+__all__ = ["MARKER", "output_folder", "check_output", "mark_output", "is_output", "optional_file"]
 
 MARKER = ".cosim-output"
 
@@ -175,6 +176,32 @@ def _commit(staging, out, replace):
         raise ConfigError(f"--out {out}: could not move the results into place ({exc.strerror})") from None
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
+
+
+def optional_file(path, make, *args, **kwargs):
+    """Write ``path`` with ``make(path, *args, **kwargs)``: a file the results do not depend on (a plot), written
+    after them, whose failure is an :class:`~cosim.errors.OutputWarning` instead of the command's failure.
+
+    Parameters
+    ----------
+    path : Path
+        The file; removed when ``make`` fails half way.
+    make : callable
+        Writes it; may raise anything (matplotlib's failures on values it cannot scale, a figure too large).
+
+    Returns
+    -------
+    Path or None
+        ``path``, or None when it could not be made.
+    """
+    try:
+        make(path, *args, **kwargs)
+    except Exception as exc:  # the results it illustrates are written already: keep them, say what is missing
+        Path(path).unlink(missing_ok=True)
+        warnings.warn(f"{Path(path).name} was not made ({type(exc).__name__}: {exc}); the results are written",
+                      OutputWarning, stacklevel=2)
+        return None
+    return Path(path)
 
 
 def check_output(folder, adopt=()):

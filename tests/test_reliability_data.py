@@ -104,7 +104,7 @@ def test_a_plot_that_cannot_be_drawn_is_a_warning_and_the_rows_are_written(maste
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         assert main(["run", str(cfg), "--out", str(out), "--no-progress", "--set", 'record.signals=["big.u"]']) == 0
-    assert [str(w.message) for w in caught if w.category is OutputWarning][0].startswith("osc: the plot signals.png")
+    assert [str(w.message) for w in caught if w.category is OutputWarning][0].startswith("signals.png was not made (ValueError")
     data, _, _ = read_results(out / "results.parquet")
     np.testing.assert_allclose(data["time"], np.arange(101) / 100, atol=1e-12)
     assert data["big.u"].max() > 0.99e308 and data["big.u"].min() < -0.99e308  # the swing, every row kept
@@ -177,3 +177,23 @@ def test_ctrl_c_on_a_campaign_is_clean_and_no_campaign_leaves_a_temporary_folder
     assert [p for p in os.listdir(folder) if p.startswith("cosim-")] == []
     assert main(["campaign", str(job_path), "--out", str(out), *sets, "--workers", "2", "--no-progress"]) == 0
     assert [p for p in os.listdir(folder) if p.startswith("cosim-")] == []
+
+
+def test_ctrl_c_while_a_calibration_is_written_finishes_the_write(tmp_path, capsys, monkeypatch):
+    # a real SIGINT to this process at the instant the fit's plot starts (calibration.json is written before it)
+    import cosim.calibrate.report as report
+    from test_calibrate import write_job
+
+    plot = report._plot
+
+    def ctrl_c_then_plot(*args):
+        os.kill(os.getpid(), signal.SIGINT)
+        return plot(*args)
+
+    monkeypatch.setattr(report, "_plot", ctrl_c_then_plot)
+    out = tmp_path / "fit"
+    assert main(["calibrate", str(write_job(tmp_path)), "--out", str(out), "--no-progress"]) == 130
+    assert "interrupted (SIGINT)" in capsys.readouterr().err
+    assert sorted(os.listdir(out)) == [MARKER, "calibration.json", "fit.png", "parameters.toml"]
+    fit = json.loads((out / "calibration.json").read_text())
+    assert fit["cost_after"] < fit["cost_before"]

@@ -157,11 +157,13 @@ def run_job(path, out="out/calibration", overrides=(), progress=True, force=Fals
     (:func:`cosim.outputs.output_folder`)."""
     from cosim.calibrate.multistart import fit_multistart
     from cosim.calibrate.report import write_results
-    from cosim.master.run import interrupt_on_signals
+    from cosim.master.run import SignalsHeld, interrupt_on_signals
     from cosim.outputs import output_folder
 
     job = load_job(path, overrides)
-    with output_folder(out, "calibrate", force=force) as staging, interrupt_on_signals():
+    held = SignalsHeld(out)  # a Ctrl-C while the fit is written waits for the files
+    with interrupt_on_signals(), held, output_folder(out, "calibrate", force=force) as staging:
         result = fit_multistart(job, progress=progress)
+        held.start()
         summary = write_results(job, result, staging)
     return summary

@@ -8,6 +8,7 @@ import matplotlib
 import numpy as np
 
 from cosim.paramfile import provenance, write_parameters_file
+from cosim.outputs import optional_file
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -69,7 +70,7 @@ def write_results(job, result, out):
               "calibration jobs ([model]); [provenance] says which job, data and code made it.")
     write_parameters_file(out / "parameters.toml", {n: result["parameters"][n] for n in names},
                           {n: standard_error(result["std_errors"][n]) for n in names}, prov, header)
-    _plot(job, result, out / "fit.png")
+    optional_file(out / "fit.png", lambda p: _plot(job, result, p))
     return summary
 
 

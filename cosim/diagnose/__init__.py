@@ -33,15 +33,17 @@ def diagnose(path, out="out/diagnosis", overrides=(), progress=True, build=True,
         Replace a previous cosim output at ``out``.
     """
     from cosim.diagnose.report import write_diagnosis
-    from cosim.master.run import interrupt_on_signals
+    from cosim.master.run import SignalsHeld, interrupt_on_signals
     from cosim.outputs import output_folder
     from cosim.parallel import check_scheduler
 
     job = load_diagnose_job(path, overrides)
     if job.scheduler:  # the candidates' fits need it only after the baseline's: say now that it does not answer
         check_scheduler(job.scheduler)
-    with output_folder(out, "diagnose", force=force) as staging, interrupt_on_signals():
+    held = SignalsHeld(out)  # a Ctrl-C while the diagnosis is written waits for the files
+    with interrupt_on_signals(), held, output_folder(out, "diagnose", force=force) as staging:
         result = _relocated(run_diagnosis(job, progress=progress, build=build, out=staging), staging, out)
+        held.start()
         write_diagnosis(result, staging, source=job.source)
     return result
 

@@ -1,13 +1,12 @@
 """Write a run's results: Parquet (units and config in the file metadata), CSV, summary.json, PNG plots."""
 
 import json
-import warnings
 from pathlib import Path
 
 import numpy as np
 
-from cosim.errors import OutputWarning
 from cosim.master.plot import plot_results
+from cosim.outputs import optional_file
 
 __all__ = ["write_results", "plot_results", "read_results"]
 
@@ -73,13 +72,9 @@ def write_results(result, config, out_dir, csv=False, summary=None):
         p.write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
         files.append(p)
     if len(result.data) > 1:
-        path = out / config.plot.file
-        try:
-            files.append(plot_results(result, path, panels=config.plot.panels, config=config, summary=summary))
-        except Exception as exc:  # matplotlib's many failures: the recorded rows matter more than their picture
-            path.unlink(missing_ok=True)
-            warnings.warn(f"{config.name}: the plot {path.name} was not drawn ({type(exc).__name__}: {exc}); "
-                          f"the results are written", OutputWarning, stacklevel=2)
+        plot = optional_file(out / config.plot.file, lambda p: plot_results(result, p, panels=config.plot.panels,
+                                                                             config=config, summary=summary))
+        files += [plot] if plot is not None else []
     return files
 
 
