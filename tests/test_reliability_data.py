@@ -104,7 +104,8 @@ def test_a_plot_that_cannot_be_drawn_is_a_warning_and_the_rows_are_written(maste
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         assert main(["run", str(cfg), "--out", str(out), "--no-progress", "--set", 'record.signals=["big.u"]']) == 0
-    assert [str(w.message) for w in caught if w.category is OutputWarning][0].startswith("signals.png was not made (ValueError")
+    messages = [str(w.message) for w in caught if w.category is OutputWarning]
+    assert messages[0].startswith("signals.png was not made (ValueError")
     data, _, _ = read_results(out / "results.parquet")
     np.testing.assert_allclose(data["time"], np.arange(101) / 100, atol=1e-12)
     assert data["big.u"].max() > 0.99e308 and data["big.u"].min() < -0.99e308  # the swing, every row kept
@@ -112,7 +113,8 @@ def test_a_plot_that_cannot_be_drawn_is_a_warning_and_the_rows_are_written(maste
     assert "wrote" in capsys.readouterr().out
 
 
-def test_ctrl_c_while_the_results_are_written_finishes_the_write(master_dir, tmp_path, capsys, monkeypatch):  # noqa: F811
+def test_ctrl_c_while_the_results_are_written_finishes_the_write(master_dir, tmp_path, capsys,  # noqa: F811
+                                                                  monkeypatch):
     # issue 44: a Ctrl-C while a finished run was written gave exit 130 and nothing written. A real SIGINT is
     # sent to this process at the instant results.parquet starts being written.
     import pyarrow.parquet as pq
@@ -177,6 +179,24 @@ def test_ctrl_c_on_a_campaign_is_clean_and_no_campaign_leaves_a_temporary_folder
     assert [p for p in os.listdir(folder) if p.startswith("cosim-")] == []
     assert main(["campaign", str(job_path), "--out", str(out), *sets, "--workers", "2", "--no-progress"]) == 0
     assert [p for p in os.listdir(folder) if p.startswith("cosim-")] == []
+
+
+def test_ctrl_c_as_the_run_ends_keeps_every_row(master_dir, tmp_path, capsys, monkeypatch):  # noqa: F811
+    # a real SIGINT at the instant the loop has ended and the FMUs are being closed, before anything is written
+    from cosim.master.plant import PlantSystem
+
+    close = PlantSystem.close
+
+    def ctrl_c_then_close(self):
+        os.kill(os.getpid(), signal.SIGINT)
+        return close(self)
+
+    monkeypatch.setattr(PlantSystem, "close", ctrl_c_then_close)
+    out = tmp_path / "res"
+    assert main(["run", str(osc_config(master_dir, stop=2.0)), "--out", str(out), "--no-progress"]) == 130
+    assert "interrupted (SIGINT)" in capsys.readouterr().err
+    data, _, _ = read_results(out / "results.parquet")
+    np.testing.assert_allclose(data["time"], np.arange(201) / 100, atol=1e-12)
 
 
 def test_ctrl_c_while_a_calibration_is_written_finishes_the_write(tmp_path, capsys, monkeypatch):

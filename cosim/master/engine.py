@@ -183,7 +183,7 @@ class Engine:
             progress = run.progress if run.progress != "auto" else sum(self.k_stop // p + 1 for p in periods) > 200_000
         return progress
 
-    def run(self, progress=None, faults="raise"):
+    def run(self, progress=None, faults="raise", loop_end=None):
         """Run from start to stop; a partial result if interrupted by Ctrl-C (or SIGTERM, see :class:`Interrupt`).
 
         Parameters
@@ -194,6 +194,10 @@ class Engine:
             On an exception in the loop (a controller raising, an FMU error, a non-finite value): "raise" it, or
             "keep" what was recorded: the result's ``stopped`` says why (cause "error" or "non-finite") and
             ``fault`` holds the exception.
+        loop_end : callable, optional
+            Called as soon as the loop has ended, before the FMUs are closed: from then on the recorded rows are
+            final (``cosim run`` holds Ctrl-C from there until they are written:
+            :class:`~cosim.master.run.SignalsHeld`).
 
         Returns
         -------
@@ -228,6 +232,8 @@ class Engine:
                 stopped = self._fault(exc, self.tb.time(loop.tick))
             finally:
                 wall = _time.perf_counter() - wall0
+                if loop_end is not None:
+                    loop_end()
         finally:
             if bar is not None:
                 bar.close()

@@ -73,8 +73,7 @@ def run_config(path, out=None, overrides=(), csv=False, progress=None, force=Fal
     out = Path(out) if out is not None else Path("out") / config.name
     held = SignalsHeld(out)
     with interrupt_on_signals(), held, output_folder(out, "run", force=force) as staging:
-        result = engine_for(config).run(progress=progress, faults="keep")
-        held.start()
+        result = engine_for(config).run(progress=progress, faults="keep", loop_end=held.start)
         summary = summarize(result, config)
         files = [out / f.relative_to(staging) for f in write_results(result, config, staging, csv=csv,
                                                                        summary=summary)]
