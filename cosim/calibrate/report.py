@@ -7,8 +7,8 @@ import math
 import matplotlib
 import numpy as np
 
-from cosim.paramfile import provenance, write_parameters_file
 from cosim.outputs import optional_file
+from cosim.paramfile import provenance, write_parameters_file
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
