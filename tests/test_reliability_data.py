@@ -128,13 +128,19 @@ def test_ctrl_c_while_the_results_are_written_finishes_the_write(master_dir, tmp
     monkeypatch.setattr(pq, "write_table", ctrl_c_then_write)
     cfg = osc_config(master_dir, stop=2.0)
     out = tmp_path / "res"
-    assert main(["run", str(cfg), "--out", str(out), "--no-progress"]) == 130
+    # Python's own handler, as a `cosim` process has it (a test worker may have inherited SIGINT ignored)
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        assert main(["run", str(cfg), "--out", str(out), "--no-progress"]) == 130
+        restored = signal.getsignal(signal.SIGINT)
+    finally:
+        signal.signal(signal.SIGINT, before)
     err = capsys.readouterr().err
     assert f"finishing writing the results into {out}" in err and "interrupted (SIGINT)" in err
     data, _, _ = read_results(out / "results.parquet")
     np.testing.assert_allclose(data["time"], np.arange(201) / 100, atol=1e-12)  # every row of the 2 s run
     assert json.loads((out / "summary.json").read_text())["rows"] == 201 and (out / "signals.png").is_file()
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert restored is signal.default_int_handler
 
 
 # -- no temporary folder outlives its command -----------------------------------------------------------------------
