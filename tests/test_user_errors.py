@@ -44,8 +44,8 @@ def test_fmu_that_is_not_a_zip_set_on_the_command_line_comes_first(tmp_path, cap
                      "if it is one cosim built, build it again: `cosim build --force`"]
 
 
-def test_controller_class_that_cannot_load_hides_its_follow_on_problems(tmp_path, capsys):
-    err = _run(capsys, tmp_path, "controllers.outer.class=controllers.outr:OuterLoop")
+def test_controller_class_that_cannot_load_hides_its_follow_on_problems(tmp_path, capsys, gripper_dir):  # noqa: F811
+    err = _run(capsys, tmp_path, *gripper_overrides(gripper_dir), "controllers.outer.class=controllers.outr:OuterLoop")
     assert "1 problem in" in err and "summary" not in err and "plot.panels" not in err
     assert "controller module 'controllers.outr' not found" in err and "did you mean 'controllers.outer'?" in err
 
@@ -54,8 +54,8 @@ def test_controller_class_that_cannot_load_hides_its_follow_on_problems(tmp_path
     ("plant.eta_g=0.7", "--set fmus.plant.parameters.eta_g=..."),     # the FMU instance's parameter
     ("foc.bandwidth=500", "--set controllers.foc.parameters.bandwidth_hz=..."),
 ])
-def test_made_up_set_key_names_its_file_and_the_keys_meant(tmp_path, capsys, item, meant):
-    err = _run(capsys, tmp_path, item)
+def test_made_up_set_key_names_its_file_and_the_keys_meant(tmp_path, capsys, gripper_dir, item, meant):  # noqa: F811
+    err = _run(capsys, tmp_path, *gripper_overrides(gripper_dir), item)
     key = item.partition("=")[0]
     assert f"--set {key}: {key}: unknown key in {IMPACT}; did you mean {meant}" in err
     assert "'plot'" not in err  # before: "plant: unknown key; did you mean 'plot'?", located at the file
@@ -67,8 +67,8 @@ def test_set_key_of_an_fmu_parameter_not_in_the_file_is_suggested(tmp_path, caps
     assert "did you mean --set fmus.plant.parameters.B_r=...?" in err
 
 
-def test_controller_class_case_slip(tmp_path, capsys):
-    err = _run(capsys, tmp_path, "controllers.foc.class=controllers.foc:Foc")
+def test_controller_class_case_slip(tmp_path, capsys, gripper_dir):  # noqa: F811
+    err = _run(capsys, tmp_path, *gripper_overrides(gripper_dir), "controllers.foc.class=controllers.foc:Foc")
     assert "module 'controllers.foc' has no class 'Foc'; did you mean 'FOC'?" in err
 
 
