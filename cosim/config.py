@@ -864,29 +864,49 @@ def _settable_keys(fmus, ctrls):
 
 
 _FAST = 100  # a controller period this many times shorter than the plant's step: a factor 1000 typed by mistake?
+# Steps of a run's fastest controller: 3 times the longest shipped run (examples/gripper_static.toml, 250 s at
+# 26.6 kHz, 6.65e6 steps). A run length in milliseconds typed as seconds is 1000 times its meaning: the shipped
+# impact's 1.9 s typed as 1900 is 5.05e7 steps, above; speed_pi's 0.3 s (7980 steps) typed as 300 is not.
+_LONG = 2e7
 
 
 def _time_scales(run, fmus, ctrls):
     """Warn (:class:`ScaleWarning`) of a rate or a run length far from the plant's time scale, the step its FMUs
     declare (``ModelInfo.step``): a controller period more than ``_FAST`` times shorter (the shipped configs run
-    theirs at periods of 1/20 of it and longer), a run shorter than that step. The run goes on: a fast controller
-    on a slow plant can be meant."""
+    theirs at periods of 1/20 of it and longer), a run shorter than that step, a run of more than ``_LONG`` steps of
+    its fastest controller (``(stop - start) * rate``; the longest shipped run takes a third of that), unless that
+    controller's rate is warned of (the likely typo then). The run goes on: a fast controller on a slow plant, or a
+    long run, can be meant."""
     span = run.stop - run.start
     steps = {name: spec.info.step for name, spec in fmus.items() if spec.info.step is not None}
-    messages = []
+    messages, fast = [], set()
     if steps:
         name = min(steps, key=steps.get)
         h, file = steps[name], fmus[name].path.name
         for cn, c in ctrls.items():
             if c.rate * h > _FAST:
+                fast.add(cn)
                 messages.append(f"controllers.{cn}.rate = {c.rate:g} Hz: a period of {1 / c.rate:.3g} s, "
                                 f"{c.rate * h:.3g} times shorter than the step {file} declares ({h:.3g} s); the "
                                 f"shipped configs run controllers at periods of 1/20 of their plant's step or longer "
                                 f"(a factor 1000 typed by mistake? {c.rate / 1000:g} Hz)")
         if span < h:
             messages.append(f"run.stop - run.start = {span:g} s is shorter than the step {file} declares ({h:.3g} s)")
+    fastest = max(ctrls, key=lambda cn: ctrls[cn].rate, default=None)
+    if fastest is not None and fastest not in fast and span * ctrls[fastest].rate > _LONG:
+        messages.append(_long_run(run, fastest, ctrls[fastest].rate))
     for message in messages:
         warnings.warn(message, ScaleWarning, stacklevel=3)
+
+
+def _long_run(run, name, rate):
+    """The warning of a run far longer, in steps of its fastest controller, than any shipped run: what the run
+    length probably meant (milliseconds typed as seconds)."""
+    span = run.stop - run.start
+    return (f"run.stop = {run.stop:g} s: a run of {span:g} s is {span * rate:.3g} steps of controllers.{name} at "
+            f"{rate:g} Hz, more than {_LONG:.3g} (the longest shipped run, examples/gripper_static.toml, takes "
+            f"6.65e+06); milliseconds typed as seconds? run.stop = {run.start + span / 1000:g} is a run of "
+            f"{span / 1000:g} s")
 
 
 # ----------------------------------------------------------------------------------------------

@@ -4,14 +4,20 @@ import dataclasses
 import json
 import shutil
 import textwrap
+import tomllib
+import warnings
+from pathlib import Path
 
 import pytest
 from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
 
 from cosim.cli import main
 from cosim.config import load_config, parse_overrides
-from cosim.errors import ConfigError
+from cosim.errors import ConfigError, ScaleWarning
 from cosim.master import run_config
+
+ROOT = EXAMPLES.parent
+MSL = ROOT.parent / "shared" / "msl" / "ModelicaStandardLibrary-4.1.0"
 
 
 def _problems(path, overrides=()):
@@ -124,6 +130,24 @@ def test_cli_bad_input_exit_2_nothing_written(master_dir, tmp_path, capsys, edit
     assert not out.exists()
 
 
+@pytest.fixture(scope="module")
+def shipped_fmus(tmp_path_factory):
+    """Every FMU a shipped run config names, built as the guides say (cosim build's model lists, so with their
+    cs_step: the plant step the time-scale warnings are told against): a folder; DcDrive only with the MSL."""
+    from cosim.compile import build_all, build_fmu
+
+    out = tmp_path_factory.mktemp("shipped_fmus")
+    lists = [(ROOT / "modelica" / "models.toml", [])]
+    if (MSL / "Modelica" / "package.mo").is_file():
+        lists.append((EXAMPLES / "msl_drive" / "models.toml", [MSL]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for models, path in lists:
+            list(build_all(models_toml=models, out_dir=out, modelica_path=path))
+        build_fmu(EXAMPLES / "hybrid" / "BouncingBall.mo", "BouncingBall", out_dir=out)
+    return out
+
+
 @pytest.mark.slow
 def test_shipped_configs_validate(gripper_dir):
     for name in ("gripper_static", "gripper_impact", "gripper_impact_p3"):
@@ -132,6 +156,25 @@ def test_shipped_configs_validate(gripper_dir):
     cfg = load_config(EXAMPLES / "gripper_impact_split.toml", gripper_overrides(gripper_dir, split=True))
     assert set(cfg.fmus) == {"plant", "drive"}
     assert cfg.summary.columns == {"force": "F_g", "t_switch": "outer.t_switch"}
+
+
+@pytest.mark.slow
+def test_every_shipped_run_config_loads_without_a_scale_warning(shipped_fmus):
+    # every examples/**/*.toml with a [run] table, its FMUs as cosim build makes them: no rate, no run length is
+    # far from its plant's time scale (gripper_static, 6.65e6 FOC steps, is the longest)
+    configs = [p for p in sorted(EXAMPLES.rglob("*.toml")) if "run" in tomllib.loads(p.read_text())]
+    assert len(configs) >= 9
+    loaded = []
+    for path in configs:
+        fmus = tomllib.loads(path.read_text()).get("fmus", {})
+        if not all((shipped_fmus / Path(f["path"]).name).is_file() for f in fmus.values()):
+            assert path.name == "drive.toml"  # the MSL's DcDrive, built when the MSL is there
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", ScaleWarning)
+            load_config(path, [f"fmus.{n}.path={shipped_fmus / Path(f['path']).name}" for n, f in fmus.items()])
+        loaded.append(path.name)
+    assert {"gripper_static.toml", "gripper_impact.toml", "speed_pi.toml", "haptic_wall.toml"} <= set(loaded)
 
 
 def test_summary_kind_none_keeps_the_keys_of_the_controllers_summaries(gripper_dir):

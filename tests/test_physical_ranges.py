@@ -2,7 +2,13 @@
 modelDescription.xml (FMI 3.0 and 2.0) and the master refuses a value outside them before the run, naming the key,
 the range and the unit; a rate far faster than the plant's declared step is warned of."""
 
+import os
+import signal
+import subprocess
+import sys
 import textwrap
+import threading
+import tomllib
 import xml.etree.ElementTree as ET
 import zipfile
 
@@ -111,3 +117,29 @@ def test_a_rate_a_thousand_times_too_fast_is_warned_of(tmp_path, capsys, gripper
         f"controllers.foc.rate = 2.66e+07 Hz: a period of 3.76e-08 s, {26.6e6 * h:.3g} times shorter than the step "
         f"GripperPlant.fmu declares ({h:.3g} s); the shipped configs run controllers at periods of 1/20 of their "
         "plant's step or longer (a factor 1000 typed by mistake? 26600 Hz)"]
+
+
+@pytest.mark.slow  # a subprocess that loads the gripper and is stopped by Ctrl-C
+def test_a_run_length_typed_in_milliseconds_is_warned_of_and_the_run_goes_on(tmp_path, gripper_dir):  # noqa: F811
+    # 5 s typed as 5000 on the static config: 5000 s at the FOC's 26.6 kHz, 1.33e8 steps (the longest shipped run,
+    # this config's own 250 s, is 6.65e6); before: no word, the run went on for hours
+    config = EXAMPLES / "gripper_static.toml"
+    rate = tomllib.loads(config.read_text())["controllers"]["foc"]["rate"]
+    argv = [sys.executable, "-m", "cosim", "run", str(config), "--out", str(tmp_path / "o"), "--no-progress",
+            "--set", *gripper_overrides(gripper_dir), "--set", "run.stop=5000"]
+    proc = subprocess.Popen(argv, cwd=ROOT, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+                            start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    watchdog = threading.Timer(120, os.killpg, (proc.pid, signal.SIGKILL))
+    watchdog.start()
+    try:
+        first = proc.stderr.readline()
+        running = proc.poll() is None  # a warning: the run has gone on
+        os.killpg(proc.pid, signal.SIGINT)  # as the user who read it
+        rest = proc.communicate(timeout=240)[1]
+    finally:
+        watchdog.cancel()
+    assert first == (f"cosim run: warning: run.stop = 5000 s: a run of 5000 s is {5000 * rate:.3g} steps of "
+                     f"controllers.foc at {rate:g} Hz, more than 2e+07 (the longest shipped run, "
+                     "examples/gripper_static.toml, takes 6.65e+06); milliseconds typed as seconds? run.stop = 5 "
+                     "is a run of 5 s\n"), first + rest
+    assert running and proc.returncode == 130, rest
