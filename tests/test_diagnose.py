@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 from cosim.diagnose import EFFECTS, load_diagnose_job, run_diagnosis
-from cosim.diagnose.analysis import _best_lag, cut_segments, noise_level, whiteness
+from cosim.diagnose.analysis import _best_lag, hold_segments, noise_level, whiteness
 from cosim.diagnose.effects import applicable, variant_text
 from cosim.diagnose.workflow import rivals_of
 from cosim.errors import ConfigError
@@ -122,7 +122,7 @@ def test_lag_of_a_delayed_record_and_of_one_that_stands_still():
 def test_staircase_segments_are_the_holds():
     t = np.arange(600) * 0.01
     u = np.repeat([0.0, 1.0, 2.0, 1.0, 0.0, 0.0], 100)[:, None]
-    segs = cut_segments(t, u, "staircase")
+    segs = hold_segments(t, u)
     assert [s.kind for s in segs] == ["hold", "up", "up", "down", "down"]
     assert [s.level for s in segs] == [0.0, 1.0, 2.0, 1.0, 0.0]
 

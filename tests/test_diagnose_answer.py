@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from cosim.diagnose.advice import change_here, change_on, gap_locations, plausible
-from cosim.diagnose.analysis import cut_segments, in_segment
+from cosim.diagnose.analysis import hold_segments, in_segment
 from cosim.diagnose.answer import answer, verdict as _verdict
 from cosim.diagnose.kinds import Staircase
 from cosim.diagnose.workflow import decide
@@ -34,7 +34,7 @@ def _stage(bias_on=(), bias=0.0, seed=0):
     t = np.arange(len(LEVELS) * PER) * 0.01
     u = np.repeat(LEVELS, PER)[:, None]
     before = 30.0 * u[:, 0][None, :]
-    segments = cut_segments(t, u, "staircase")
+    segments = hold_segments(t, u)
     measured = before + rng.normal(0.0, SIGMA, before.shape)
     for k in bias_on:
         measured[0, in_segment(t, segments[k])] -= bias  # measured below the model: residual +bias there

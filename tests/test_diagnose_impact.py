@@ -212,14 +212,14 @@ def test_shipped_repeated_trials_job_loads_three_multi_rate_records():
 def test_shipped_speed_job_loads_the_speed_run():
     """examples/diagnose_speed.toml: the speed-controlled model with the loop's gains, one 1 kHz record of the speed
     reference, current and encoder angle, cut into its four speed holds (its runs are in docs/dev/diagnose-history.md)."""
-    from cosim.diagnose.analysis import cut_segments
+    from cosim.diagnose.analysis import hold_segments
     from cosim.diagnose.job import load_records
 
     job = load_diagnose_job(ROOT / "examples" / "diagnose_speed.toml")
     assert job.fixed["K_pw"] == 0.05 and job.fixed["K_iw"] == 2.5
     [(e, _)] = load_records(job, lower(SOURCE, "Gripper.GripperSpeedControlled"))
     assert len(e.time) == 1450 and np.isfinite(e.measured).all()
-    holds = cut_segments(e.time, e.inputs, "staircase", min_hold_s=job.min_hold_s)
+    holds = hold_segments(e.time, e.inputs, job.min_hold_s)
     assert [h.level for h in holds] == [2.0, 3.5, 2.5, 4.0]
 
 

@@ -8,7 +8,7 @@ from scipy import stats
 
 from cosim.experiment import constant_runs
 
-__all__ = ["Segment", "in_segment", "noise_level", "cut_segments", "frequency_bands",
+__all__ = ["Segment", "in_segment", "noise_level", "hold_segments", "impact_phases", "frequency_bands",
            "segment_table", "band_shape", "whiteness", "cross_correlation", "branch_shapes"]
 
 
@@ -58,53 +58,56 @@ def noise_level(time, measured, mask):
     return np.array(out)
 
 
-def cut_segments(time, inputs, kind, measured=None, noise=None, min_hold_s=0.1):
-    """The natural segments: each hold of a staircase (with the ramp before it), or approach / impact /
-    tightening / steady of an impact (from the measured force: first sample above 5 noise levels, the peak,
-    and settling within 5 % of the final force).
+def hold_segments(time, inputs, min_hold_s=0.1):
+    """The natural segments of a staircase: each hold of at least ``min_hold_s`` [s] with the ramp before it,
+    kind ``up``, ``down`` or ``hold`` by the level it holds against the one before.
 
     Returns list of Segment."""
-    if kind == "staircase":
-        segments = []
-        holds = [(a, b) for a, b in constant_runs(inputs) if time[b - 1] - time[a] + 1e-9 >= min_hold_s]
-        previous, start = None, 0
-        for k, (a, b) in enumerate(holds):
-            level = float(inputs[a, 0])
-            if previous is None:
-                direction, text = "hold", f"start: {level:g}"
-            else:
-                direction = "up" if level > previous else "down" if level < previous else "hold"
-                text = f"{direction} {previous:g} -> {level:g}"
-            end = holds[k + 1][0] if k + 1 < len(holds) else len(time)
-            segments.append(Segment(k, f"step {k} {text}", direction, float(time[start]), float(time[end - 1]),
-                                    level))
-            previous, start = level, end
-        return segments
-    if kind == "impact":
-        y = np.asarray(measured, float)
-        sigma = max(float(noise), 1e-12)
-        above = np.flatnonzero(y > y[0] + 5 * sigma)
-        contact = above[0] if above.size else len(y) - 1
-        peak = contact + int(np.argmax(y[contact:])) if above.size else contact
-        final = np.median(y[-max(len(y) // 10, 1):])
-        outside = np.flatnonzero(np.abs(y[peak:] - final) > max(0.05 * abs(final), 3 * sigma))
-        settle = peak + (outside[-1] + 1 if outside.size else 0)
-        settle = min(max(settle, peak + 1), len(y) - 1)
-        marks = [0, contact, min(peak + 1, len(y) - 1), settle, len(y) - 1]
-        names = ["approach", "impact", "tightening", "steady"]
-        return [Segment(k, names[k], names[k], float(time[marks[k]]), float(time[marks[k + 1]]), float("nan"))
-                for k in range(4) if marks[k + 1] > marks[k]]
-    raise ValueError(f"segment kind must be 'staircase' or 'impact'; got {kind!r}")
+    segments = []
+    holds = [(a, b) for a, b in constant_runs(inputs) if time[b - 1] - time[a] + 1e-9 >= min_hold_s]
+    previous, start = None, 0
+    for k, (a, b) in enumerate(holds):
+        level = float(inputs[a, 0])
+        if previous is None:
+            direction, text = "hold", f"start: {level:g}"
+        else:
+            direction = "up" if level > previous else "down" if level < previous else "hold"
+            text = f"{direction} {previous:g} -> {level:g}"
+        end = holds[k + 1][0] if k + 1 < len(holds) else len(time)
+        segments.append(Segment(k, f"step {k} {text}", direction, float(time[start]), float(time[end - 1]), level))
+        previous, start = level, end
+    return segments
+
+
+def impact_phases(time, force, noise):
+    """The natural segments of an impact, from its measured ``force`` and its ``noise`` level: approach, impact
+    (from the first sample above 5 noise levels to the peak), tightening, steady (settled within 5 % of the final
+    force); a phase without samples is left out.
+
+    Returns list of Segment."""
+    y = np.asarray(force, float)
+    sigma = max(float(noise), 1e-12)
+    above = np.flatnonzero(y > y[0] + 5 * sigma)
+    contact = above[0] if above.size else len(y) - 1
+    peak = contact + int(np.argmax(y[contact:])) if above.size else contact
+    final = np.median(y[-max(len(y) // 10, 1):])
+    outside = np.flatnonzero(np.abs(y[peak:] - final) > max(0.05 * abs(final), 3 * sigma))
+    settle = peak + (outside[-1] + 1 if outside.size else 0)
+    settle = min(max(settle, peak + 1), len(y) - 1)
+    marks = [0, contact, min(peak + 1, len(y) - 1), settle, len(y) - 1]
+    names = ["approach", "impact", "tightening", "steady"]
+    return [Segment(k, names[k], names[k], float(time[marks[k]]), float(time[marks[k + 1]]), float("nan"))
+            for k in range(4) if marks[k + 1] > marks[k]]
 
 
 def quiet_phases(time, force, noise):
     """The samples of an impact's approach and steady hold: the measured force is flat there, so its
     sample-to-sample differences are noise, while those of the impact and the tightening between them are mostly
-    signal (:func:`cut_segments` finds the phases with the rough ``noise`` level).
+    signal (:func:`impact_phases` finds the phases with the rough ``noise`` level).
 
     Returns boolean ndarray, shape (N,)."""
     quiet = np.zeros(len(time), bool)
-    for seg in cut_segments(time, None, "impact", force, noise):
+    for seg in impact_phases(time, force, noise):
         if seg.kind in ("approach", "steady"):
             quiet |= in_segment(time, seg)
     return quiet

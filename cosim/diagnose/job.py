@@ -162,7 +162,7 @@ def load_diagnose_job(path, overrides=()):
     kind = string(problems, e, "kind", ("experiment",), default="staircase")
     inputs = t["data"].get("inputs", {})
     signals = signal_tables(problems, t["compare"], "signals", ("compare",), default_noise=1e-9)
-    if kind == "frequency":
+    if kind in KINDS and not KINDS[kind].time_series:  # one measured response, not records of inputs
         if "inputs" in t["data"]:
             problems.add(("data", "inputs"), "a frequency response has no input time series; name the excited "
                                              "model input in experiment.input")

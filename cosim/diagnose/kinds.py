@@ -12,8 +12,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from cosim.diagnose.analysis import (band_shape, cross_correlation, cut_segments, frequency_bands, noise_level,
-                                     quiet_phases)
+from cosim.diagnose.analysis import (band_shape, cross_correlation, frequency_bands, hold_segments, impact_phases,
+                                     noise_level, quiet_phases)
 from cosim.diagnose.fitting import Replay
 from cosim.diagnose.frequency import DEG_PER_DB, FrequencyReplay, frequency_noise, load_frequency_experiment
 from cosim.diagnose.result import Noise
@@ -64,16 +64,21 @@ class ExperimentKind:
         return Noise(estimated=estimated, floor=samples.floor, sigma=np.maximum(estimated, samples.floor))
 
     def segments(self, job, samples, noise):
-        """Each record cut into its own segments (labelled by record for repeated trials), and the segment shape
-        classifier (None: the time-domain default)."""
+        """Each record cut into its own segments (:meth:`cut`; labelled by record for repeated trials), and the
+        segment shape classifier (None: the time-domain default)."""
         s, segments = samples, []
         for k, ((r, _), shift, p) in enumerate(zip(s.records, s.shifts, s.sampled)):
-            for piece in cut_segments(r.time[p], r.inputs[p], self.name, r.measured[p, 0], noise.sigma[0],
-                                      job.min_hold_s):
+            for piece in self.cut(job, r.time[p], r.inputs[p], r.measured[p, 0], noise.sigma[0]):
                 segments.append(replace(piece, index=len(segments), t0=piece.t0 + shift, t1=piece.t1 + shift,
                                         label=piece.label if len(s.records) == 1 else
                                         f"record {k} ({job.records[k][0].name}): {piece.label}"))
         return segments, None
+
+    def cut(self, job, time, inputs, measured, noise):
+        """One record's natural segments (list of :class:`~cosim.diagnose.analysis.Segment`) from its time,
+        inputs, first compared channel ``measured`` and that channel's ``noise`` level; each time-series kind
+        says how."""
+        raise NotImplementedError(f"{type(self).__name__} does not say how to cut a record into segments")
 
     def replay(self, model, experiment, outputs, free, scale, fixed=None, rtol=1e-6):
         """The model's outputs along ``experiment`` for values of the ``free`` parameters
@@ -108,6 +113,11 @@ class Staircase(ExperimentKind):
                                                                              job.steady_s or NOISE_WINDOW_S))
         return Noise(estimated=estimated, floor=s.floor, sigma=np.maximum(estimated, s.floor))
 
+    def cut(self, job, time, inputs, measured, noise):
+        """Each hold of at least ``experiment.min_hold_s`` with the ramp before it
+        (:func:`~cosim.diagnose.analysis.hold_segments`)."""
+        return hold_segments(time, inputs, job.min_hold_s)
+
     @staticmethod
     def _steady(job, records, window):
         """The last ``window`` seconds of each hold of every record, end to end."""
@@ -141,6 +151,11 @@ class Records(ExperimentKind):
         if (s.mask & quiet).sum() >= MIN_QUIET_SAMPLES:
             estimated = noise_level(s.time, s.measured, s.mask & quiet)
         return Noise(estimated=estimated, floor=floor, sigma=np.maximum(estimated, floor))
+
+    def cut(self, job, time, inputs, measured, noise):
+        """Approach, impact, tightening and steady hold from the measured force
+        (:func:`~cosim.diagnose.analysis.impact_phases`)."""
+        return impact_phases(time, measured, noise)
 
 
 @dataclass(frozen=True)

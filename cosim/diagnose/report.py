@@ -9,6 +9,8 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+from cosim.diagnose.kinds import KINDS  # noqa: E402
+
 __all__ = ["write_diagnosis", "plot_diagnosis"]
 
 
@@ -18,7 +20,7 @@ def plot_diagnosis(diagnosis, folder):
     file names."""
     d, tr = diagnosis, diagnosis.traces
     folder = Path(folder)
-    if d.kind == "frequency":
+    if not KINDS[d.kind].time_series:
         return _plot_frequency(diagnosis, folder)
     names = []
     n = tr.measured.shape[0]
