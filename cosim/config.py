@@ -34,6 +34,7 @@ from cosim.tomldoc import Problems, format_key, parse_overrides, read_toml
 __all__ = [
     "load_config",
     "config_from_data",
+    "check_parameter",
     "parse_overrides",
     "record_columns",
     "Config",
@@ -420,17 +421,25 @@ def _in_range(file, var, value, problems, where):
                         f"[{lo:g}, {hi:g}]{unit}{percent}")
 
 
+def check_parameter(info, file, name, value, problems, where):
+    """Add to ``problems`` (at the key path ``where``) what is wrong with setting parameter ``name`` of the FMU
+    ``file`` (model description ``info``) to ``value``: no such parameter (with "did you mean"), not settable, of
+    the wrong type, or outside the range the FMU declares (with its unit). A run config's ``fmus.NAME.parameters``
+    and a campaign coating's ``parameters`` are checked with it."""
+    var = info.variables.get(name)
+    if var is None:
+        names = [v.name for v in info.variables.values() if v.causality == "parameter"]
+        problems.add(where, f"{file.name} has no parameter {name!r}{_close(name, names)}")
+    elif var.causality not in ("parameter",) or var.variability == "constant":
+        problems.add(where, f"{name!r} is a {var.variability} {var.causality}, not a settable parameter")
+    elif _value_type(info, var, value, problems, where):
+        _in_range(file, var, value, problems, where)
+
+
 def _fmu_values(info, file, params, starts, problems, p):
     """Check parameter and start values against the model description ``info`` of ``file``."""
     for pn, pv in params.items():
-        var = info.variables.get(pn)
-        if var is None:
-            names = [v.name for v in info.variables.values() if v.causality == "parameter"]
-            problems.add(p + ("parameters", pn), f"{file.name} has no parameter {pn!r}{_close(pn, names)}")
-        elif var.causality not in ("parameter",) or var.variability == "constant":
-            problems.add(p + ("parameters", pn), f"{pn!r} is a {var.variability} {var.causality}, not a settable parameter")
-        elif _value_type(info, var, pv, problems, p + ("parameters", pn)):
-            _in_range(file, var, pv, problems, p + ("parameters", pn))
+        check_parameter(info, file, pn, pv, problems, p + ("parameters", pn))
     for sn, sv in starts.items():
         var = info.variables.get(sn)
         if var is None:

@@ -22,6 +22,7 @@ import pandas as pd
 import pytest
 
 from cosim.campaign import load_campaign, run_campaign, run_one_trial
+from cosim.cli import main
 from cosim.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -218,6 +219,35 @@ def test_unknown_coating_and_coating_without_parameters_are_refused(job_path, tm
         load_campaign(bad)
     with pytest.raises(ConfigError, match=r"sources\.free_travel\.reason: is required"):
         load_campaign(job_path, ['sources.free_travel.reason=""'])
+
+
+def test_coating_parameters_are_checked_against_the_plant_fmu_at_load(job_path, tmp_path, capsys):
+    # a made-up name and a negative stiffness in the file, a percent efficiency by --set: before, the job loaded
+    # and the first trial's run config failed on a Dask worker after the output folder was made
+    text = _job_text(job_path).replace('[coatings.bare]\nconfig = "gripper_impact.toml"\n',
+                                       '[coatings.bare]\nconfig = "gripper_impact.toml"\nparameters = { k_PP = 3 }\n')
+    text = text.replace('[coatings.P3]\nconfig = "gripper_impact_p3.toml"\n',
+                        '[coatings.P3]\nconfig = "gripper_impact_p3.toml"\nparameters = { k_P = -1 }\n')
+    bad = job_path.parent / "bad_coatings.toml"
+    bad.write_text(text, encoding="utf-8")
+    line = {key: text.splitlines().index(f"parameters = {{ {key} }}") + 1 for key in ("k_PP = 3", "k_P = -1")}
+    out = tmp_path / "out"
+    sets = [a for s in [*GRID, "coatings.bare.parameters.eta_g=68"] for a in ("--set", s)]
+    assert main(["campaign", str(bad), "--out", str(out), "--workers", "1", "--no-progress", *sets]) == 2
+    err = capsys.readouterr().err
+    assert (f"bad_coatings.toml:{line['k_PP = 3']}: coatings.bare.parameters.k_PP: GripperPlant.fmu has no "
+            "parameter 'k_PP'; did you mean 'k_P'") in err
+    # a stiffness is not negative: [0, inf] N/m, as the run config's fmus.plant.parameters.k_P says
+    assert (f"bad_coatings.toml:{line['k_P = -1']}: coatings.P3.parameters.k_P: -1.0 is outside the range "
+            "GripperPlant.fmu declares for k_P: [0, inf] N/m") in err
+    assert ("--set coatings.bare.parameters.eta_g: coatings.bare.parameters.eta_g: 68.0 is outside the range "
+            "GripperPlant.fmu declares for eta_g: [0, 1] (no unit: a ratio); a percentage? 68 % is 0.68") in err
+    assert not out.exists()
+    # a made-up name by --set alone on the shipped job: refused the same way
+    assert main(["campaign", str(job_path), "--out", str(out), "--set", "coatings.bare.parameters.k_PP=3"]) == 2
+    assert ("--set coatings.bare.parameters.k_PP: coatings.bare.parameters.k_PP: GripperPlant.fmu has no parameter "
+            "'k_PP'; did you mean 'k_P'") in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_scheduler_that_does_not_answer_is_a_clear_error_within_seconds(job_path, tmp_path):

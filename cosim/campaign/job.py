@@ -2,11 +2,12 @@
 sources of trial-to-trial variability, parsed once into frozen records and checked up front.
 
 A coating names the shipped impact run config it is simulated with (``[coatings.NAME] config``) and the
-FMU parameters that make it that coating (``parameters``); a coating of the grid without such a table has no
-parameters and is refused. Each variability source has a distribution and the physical reason it varies.
+FMU parameters that make it that coating (``parameters``, checked against its config's plant FMU as a run config's
+are); a coating of the grid without such a table has no parameters and is refused. Each variability source has a distribution and the physical reason it varies.
 """
 
 import json
+import tomllib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -175,7 +176,7 @@ def _coatings(tables, camp, base, problems):
     if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
         problems.add(("campaign", "coatings"), f"must be a non-empty list of coating names; got {names!r}")
         return ()
-    out = []
+    out, plants = [], {}
     for name in names:
         if name not in COATINGS:
             problems.add(("campaign", "coatings"), f"unknown coating {name!r}; the paper's are {', '.join(COATINGS)}")
@@ -204,8 +205,32 @@ def _coatings(tables, camp, base, problems):
                 problems.add(("coatings", name, "parameters", k), f"must be a number; got {v!r}")
             else:
                 numbers[k] = float(v)
+        if path.is_file():
+            _plant_parameters(name, path, numbers, problems, plants)
         out.append(Coating(name, path, numbers))
     return tuple(out)
+
+
+def _plant_parameters(name, config, parameters, problems, plants):
+    """Check a coating's parameters against the plant FMU of its run config, as the run config's own
+    ``fmus.plant.parameters`` are checked (names, types, declared ranges). A run config that cannot be read, or
+    whose plant FMU cannot, is not checked here: loading it for the first trial says what is wrong with it (a
+    missing FMU with how to build it). ``plants`` holds the FMUs read so far (coatings share their configs)."""
+    from cosim.config import check_parameter
+    from cosim.errors import FmuFileError
+    from cosim.fmi import read_model_info
+
+    if config not in plants:
+        try:
+            fmu = config.parent / tomllib.loads(config.read_text(encoding="utf-8"))["fmus"]["plant"]["path"]
+            plants[config] = fmu, read_model_info(fmu)
+        except (OSError, ValueError, KeyError, TypeError, FmuFileError):  # TOMLDecodeError is a ValueError
+            plants[config] = None
+    if plants[config] is None:
+        return
+    fmu, info = plants[config]
+    for k, v in parameters.items():
+        check_parameter(info, fmu, k, v, problems, ("coatings", name, "parameters", k))
 
 
 def _sources(tables, problems):
@@ -256,7 +281,8 @@ def load_campaign(path, overrides=()):
     ------
     cosim.errors.ConfigError
         The file is missing or malformed, a key is unknown, a value is out of range, a coating is unknown
-        or has no parameters, a coating's run config does not exist.
+        or has no parameters, a coating's run config does not exist, its plant FMU has no such parameter or
+        declares a range the value is outside.
     """
     path = Path(path)
     data, problems = read_toml(path, overrides, what="campaign job")
