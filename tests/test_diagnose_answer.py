@@ -156,6 +156,66 @@ def test_signature_on_the_impact_is_computed_and_zero_at_the_neutral_value(tmp_p
     assert wide["max_noise_levels"] > 1.0 and wide["signal"] == "F_g" and wide["noise"] == 0.5
 
 
+
+# In the venv: where cosim and the shipped jobs are, that every shipped job loads there, and the advice's change of
+# cogging on the speed run (the job it names for cogging).
+_INSTALLED = """
+import json, sys
+import cosim
+from cosim.diagnose.advice import change_on, shipped_examples
+from cosim.diagnose.job import load_diagnose_job
+examples = shipped_examples()
+loaded = sorted(path.name for path in examples.glob("diagnose_*.toml") if load_diagnose_job(path))
+shown = change_on("cogging", {"T_cog": 0.0025, "phase_cog": -1.0}, {"eta_g": 0.68}, sys.argv[1])
+print(json.dumps({"cosim": cosim.__file__, "examples": str(examples), "loaded": loaded, "shown": shown}))
+"""
+
+
+@pytest.mark.slow
+def test_advice_from_a_non_editable_install_is_the_checkouts(tmp_path):
+    """``pip install --no-deps`` of the checkout's tracked files into a fresh venv (the installed dependencies
+    reused): run from a folder outside the checkout, that cosim is the venv's copy, finds the shipped jobs the
+    advice replays where the install put them (<venv>/share/cosim/examples), loads each of them, and computes the
+    same change of cogging on the speed run, to the last bit, as the checkout."""
+    import json
+    import os
+    import subprocess
+    import sys
+    import venv
+    from pathlib import Path
+
+    from cosim.diagnose.effects import EFFECTS
+
+    root = Path(__file__).resolve().parents[1]
+    tracked = subprocess.run(["git", "-C", str(root), "ls-files", "-z", "--", "pyproject.toml", "README.md",
+                              "cosim", "controllers", "examples", "modelica"],
+                             capture_output=True, check=True).stdout.decode().split("\0")
+    source = tmp_path / "source"
+    for name in filter(None, tracked):
+        (source / name).parent.mkdir(parents=True, exist_ok=True)
+        (source / name).write_bytes((root / name).read_bytes())
+    venv.create(tmp_path / "venv", system_site_packages=True)
+    python = tmp_path / "venv" / "bin" / "python"
+    subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--quiet",
+                    str(source)], check=True, cwd=tmp_path)
+    elsewhere = tmp_path / "user"
+    elsewhere.mkdir()
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}  # nothing of the checkout on the path
+    ran = subprocess.run([str(python), "-c", _INSTALLED, str(tmp_path / "advice")], capture_output=True, text=True,
+                         cwd=elsewhere, env=env)
+    assert ran.returncode == 0, ran.stderr
+    installed = json.loads(ran.stdout)
+    venv_root = (tmp_path / "venv").resolve()
+    assert Path(installed["cosim"]).resolve().is_relative_to(venv_root / "lib")
+    assert Path(installed["examples"]).resolve() == venv_root / "share" / "cosim" / "examples"
+    assert {e.shown_in for e in EFFECTS.values()} - {""} <= set(installed["loaded"])  # every job advice names
+    here = change_on("cogging", {"T_cog": 0.0025, "phase_cog": -1.0}, {"eta_g": 0.68}, tmp_path / "checkout")
+    there = installed["shown"]
+    assert there["computed"], there
+    assert Path(there.pop("job")) == Path(installed["examples"]) / "diagnose_speed.toml"
+    assert Path(here.pop("job")).name == "diagnose_speed.toml"
+    assert there == here
+
 @pytest.mark.slow
 def test_end_to_end_a_gap_without_a_candidate(tmp_path):
     """A load-cell offset of the first truth (diagnose_truth.py, an offset of 2-3 N on a short staircase at 0.3 N
