@@ -11,6 +11,7 @@ haptic command: its table loaders called with any value, its arguments parsed fr
 
 import math
 import re
+import shutil
 import tomllib
 import warnings
 from pathlib import Path
@@ -19,6 +20,7 @@ from hypothesis import strategies as st
 
 from cosim.calibrate.job import load_job
 from cosim.campaign.job import load_campaign
+from cosim.campaign.sensitivity import load_sensitivity
 from cosim.cli import make_parser
 from cosim.config import load_config
 from cosim.diagnose.job import load_diagnose_job
@@ -34,13 +36,19 @@ EXAMPLES = {
     "calibrate": ["calibrate_static.toml", "calibrate_contact.toml"],
     "diagnose": ["diagnose_haptic.toml"],
     "campaign": ["campaign_table1.toml"],
+    "sensitivity": ["sensitivity_table1.toml"],
 }
-LOADERS = {"run": load_config, "calibrate": load_job, "diagnose": load_diagnose_job, "campaign": load_campaign}
+LOADERS = {"run": load_config, "calibrate": load_job, "diagnose": load_diagnose_job, "campaign": load_campaign,
+           "sensitivity": load_sensitivity}
 # the shipped files a mutated example names (the campaign's coatings' run configs), linked beside it
 _BESIDE = ["gripper_impact.toml", "gripper_impact_p3.toml"]
+# a loader whose mutated example names another that is fuzzed too (the sensitivity job's campaign job): its cases
+# are written in a subfolder of their own, beside a copy of the shipped file it names
+_OWN_FOLDER = {"sensitivity": ("sensitivity", ["campaign_table1.toml"])}
 
 _WORDS = ["plant", "foc", "outer", "F_g", "rate", "x", "0", "signals", "parameters", "class", "path", "kind",
-          "campaign", "coatings", "sources", "trials", "P3", "config"]
+          "campaign", "coatings", "sources", "trials", "P3", "config", "sensitivity", "factors", "set", "low",
+          "samples", "C_h"]
 _STRINGS = st.sampled_from(["", "plant.F_g", "plant.nope", "controllers.foc:FOC", ":FOC", ".foc:FOC", "foc:",
                             "nope.py:X", "../fmus/GripperPlant.fmu", "data/static_paper.csv", "rk4", "none",
                             "static", "frequency", "x.y.z", "ME", "CS", "auto"]) | st.text(max_size=12)
@@ -81,7 +89,7 @@ def dotted(path):
 
 @st.composite
 def cases(draw, loader):
-    """(example name, mutated text, --set overrides) for ``loader`` ("run", "calibrate" or "diagnose")."""
+    """(example name, mutated text, --set overrides) for ``loader`` (a key of :data:`LOADERS`)."""
     name = draw(st.sampled_from(EXAMPLES[loader]))
     text = (ROOT / "examples" / name).read_text(encoding="utf-8")
     lines = text.splitlines()
@@ -126,6 +134,13 @@ def workspace(tmp, fmus):
     for name in _BESIDE:
         if not (tmp / "examples" / name).exists():
             (tmp / "examples" / name).symlink_to(ROOT / "examples" / name)
+    for sub, copies in _OWN_FOLDER.values():
+        (tmp / "examples" / sub).mkdir(exist_ok=True)
+        for name in copies:  # a copy: a link would let another loader's case write into the shipped file
+            shutil.copyfile(ROOT / "examples" / name, tmp / "examples" / sub / name)
+        for name in _BESIDE:
+            if not (tmp / "examples" / sub / name).exists():
+                (tmp / "examples" / sub / name).symlink_to(ROOT / "examples" / name)
     return tmp / "examples"
 
 
@@ -133,7 +148,7 @@ def check(loader, folder, case):
     """Load ``case`` from ``folder`` with the real loader: "ok" or the name of the CosimError it raised. Any
     other exception propagates."""
     name, text, overrides = case
-    path = Path(folder) / name
+    path = Path(folder) / _OWN_FOLDER.get(loader, ("",))[0] / name
     path.write_text(text, encoding="utf-8")
     try:
         with warnings.catch_warnings():
