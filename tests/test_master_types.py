@@ -2,10 +2,14 @@
 type rules of docs/master.md, recorded in their own dtype (results.parquet and read_results keep it), and the
 config errors (a real driving an Integer input, reserved column names, empty signal lists) found at load."""
 
+import re
+import zipfile
+
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
+from cosim.cli import main
 from cosim.config import load_config
 from cosim.errors import ConfigError
 from cosim.master import read_results, run, run_config
@@ -206,3 +210,50 @@ signals = ["ft.x"]
     assert "fmus.ft.start.u_f32: 'u_f32' is Float32: the value must be a number; got True" in problems
     ok = text.replace("u_i32 = 1.5, u_b = 1, u_f32 = true", "u_i32 = 2, u_b = true, u_f32 = 0.5")
     assert load_config(_write(tmp_path, ok)).fmus["ft"].start == {"u_i32": 2, "u_b": True, "u_f32": 0.5}
+
+
+def _out_of_step(fmu, variable, vr, folder):
+    """A copy of ``fmu`` whose modelDescription.xml gives ``variable`` a value reference its binary does not know,
+    as a third party's FMU whose description was regenerated without its binary: the FMU's own Get or Set of that
+    variable's type answers Error."""
+    out = folder / f"{fmu.stem}_{variable}.fmu"
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(out, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                xml = data.decode()
+                old = re.search(rf'name="{variable}" valueReference="(\d+)"', xml).group(1)
+                data = re.sub(rf'(valueReference|dependencies)="{old}"', rf'\1="{vr}"', xml).encode()
+            dst.writestr(item, data)
+    return out
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+@pytest.mark.parametrize("version,model,variable,call", [
+    (3, "Feedthrough", "y_i32", "fmi3GetInt32"),  # a recorded Int32 output
+    (3, "Feedthrough", "u_b", "fmi3SetBoolean"),  # a Boolean input fed by another FMU
+    (2, "BouncingBall", "bounces", "fmi2GetInteger"),  # a recorded Integer output
+])
+def test_an_fmi_error_on_a_typed_port_names_the_call_made(tmp_path, third_party_fmu, capsys, engine, version,
+                                                          model, variable, call):
+    # before: the compiled engine said GetReal or SetReal whatever the port's type
+    fmu = _out_of_step(third_party_fmu(model, version), variable, 97, tmp_path)
+    if model == "Feedthrough":
+        text = f"""
+[fmus.a]
+path = "{fmu}"
+[fmus.b]
+path = "{third_party_fmu(model, version)}"
+[[connections]]
+from = "b.y_b"
+to = "a.u_b"
+[record]
+signals = ["a.y_i32", "a.x"]
+"""
+    else:
+        text = f'[fmus.a]\npath = "{fmu}"\n[record]\nsignals = ["a.h", "a.bounces"]\n'
+    path = _write(tmp_path, f'[run]\nstop = 0.1\nengine = "{engine}"\n' + text)
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--no-progress"]) == 3
+    err = capsys.readouterr().err
+    assert f"a raised FmiCallError: {call} returned Error" in err, err
+    assert ("(in the instant after t=" in err) == (engine == "compiled")  # the message of the engine that ran

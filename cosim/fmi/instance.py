@@ -401,9 +401,13 @@ class FmuInstance:
         when absent), for a compiled engine: their C signatures are GetFloat64's / GetReal's with another value
         type."""
         f = self._fmu._functions
-        p = "fmi3" if self.version == 3 else "fmi2"
         return tuple(ctypes.cast(fn, ctypes.c_void_p).value or 0 if fn is not None else 0
-                     for fn in (f.get(f"{p}Get{port.suffix}"), f.get(f"{p}Set{port.suffix}")))
+                     for fn in (f.get(self.call_name("Get", port)), f.get(self.call_name("Set", port))))
+
+    def call_name(self, what, port):
+        """The FMI function that gets (``what`` "Get") or sets ("Set") ``port``'s variables: ``fmi3GetFloat64``,
+        ``fmi3SetInt32``, ``fmi2GetInteger``, ... (what an error of the call names)."""
+        return f"{'fmi3' if self.version == 3 else 'fmi2'}{what}{port.suffix}"
 
     # -- values by name (not hot) ------------------------------------------------------------
     def set_values(self, values):
@@ -452,8 +456,7 @@ class FmuInstance:
         return port
 
     def _typed_call(self, what, port):
-        p = "fmi3" if self.version == 3 else "fmi2"
-        fname = f"{p}{what}{port.suffix}"
+        fname = self.call_name(what, port)
         args = (self.component, port._vr, port.n, port._ptr) + ((port.n,) if self.version == 3 else ())
         st = self._fmu._functions[fname](*args)
         if st > 1:
@@ -468,7 +471,7 @@ class FmuInstance:
                 else:
                     st = self._f_get_real(self.component, port._vr, port.n, port._ptr)
                 if st > 1:
-                    check("GetFloat64" if self.version == 3 else "fmi2GetReal", st, self._last_message())
+                    check(self.call_name("Get", port), st, self._last_message())
         elif port.n:
             self._typed_call("Get", port)
             port.to_values()
@@ -482,7 +485,7 @@ class FmuInstance:
                 else:
                     st = self._f_set_real(self.component, port._vr, port.n, port._ptr)
                 if st > 1:
-                    check("SetFloat64" if self.version == 3 else "fmi2SetReal", st, self._last_message())
+                    check(self.call_name("Set", port), st, self._last_message())
         elif port.n:
             port.from_values()
             self._typed_call("Set", port)

@@ -47,8 +47,9 @@ Tables (all int64 unless said):
 ``st`` (N_ST,)
     run state kept between chunks: k, synced tick, first-chunk flag, error FMU, error function (index
     in FUNCTIONS; ``terminate``, ``unsettled``, ``chatter`` are event outcomes, ``nonfinite`` a NaN or infinite
-    value, state or derivative at the instant ``k``), error status, number of
-    events in a row within CHATTER_WINDOW of each other, number of events in the log.
+    value, state or derivative at the instant ``k``; ``GetReal``/``SetReal`` a call on a row of ``port``,
+    ``GetTyped``/``SetTyped`` on a row of ``typed``), error status, number of events in a row within
+    CHATTER_WINDOW of each other, number of events in the log, the row of the port whose Get or Set failed.
 ``rec`` (n_rows, n_col) float64, ``times`` (n_rows,) float64, ``rows`` (1,)
     the recorder's arrays (:class:`cosim.master.recorder.Recorder`): rows are written at ``rows[0]``.
 ``scr`` (n_fmu, 32) uint8, ``scr64`` the same memory as (n_fmu, 4) float64
@@ -96,13 +97,14 @@ PORT_COLS = ("fmu", "vr", "n", "buf_off", "type", "Get", "Set", "raw_addr")
 (_PF, _PVR, _PN, _PB, _PT, _PGET, _PSET, _PRA) = range(len(PORT_COLS))
 RAW_TYPES = ("float64", "float32", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "bool")
 CTL_COLS = ("fn", "period", "route", "u", "nu", "y", "ny", "x", "nx", "p", "np")
-ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "ev_count", "n_log")
-(_K, _SYNC, _FIRST, _EF, _EFN, _ES, _EVN, _NLOG) = range(len(ST))
+ST = ("k", "synced", "first", "err_fmu", "err_fn", "err_status", "ev_count", "n_log", "err_port")
+(_K, _SYNC, _FIRST, _EF, _EFN, _ES, _EVN, _NLOG, _EP) = range(len(ST))
 FUNCTIONS = ("SetTime", "SetContinuousStates", "GetDerivatives", "GetReal", "SetReal", "DoStep",
              "CompletedIntegratorStep", "DoStep:terminate", "GetEventIndicators", "EnterEventMode",
              "UpdateDiscreteStates", "EnterContinuousTimeMode", "GetContinuousStates", "terminate", "unsettled",
-             "chatter", "nonfinite")
-(_FN_GZ, _FN_EEM, _FN_UDS, _FN_ECT, _FN_GX, _FN_TERM, _FN_UNSETTLED, _FN_CHATTER, _FN_NONFINITE) = range(8, 17)
+             "chatter", "nonfinite", "GetTyped", "SetTyped")
+(_FN_GZ, _FN_EEM, _FN_UDS, _FN_ECT, _FN_GX, _FN_TERM, _FN_UNSETTLED, _FN_CHATTER, _FN_NONFINITE, _FN_GET_TYPED,
+ _FN_SET_TYPED) = range(8, 19)
 FF = ("t0", "h_max", "event_t", "next_time_event", "event_tol", "chatter_window", "max_events", "max_passes")
 (_T0, _HMAX, _EVT, _TNEXT, _TOL, _WINDOW, _MAXEV, _MAXPASS) = range(len(FF))
 DONE, MORE, ERROR = 0, 1, 2
@@ -207,7 +209,8 @@ def _typed_io(fmu, port, j, buf_addr, setter, st):
     else:
         s = native.real2(fn, fmu[f, _C], port[j, _PVR], n, raw)
     if s > 1:
-        return _fail(st, f, 4 if setter else 3, s)
+        st[_EP] = j
+        return _fail(st, f, _FN_SET_TYPED if setter else _FN_GET_TYPED, s)
     if not setter:
         _from_raw(code, raw, val, n)
     return False
@@ -228,6 +231,7 @@ def _io(fmu, port, typed, grp, g, buf_addr, setter, st):
         else:
             s = native.real2(fn, fmu[f, _C], port[j, 1], n, val)
         if s > 1:
+            st[_EP] = j
             return _fail(st, f, 4 if setter else 3, s)
     if typed is not None:
         for j in range(grp[g, 2], grp[g, 3]):

@@ -28,7 +28,7 @@ from cosim.master.events import CHATTER_WINDOW, EVENT_TOL, MAX_EVENTS_AT_ONE_TIM
 
 __all__ = ["CompiledLoop", "compiled_problem"]
 
-_K, _EF, _EFN, _ES, _NLOG = (ST.index(n) for n in ("k", "err_fmu", "err_fn", "err_status", "n_log"))
+_K, _EF, _EFN, _ES, _NLOG, _EP = (ST.index(n) for n in ("k", "err_fmu", "err_fn", "err_status", "n_log", "err_port"))
 _LOG_ROWS = 1 << 14  # events the kernel logs before Python reads them (a chunk stops when half are used)
 _EVENT_FUNCTIONS = ("GetEventIndicators", "EnterEventMode", "UpdateDiscreteStates", "EnterContinuousTimeMode",
                     "GetContinuousStates")
@@ -108,6 +108,7 @@ class CompiledLoop:
         self._ff = tab["ff"]
         self._log = tab["evt"][8] if tab["evt"] is not None else None
         self._raw = tab["raw"]  # the typed ports' C values, addressed by the kernel
+        self._port_items = {"Real": tab["port_items"], "Typed": tab["typed_items"]}  # (instance, Port) a table row
         self._args = (tab["fmu"], tab["me"], tab["cmp"], tab["cs"], tab["port"], tab["typed"], tab["pgrp"],
                       tab["rsrc"], tab["rdst"], tab["rgain"], tab["roff"], tab["rgrp"], tab["lvl"], tab["ctl"], tab["ii"],
                       tab["ff"], eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st,
@@ -238,7 +239,8 @@ class CompiledLoop:
             rgain=np.ascontiguousarray(r[:, 2]), roff=np.ascontiguousarray(r[:, 3]),
             rgrp=np.array(rgrp, dtype=np.int64).reshape(-1, 2), lvl=np.array(lvl, dtype=np.int64).reshape(-1, 3),
             ctl=np.array(ctl, dtype=np.int64).reshape(-1, len(CTL_COLS)), ii=ii,
-            ff=ff, scr=scr, port_items=[(i, p) for g in groups for i, p in g if p.raw is None], fmu_names=names, evt=evt,
+            ff=ff, scr=scr, port_items=[(i, p) for g in groups for i, p in g if p.raw is None],
+            typed_items=[(i, p) for g in groups for i, p in g if p.raw is not None], fmu_names=names, evt=evt,
         )
 
     def _raise(self):
@@ -261,6 +263,8 @@ class CompiledLoop:
             raise EventError(f"{inst.name}: more than {MAX_EVENTS_AT_ONE_TIME} events in a row less than "
                              f"{CHATTER_WINDOW:g} s apart, at t={t_event:.12g} s (chattering or an accumulation of "
                              "events)")
+        if fn in ("GetReal", "SetReal", "GetTyped", "SetTyped"):  # the call made: fmi3GetInt32, fmi2SetBoolean, ...
+            fn = inst.call_name(fn[:3], self._port_items[fn[3:]][int(st[_EP])][1])
         t = self.engine.tb.time(int(st[_K]))
         check(fn, status, f"{inst._last_message()} (in the instant after t={t})")
         raise FmiCallError(fn, f"status {status}", inst.name)  # pragma: no cover - check raised
