@@ -2,7 +2,7 @@
 speed-up from 1 to 2 workers, measured on a small grid of full trials (5 s of tightening), then extrapolated
 to the shipped 6,000-trial campaign.
 
-    PYTHONPATH=. python benchmarks/campaign.py [--trials 5] [--out DIR] [--full DIR] [--validation]
+    PYTHONPATH=. python benchmarks/campaign.py [--trials 5] [--out DIR] [--full DIR [--only-full]] [--validation]
 
 Needs fmus/GripperPlant.fmu (``cosim build``). Grid: bare and P3 x 1000 rpm x 1.0 and 2.5 A x ``--trials``.
 
@@ -191,8 +191,22 @@ def main():
     ap.add_argument("--out", help="output folder of the Dask runs (default: a temporary one)")
     ap.add_argument("--full", metavar="DIR", help="also run the shipped 6,000-trial campaign into the new folder DIR")
     ap.add_argument("--validation", action="store_true", help="also write the tables into docs/validation.md")
+    ap.add_argument("--only-full", action="store_true",
+                    help="with --full: run only the shipped campaign (the speed grid and its section are left)")
     args = ap.parse_args()
     print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} cores, {_load()}")
+    if args.only_full and not args.full:
+        ap.error("--only-full needs --full DIR")
+    if not args.only_full:
+        speed(args)
+    if args.full:
+        wall, summary = full_campaign(Path(args.full))
+        if args.validation:
+            write_table1_section(wall, summary, Path(args.full))
+
+
+def speed(args):
+    """The speed grid in process, at its C limit and on Dask; its section with --validation."""
     local = in_process(args.trials)
     c_ratio = c_limit()
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="cosim-campaign-bench-"))
@@ -203,10 +217,6 @@ def main():
         shutil.rmtree(out, ignore_errors=True)
     if args.validation:
         write_speed_section(local, c_ratio, runs)
-    if args.full:
-        wall, summary = full_campaign(Path(args.full))
-        if args.validation:
-            write_table1_section(wall, summary, Path(args.full))
 
 
 if __name__ == "__main__":
