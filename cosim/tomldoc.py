@@ -3,6 +3,7 @@ problem with its ``file:line`` (or ``--set key``) and key path before raising on
 
 tomllib gives no line numbers for keys: :class:`Locator` finds them by scanning the text (best effort)."""
 
+import datetime
 import difflib
 import json
 import math
@@ -15,7 +16,8 @@ from cosim.errors import ConfigError
 from cosim.fitting import FreeParameter
 
 __all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables",
-           "Problems", "Locator", "parse_overrides", "apply_override", "format_key", "toml_text", "key_paths", "did_you_mean"]
+           "Problems", "Locator", "parse_overrides", "apply_override", "format_key", "toml_text", "toml_value",
+           "key_paths", "did_you_mean"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -117,11 +119,12 @@ class Problems:
     A problem added with ``cause=True`` (an FMU or a controller class that cannot be loaded) is listed first: the
     problems that follow from it are not reported by the loaders, and what is left reads cause first."""
 
-    def __init__(self, file, locator, set_keys, keys=()):
+    def __init__(self, file, locator, set_keys, keys=(), origins=None):
         self.file = file
         self.locator = locator
         self.set_keys = set_keys
         self.keys = set(keys)  # the document's own key paths, dotted: what --set is told it may have meant
+        self.origins = origins or {}  # override key -> where its value came from, when not from the command line
         self.items = []
 
     def _set_item(self, path):
@@ -135,15 +138,20 @@ class Problems:
                 return item
         return None
 
+    def where(self, path):
+        """Where the value at the key path ``path`` was given: ``file:line``, ``--set KEY``, or the origin the
+        loader was told of for an override it was passed (another document's key)."""
+        item = self._set_item(tuple(path))
+        if item is not None:
+            return self.origins.get(item, f"--set {item}")
+        line = self.locator.line(tuple(path)) if self.locator else None
+        return f"{self.file}:{line}" if line else f"{self.file}"
+
     def add(self, path, message, cause=False):
         path = tuple(path)
         key = format_key(path)
         item = self._set_item(path)
-        if item is not None:
-            where = f"--set {item}"
-        else:
-            line = self.locator.line(path) if self.locator else None
-            where = f"{self.file}:{line}" if line else f"{self.file}"
+        where = self.where(path)
         # a --set key made up above its last name (plant.eta_g: "plant" is no section): the problem is the key, told
         # against every key the document has or may have, once they are all known
         made_up = (item is not None and message.startswith("unknown") and item not in self.keys
@@ -291,7 +299,7 @@ def read_text(path, what="file", error=ConfigError):
                           f"0x{raw[err.start]:02x}, which is not valid UTF-8 there (save the file as UTF-8)") from err
 
 
-def read_toml(path, overrides=(), what="config"):
+def read_toml(path, overrides=(), what="config", origins=None):
     """Read a TOML file, apply ``--set`` overrides, and return ``(data, problems)``.
 
     Parameters
@@ -301,6 +309,10 @@ def read_toml(path, overrides=(), what="config"):
         ``"key.path=value"`` items.
     what : str
         What the file is, for the "does not exist" message.
+    origins : dict, optional
+        Override key (``"campaign.hold_s"``) -> where a problem of its value is said to be, instead of ``--set
+        KEY``: for overrides a loader makes from another document (a sensitivity job's reduced grid, given to
+        its campaign job), the place in that document.
 
     Returns
     -------
@@ -330,7 +342,7 @@ def read_toml(path, overrides=(), what="config"):
         apply_override(data, p, v)
         set_keys[format_key(p)] = item.partition("=")[0].strip()
     keys = {format_key(k) for k in key_paths(tomllib.loads(text))}
-    return data, Problems(str(path), Locator(text), set_keys, keys)
+    return data, Problems(str(path), Locator(text), set_keys, keys, origins)
 
 
 def number(problems, table, key, where, default=None, positive=False, integer=False):
@@ -482,7 +494,7 @@ def toml_text(data, comment=""):
 def _write_table(table, prefix, lines):
     """The body of ``table`` (its values, then its sub-tables and arrays of tables) appended to ``lines``."""
     nested = {k: v for k, v in table.items() if isinstance(v, dict) or _table_array(v)}
-    lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in table.items() if k not in nested]
+    lines += [f"{_toml_key(k)} = {toml_value(v)}" for k, v in table.items() if k not in nested]
     for key, value in nested.items():
         path = ".".join(_toml_key(k) for k in (*prefix, key))
         for item in ([value] if isinstance(value, dict) else value):
@@ -506,7 +518,11 @@ def _toml_string(text):
     return json.dumps(str(text), ensure_ascii=False).replace("\x7f", "\\u007f")
 
 
-def _toml_value(value):
+def toml_value(value):
+    """``value`` (what :mod:`tomllib` reads, numpy numbers, paths) as a TOML literal: ``--set`` items made from
+    a document's values, lines of :func:`toml_text`."""
+    if isinstance(value, (datetime.date, datetime.time)):  # a datetime is a date
+        return value.isoformat()
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, numbers.Integral):
@@ -517,9 +533,9 @@ def _toml_value(value):
     if isinstance(value, str):
         return _toml_string(value)
     if isinstance(value, dict):
-        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items()) + " }"
+        return "{ " + ", ".join(f"{_toml_key(k)} = {toml_value(v)}" for k, v in value.items()) + " }"
     if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
     if isinstance(value, Path):
         return _toml_string(value.as_posix())
     raise TypeError(f"toml_text: no TOML form for {type(value).__name__} {value!r}")

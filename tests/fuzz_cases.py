@@ -9,6 +9,7 @@ escapes, which is the failure the fuzz looks for. :func:`haptic_cases` and :func
 haptic command: its table loaders called with any value, its arguments parsed from any text.
 """
 
+import datetime
 import math
 import re
 import shutil
@@ -55,7 +56,10 @@ _STRINGS = st.sampled_from(["", "plant.F_g", "plant.nope", "controllers.foc:FOC"
 _NUMBERS = (st.integers(min_value=-2**63, max_value=2**63 - 1)
             | st.floats(allow_nan=True, allow_infinity=True)
             | st.sampled_from([0, -1, 1e15, 1e-300, 1e308, 26600, 1e9, 0.5]))
-_SCALARS = _NUMBERS | st.booleans() | _STRINGS
+# TOML's dates and times: a value a user can type where a number is meant
+_DATES = st.sampled_from([datetime.date(1979, 5, 27), datetime.datetime(1979, 5, 27, 7, 32), datetime.time(7, 32),
+                          datetime.datetime(1979, 5, 27, 7, 32, tzinfo=datetime.timezone.utc)])
+_SCALARS = _NUMBERS | st.booleans() | _STRINGS | _DATES
 VALUES = st.recursive(_SCALARS, lambda inner: st.lists(inner, max_size=3)
                       | st.dictionaries(st.sampled_from(_WORDS), inner, max_size=3), max_leaves=6)
 
@@ -70,6 +74,8 @@ def toml_value(v):
         return "nan" if v != v else ("inf" if v == float("inf") else "-inf" if v == -float("inf") else repr(v))
     if isinstance(v, str):
         return '"' + "".join(c if c.isprintable() and c not in '"\\' else f"\\u{ord(c):04x}" for c in v) + '"'
+    if isinstance(v, (datetime.date, datetime.time)):
+        return v.isoformat()
     if isinstance(v, list):
         return "[" + ", ".join(toml_value(x) for x in v) + "]"
     return "{" + ", ".join(f"{k} = {toml_value(x)}" for k, x in v.items()) + "}"

@@ -102,3 +102,25 @@ def test_a_factor_reaches_only_the_coatings_it_names(reduced):
     summary = json.loads((reduced[1] / "summary.json").read_text())
     assert summary["points"] == 16 and summary["trials"] == 16 * 2 * 2
     assert set(summary["factors"]) == {"d_lim", "k_H_ratio", "C_h", "Kp", "Ki", "thr"}
+
+
+def test_a_bad_value_of_the_reduced_grid_is_told_where_the_user_gave_it(tmp_path, capsys):
+    # the grid's keys go to the campaign job as its campaign.* values: before, a problem of one was told as
+    # "--set campaign.hold_s", a key the user never typed, and a TOML date there was a TypeError traceback
+    for name in ("campaign_table1.toml", "gripper_impact.toml", "gripper_impact_p3.toml"):
+        (tmp_path / name).symlink_to(EXAMPLES / name)
+    text = (EXAMPLES / "sensitivity_table1.toml").read_text(encoding="utf-8")
+    job = tmp_path / "sensitivity_table1.toml"
+    job.write_text(text.replace("\nhold_s = 1.0 ", "\nhold_s = -1.0 "), encoding="utf-8")
+    line = text.splitlines().index(next(t for t in text.splitlines() if t.startswith("hold_s = 1.0 "))) + 1
+    out = tmp_path / "out"
+    assert main(["sensitivity", str(job), "--out", str(out)]) == 2
+    assert f"sensitivity_table1.toml:{line} (sensitivity.hold_s): campaign.hold_s: must be > 0; got -1.0" in \
+        capsys.readouterr().err
+    for value, told in (("1979-05-27", "must be a number; got datetime.date(1979, 5, 27)"),
+                        ("nan", "must be a number; got nan")):
+        argv = ["sensitivity", str(EXAMPLES / "sensitivity_table1.toml"), "--out", str(out),
+                "--set", f"sensitivity.hold_s={value}"]
+        assert main(argv) == 2
+        assert f"--set sensitivity.hold_s: campaign.hold_s: {told}" in capsys.readouterr().err
+    assert not out.exists()

@@ -3,7 +3,8 @@ sources of trial-to-trial variability, parsed once into frozen records and check
 
 A coating names the shipped impact run config it is simulated with (``[coatings.NAME] config``) and the
 FMU parameters that make it that coating (``parameters``, checked against its config's plant FMU as a run config's
-are); a coating of the grid without such a table has no parameters and is refused. Each variability source has a distribution and the physical reason it varies.
+are); a coating of the grid without such a table has no parameters and is refused. Each variability source has a
+distribution and the physical reason it varies.
 """
 
 import json
@@ -263,7 +264,7 @@ def _sources(tables, problems):
     return tuple(out)
 
 
-def load_campaign(path, overrides=()):
+def load_campaign(path, overrides=(), origins=None):
     """Read and check a campaign job; every problem is reported at once with its file:line or ``--set`` key.
 
     Parameters
@@ -272,6 +273,9 @@ def load_campaign(path, overrides=()):
         The job (.toml).
     overrides : sequence of str
         ``key=value`` items, as ``--set`` (e.g. ``campaign.trials=5``).
+    origins : dict, optional
+        Override key -> where its value was given, when not on the command line (see
+        :func:`cosim.tomldoc.read_toml`).
 
     Returns
     -------
@@ -285,7 +289,7 @@ def load_campaign(path, overrides=()):
         declares a range the value is outside.
     """
     path = Path(path)
-    data, problems = read_toml(path, overrides, what="campaign job")
+    data, problems = read_toml(path, overrides, what="campaign job", origins=origins)
     tables = sections(data, problems, _SCHEMA, free_form=())
     camp = tables["campaign"]
     w = ("campaign",)

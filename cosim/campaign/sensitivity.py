@@ -29,7 +29,7 @@ import pandas as pd
 from cosim.campaign.draws import trial_list
 from cosim.campaign.job import COATINGS, load_campaign
 from cosim.campaign.sobol import Factor, index_table, plot_indices, sample_points
-from cosim.tomldoc import number, read_toml, sections, string
+from cosim.tomldoc import number, read_toml, sections, string, toml_value
 
 __all__ = ["SensitivityJob", "load_sensitivity", "run_sensitivity"]
 
@@ -110,9 +110,13 @@ def _factor(name, spec, problems):
     return Factor(name, low, high, scale), targets, reason
 
 
-def _grid_sets(table):
-    """The reduced grid as ``--set`` items of the campaign job."""
-    return [f"campaign.{k}={json.dumps(table[k])}" for k in _GRID if k in table]
+def _grid_sets(table, problems):
+    """The reduced grid as ``--set`` items of the campaign job, and where each was given (``--set sensitivity.K``
+    or the sensitivity job's file:line and key), for the campaign job's messages about them."""
+    keys = [k for k in _GRID if k in table]
+    where = {k: problems.where(("sensitivity", k)) for k in keys}
+    return ([f"campaign.{k}={toml_value(table[k])}" for k in keys],
+            {f"campaign.{k}": w if w.startswith("--set") else f"{w} (sensitivity.{k})" for k, w in where.items()})
 
 
 def load_sensitivity(path, overrides=()):
@@ -155,7 +159,7 @@ def load_sensitivity(path, overrides=()):
     if not given:
         problems.add(("factors",), "name at least one factor: [factors.NAME] low, high, set, reason")
     problems.raise_if_any()
-    camp = load_campaign(path.parent / campaign, _grid_sets(s))
+    camp = load_campaign(path.parent / campaign, *_grid_sets(s, problems))
     return SensitivityJob(path=path, campaign=camp, factors=tuple(f for f, _, _ in factors),
                           targets={f.name: t for f, t, _ in factors}, reasons={f.name: r for f, _, r in factors},
                           overrides=tuple(overrides), **job)
