@@ -16,7 +16,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from cosim.errors import ConfigError
-from cosim.tomldoc import read_text
+from cosim.tomldoc import read_text, toml_value
 
 __all__ = ["ParametersFile", "read_parameters_file", "parameters_file_key", "write_parameters_file", "provenance",
            "file_sha256"]
@@ -184,16 +184,6 @@ def provenance(job, data, upstream=()):
             "upstream": [u.record() for u in upstream]}
 
 
-def _toml_value(v):
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    return repr(v)
-
-
 def write_parameters_file(path, values, notes, prov, header=()):
     """Write a parameters file.
 
@@ -212,6 +202,6 @@ def write_parameters_file(path, values, notes, prov, header=()):
     lines = [f"# {h}" for h in header] + ["[parameters]"]
     lines += [f"{n} = {float(v)!r}" + (f"  # {notes[n]}" if n in notes else "") for n, v in values.items()]
     lines += ["", "[provenance]"]
-    lines += [f"{k} = {_toml_value(v)}" for k, v in prov.items() if k != "upstream"]
-    lines += [f"upstream = {_toml_value(list(prov.get('upstream', ())))}"]
+    lines += [f"{k} = {toml_value(v)}" for k, v in prov.items() if k != "upstream"]
+    lines += [f"upstream = {toml_value(list(prov.get('upstream', ())))}"]
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
