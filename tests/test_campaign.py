@@ -250,6 +250,22 @@ def test_coating_parameters_are_checked_against_the_plant_fmu_at_load(job_path, 
     assert not out.exists()
 
 
+def test_the_jobs_parameters_file_is_checked_against_the_plant_fmus_at_load(job_path, tmp_path, capsys):
+    # a calibration of another model (a name GripperPlant lacks) and an efficiency in percent, in the job's
+    # parameters file: before, the job loaded and the first trial failed on a Dask worker
+    calibrated = tmp_path / "other.toml"
+    calibrated.write_text("[parameters]\nR_winding = 0.5\neta_g = 63.0\n", encoding="utf-8")
+    out = tmp_path / "out"
+    sets = [a for s in [*GRID, f"campaign.parameters_file={calibrated}"] for a in ("--set", s)]
+    assert main(["campaign", str(job_path), "--out", str(out), "--no-progress", *sets]) == 2
+    err = capsys.readouterr().err
+    assert "--set campaign.parameters_file: campaign.parameters_file: GripperPlant.fmu has no parameter 'R_winding'" in err
+    assert ("campaign.parameters_file: 63.0 is outside the range GripperPlant.fmu declares for eta_g: [0, 1] (no unit: "
+            "a ratio); a percentage? 63 % is 0.63") in err
+    assert err.count("R_winding") == 1  # both coatings run the same plant FMU: said once
+    assert not out.exists()
+
+
 def test_scheduler_that_does_not_answer_is_a_clear_error_within_seconds(job_path, tmp_path):
     with socket.socket() as s:  # a port nobody listens on
         s.bind(("127.0.0.1", 0))

@@ -172,12 +172,13 @@ def _number_list(problems, table, key, where):
     return tuple(out)
 
 
-def _coatings(tables, camp, base, problems):
+def _coatings(tables, camp, base, problems, plants):
+    """The job's coatings; ``plants`` gets the plant FMU of each coating's run config (see _plant_parameters)."""
     names = camp.get("coatings")
     if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
         problems.add(("campaign", "coatings"), f"must be a non-empty list of coating names; got {names!r}")
         return ()
-    out, plants = [], {}
+    out = []
     for name in names:
         if name not in COATINGS:
             problems.add(("campaign", "coatings"), f"unknown coating {name!r}; the paper's are {', '.join(COATINGS)}")
@@ -232,6 +233,19 @@ def _plant_parameters(name, config, parameters, problems, plants):
     fmu, info = plants[config]
     for k, v in parameters.items():
         check_parameter(info, fmu, k, v, problems, ("coatings", name, "parameters", k))
+
+
+def _file_parameters(parameters_file, plants, problems):
+    """Check the values of the job's ``parameters_file`` against every plant FMU the coatings run, as their own
+    parameters are (a calibration of another model, or a value out of a plant's range, fails at load, not on a
+    worker)."""
+    from cosim.config import check_parameter
+
+    if parameters_file is None:
+        return
+    for fmu, info in {p[0]: p[1] for p in plants.values() if p is not None}.items():
+        for k, v in parameters_file.values.items():
+            check_parameter(info, fmu, k, v, problems, ("campaign", "parameters_file"))
 
 
 def _sources(tables, problems):
@@ -294,12 +308,13 @@ def load_campaign(path, overrides=(), origins=None):
     camp = tables["campaign"]
     w = ("campaign",)
     seed = number(problems, camp, "seed", w, integer=True)
+    plants = {}
     if seed is not None and seed < 0:
         problems.add(w + ("seed",), f"must be >= 0; got {seed}")
     job = dict(
         seed=seed,
         trials=number(problems, camp, "trials", w, positive=True, integer=True),
-        coatings=_coatings(tables, camp, path.parent, problems),
+        coatings=_coatings(tables, camp, path.parent, problems, plants),
         speeds_rpm=_number_list(problems, camp, "speeds_rpm", w),
         currents_A=_number_list(problems, camp, "currents_A", w),
         hold_s=number(problems, camp, "hold_s", w, default=5.0, positive=True),
@@ -311,6 +326,7 @@ def load_campaign(path, overrides=(), origins=None):
         sources=_sources(tables, problems),
         parameters_file=parameters_file_key(camp, w, path.parent, problems),
     )
+    _file_parameters(job["parameters_file"], plants, problems)
     if None not in (job["hold_s"], job["steady_s"]) and job["steady_s"] > job["hold_s"]:
         problems.add(w + ("steady_s",), f"{job['steady_s']:g} s is longer than hold_s = {job['hold_s']:g} s")
     problems.raise_if_any()
