@@ -1,14 +1,17 @@
 """Long run of the loader fuzz (tests/test_fuzz.py runs a few hundred cases a loader): mutated shipped examples
-(tests/fuzz_cases.py) through the run-config, calibration-job and diagnosis-job loaders and ``--set``, counted by
+(tests/fuzz_cases.py) through the run-config, calibration-job, diagnosis-job, campaign-job and sensitivity-job
+loaders and ``--set``, and the haptic command's table loaders and arguments, counted by
 outcome ("ok" or the class of the project's error raised). Any other exception is a bug: it is counted under its
 own class name with the case that raised it printed, and the exit status is 1.
 
-Run: PYTHONPATH=. python benchmarks/fuzz.py [--cases N] (default 10,000 in all: run 30 %, calibrate 50 %,
-diagnose 20 %, by the loaders' speed). Needs fmus/GripperPlant.fmu, PMSM.fmu, Drivetrain.fmu (`cosim build`).
+Run: PYTHONPATH=. python benchmarks/fuzz.py [--cases N] (default 10,000 in all: run 25 %, calibrate 35 %,
+diagnose 15 %, campaign 10 %, sensitivity 5 %, haptic 10 %). Needs the FMUs of `cosim build`.
 """
 
 import argparse
 import collections
+import contextlib
+import io
 import sys
 import tempfile
 import time
@@ -20,9 +23,9 @@ from hypothesis import HealthCheck, given, settings
 ROOT = Path(__file__).resolve().parent.parent
 sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 
-from fuzz_cases import cases, check, workspace  # noqa: E402
+from fuzz_cases import cases, check, check_haptic, haptic_cases, workspace  # noqa: E402
 
-SHARES = {"run": 0.3, "calibrate": 0.5, "diagnose": 0.2}
+SHARES = {"run": 0.25, "calibrate": 0.35, "diagnose": 0.15, "campaign": 0.1, "sensitivity": 0.05, "haptic": 0.1}
 
 
 def fuzz(loader, n, folder, seed):
@@ -31,10 +34,11 @@ def fuzz(loader, n, folder, seed):
 
     @settings(max_examples=n, deadline=None, database=None, derandomize=False,
               suppress_health_check=list(HealthCheck))
-    @given(case=cases(loader))
+    @given(case=haptic_cases() if loader == "haptic" else cases(loader))
     def one(case):
         try:
-            counts[check(loader, folder, case)] += 1
+            with contextlib.redirect_stderr(io.StringIO()):  # argparse's usage line on each refused argument
+                counts[check_haptic(case) if loader == "haptic" else check(loader, folder, case)] += 1
         except Exception as err:  # the fuzz's finding: not a CosimError
             counts[f"UNEXPECTED {type(err).__name__}"] += 1
             print(f"{loader}: {type(err).__name__}: {err}\n  case: {case!r}\n{traceback.format_exc(limit=3)}")
