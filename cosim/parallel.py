@@ -254,7 +254,7 @@ class _Bar:
     """A tqdm bar counting finished items, with the last line of each running item beside it."""
 
     def __init__(self, total, desc, progress):
-        self.bar = tqdm(total=total, desc=desc, unit="fit", file=sys.stderr, disable=not progress)
+        self.bar = tqdm(total=total, desc=desc, unit="task", file=sys.stderr, disable=not progress)
         self.lines = {}
         self.done = set()
 

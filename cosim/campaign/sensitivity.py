@@ -259,7 +259,8 @@ def run_sensitivity(path, out=None, overrides=(), workers=None, scheduler="", pr
              for c in job.campaign.coatings for a in range(0, len(points), job.batch)]
     with output_folder(out, "sensitivity", force=force) as staging:
         t0 = time.perf_counter()
-        done = map_on_dask(evaluate, tasks, scheduler=scheduler, max_workers=workers, desc="points", progress=progress)
+        done = map_on_dask(evaluate, tasks, scheduler=scheduler, max_workers=workers,
+                           desc=f"batches of {job.batch} points", progress=progress)
         wall = time.perf_counter() - t0
         frame = _points_frame(job, points, tasks, done)
         frame.to_parquet(staging / "points.parquet", index=False)
