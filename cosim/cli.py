@@ -238,7 +238,7 @@ def _cmd_sensitivity(args):
     summary = run_sensitivity(args.job, out=out, overrides=args.set, workers=args.workers, scheduler=args.scheduler,
                               progress=not args.no_progress, force=args.force)
     print(f"{summary['points']} parameter points x {summary['trials'] // summary['points']} trials = "
-          f"{summary['trials']} trials in {summary['run']['wall_s']:.1f} s")
+          f"{summary['trials']} trials in {summary['run']['wall_s']:.1f} s wall")
     for output, top in summary["largest_total_index"].items():
         print(f"  {output}: largest total index {top['factor']} ST = {top['ST']:.2f} +- {top['ST_conf']:.2f}")
     print(f"wrote {out}/points.parquet, indices.csv, indices.png, summary.json")
