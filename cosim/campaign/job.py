@@ -308,9 +308,9 @@ def load_campaign(path, overrides=(), origins=None):
     camp = tables["campaign"]
     w = ("campaign",)
     seed = number(problems, camp, "seed", w, integer=True)
-    plants = {}
     if seed is not None and seed < 0:
         problems.add(w + ("seed",), f"must be >= 0; got {seed}")
+    plants = {}  # run config -> (its plant FMU, model info), filled by _coatings
     job = dict(
         seed=seed,
         trials=number(problems, camp, "trials", w, positive=True, integer=True),
