@@ -422,10 +422,26 @@ def _in_range(file, var, value, problems, where):
 
 
 def check_parameter(info, file, name, value, problems, where):
-    """Add to ``problems`` (at the key path ``where``) what is wrong with setting parameter ``name`` of the FMU
-    ``file`` (model description ``info``) to ``value``: no such parameter (with "did you mean"), not settable, of
-    the wrong type, or outside the range the FMU declares (with its unit). A run config's ``fmus.NAME.parameters``
-    and a campaign coating's ``parameters`` are checked with it."""
+    """Add to ``problems`` what is wrong with setting a parameter of an FMU to a value: no such parameter (with
+    "did you mean"), not settable, of the wrong type, or outside the range the FMU declares (with its unit). A run
+    config's ``fmus.NAME.parameters``, a campaign coating's ``parameters`` and a campaign's parameters file are
+    checked with it.
+
+    Parameters
+    ----------
+    info : cosim.fmi.ModelInfo
+        The FMU's model description.
+    file : pathlib.Path
+        The FMU (its name is in the messages).
+    name : str
+        The parameter.
+    value : object
+        The value given (a number, or a bool for a Boolean parameter).
+    problems : cosim.tomldoc.Problems
+        Where the problems go.
+    where : tuple of str
+        The key path the value was given at (its file:line or ``--set`` item in the message).
+    """
     var = info.variables.get(name)
     if var is None:
         names = [v.name for v in info.variables.values() if v.causality == "parameter"]

@@ -20,7 +20,7 @@ from test_master_support import EXAMPLES, ROOT, gripper_dir, gripper_overrides, 
 
 from cosim.config import load_config
 from cosim.master import run, run_config
-from cosim.errors import EngineFallbackWarning
+from cosim.errors import EngineFallbackWarning, ScaleWarning
 from cosim.master.compiled import CompiledLoop
 from cosim.master.engine import engine_for
 
@@ -174,7 +174,8 @@ def test_ctrl_c_keeps_what_was_recorded(gripper_dir):
     sets = gripper_overrides(gripper_dir) + ["record.rate=100", 'record.signals=["plant.F_g", "plant.w_m"]',
                                              "plot.panels=[]"]
     run(load_config(EXAMPLES / "gripper_impact.toml", sets + ["run.stop=0.01"]), progress=False)  # compiled now
-    engine = engine_for(load_config(EXAMPLES / "gripper_impact.toml", sets + ["run.stop=3000"]))
+    with pytest.warns(ScaleWarning, match="run.stop = 3000 s"):  # a run long enough to be interrupted is meant
+        engine = engine_for(load_config(EXAMPLES / "gripper_impact.toml", sets + ["run.stop=3000"]))
     assert isinstance(engine.loop, CompiledLoop)
     # Ctrl-C as the default handler delivers it (an earlier test's Dask cluster may have left its own handler)
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)

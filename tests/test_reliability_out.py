@@ -23,7 +23,7 @@ import pytest
 from test_master_support import master_dir, osc_config  # noqa: F401
 
 from cosim.cli import main
-from cosim.errors import ConfigError
+from cosim.errors import ConfigError, ScaleWarning
 from cosim.master import read_results
 from cosim.outputs import MARKER, output_folder
 
@@ -125,7 +125,8 @@ def test_read_only_out_fails_before_the_run(master_dir, tmp_path, capsys):  # no
     locked.mkdir()
     with _read_only(locked):
         t0 = time.perf_counter()
-        assert main(["run", str(cfg), "--out", str(locked / "res"), "--no-progress"]) == 2
+        with pytest.warns(ScaleWarning, match="run.stop = 100000 s"):  # a long run is meant here
+            assert main(["run", str(cfg), "--out", str(locked / "res"), "--no-progress"]) == 2
         elapsed = time.perf_counter() - t0
     assert "not writable" in capsys.readouterr().err
     assert elapsed < 20 and os.listdir(locked) == []
