@@ -271,3 +271,13 @@ def gripper_overrides(gripper_dir, split=False):
     if split:
         return [f"fmus.plant.path={gripper_dir / 'PMSM.fmu'}", f"fmus.drive.path={gripper_dir / 'Drivetrain.fmu'}"]
     return [f"fmus.plant.path={gripper_dir / 'GripperPlant.fmu'}"]
+
+
+def cli_fails(capsys, argv):
+    """Run the CLI as a user types ``argv``; assert exit 2 with one error message and no traceback; return it."""
+    from cosim.cli import main
+
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.count("error:") == 1
+    return err

@@ -7,7 +7,7 @@ import zipfile
 
 import numpy as np
 import pytest
-from test_master_support import EXAMPLES, gripper_dir, gripper_overrides  # noqa: F401
+from test_master_support import EXAMPLES, cli_fails, gripper_dir, gripper_overrides  # noqa: F401
 
 from cosim.cli import main
 from cosim.errors import ConfigError
@@ -17,26 +17,18 @@ CALIBRATE = str(EXAMPLES / "calibrate_static.toml")
 DIAGNOSE = str(EXAMPLES / "diagnose_static.toml")
 
 
-def _fails(capsys, argv):
-    """Run the CLI, assert exit 2 and no traceback; return the message."""
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    assert "Traceback" not in err and err.count("error:") == 1
-    return err
-
-
 def _run(capsys, gripper_dir, *sets, out):  # noqa: F811
     argv = ["run", STATIC, "--out", str(out), "--no-progress"]
     for s in [*gripper_overrides(gripper_dir), *sets]:
         argv += ["--set", s]
-    return _fails(capsys, argv)
+    return cli_fails(capsys, argv)
 
 
 # ---------------------------------------------------------------------------------------------- text not UTF-8
 def test_config_not_utf8_names_line_and_column(tmp_path, capsys):
     path = tmp_path / "latin1.toml"
     path.write_bytes("[run]\nstop = 1.0  # d\u00e9but\n".encode("latin-1"))
-    err = _fails(capsys, ["run", str(path), "--out", str(tmp_path / "o")])
+    err = cli_fails(capsys, ["run", str(path), "--out", str(tmp_path / "o")])
     # "stop = 1.0  # d" is 15 characters: the byte 0xe9 is the 16th of line 2
     assert f"{path}:2:16: the config must be UTF-8 text; got byte 0xe9" in err
 
@@ -56,7 +48,7 @@ def test_parameters_file_not_utf8(tmp_path, capsys, gripper_dir):  # noqa: F811
     ("record.signals.7=1", "record.signals is a list of 5 elements; expected an index 0 to 4, got 7"),
 ])
 def test_set_paths_through_values(tmp_path, capsys, item, expected):
-    err = _fails(capsys, ["run", STATIC, "--out", str(tmp_path), "--set", item])
+    err = cli_fails(capsys, ["run", STATIC, "--out", str(tmp_path), "--set", item])
     assert expected in err and "--set" in err
 
 
@@ -177,14 +169,14 @@ def test_build_non_utf8_source(tmp_path, capsys):
     path = tmp_path / "src" / "M.mo"
     path.write_bytes('model M "r\u00e9sum\u00e9"\n  Real x(start = 1);\nequation\n  der(x) = -x;\nend M;\n'
                      .encode("latin-1"))
-    err = _fails(capsys, ["build", str(path), "--model", "M", "--out", str(tmp_path / "fmus")])
+    err = cli_fails(capsys, ["build", str(path), "--model", "M", "--out", str(tmp_path / "fmus")])
     assert f"{path}:1:11: the Modelica source must be UTF-8 text; got byte 0xe9" in err
 
 
 def test_build_out_is_an_existing_file(tmp_path, capsys):
     path = _mo(tmp_path, "model M\n  Real x(start = 1);\nequation\n  der(x) = -x;\nend M;\n")
     (tmp_path / "taken").write_text("mine")
-    err = _fails(capsys, ["build", str(path), "--model", "M", "--out", str(tmp_path / "taken")])
+    err = cli_fails(capsys, ["build", str(path), "--model", "M", "--out", str(tmp_path / "taken")])
     assert "exists and is not a folder" in err and (tmp_path / "taken").read_text() == "mine"
 
 
@@ -204,7 +196,7 @@ def test_build_recursive_function(tmp_path, capsys):
           end M;
         end P;
         """)
-    err = _fails(capsys, ["build", str(path), "--model", "P.M", "--out", str(tmp_path / "fmus")])
+    err = cli_fails(capsys, ["build", str(path), "--model", "P.M", "--out", str(tmp_path / "fmus")])
     assert "the recursive function P.f (P.f -> P.f" in err and f"{path}:" in err
 
 
@@ -226,7 +218,7 @@ def test_build_division_by_zero(tmp_path, capsys, model, line, expected):
           end B;
         end P;
         """)
-    err = _fails(capsys, ["build", str(path), "--model", f"P.{model}", "--out", str(tmp_path / "fmus")])
+    err = cli_fails(capsys, ["build", str(path), "--model", f"P.{model}", "--out", str(tmp_path / "fmus")])
     assert f"{path}:{line}: P.{model} divides by zero: {expected}" in err
 
 
@@ -238,7 +230,7 @@ def test_build_division_by_zero(tmp_path, capsys, model, line, expected):
     ("fit.signals=3", "fit.signals: must be a list of tables"),
 ])
 def test_calibration_job_keys_of_the_wrong_type(tmp_path, capsys, item, expected):
-    err = _fails(capsys, ["calibrate", CALIBRATE, "--out", str(tmp_path / "o"), "--set", item])
+    err = cli_fails(capsys, ["calibrate", CALIBRATE, "--out", str(tmp_path / "o"), "--set", item])
     assert f"--set {item.partition('=')[0]}: {expected}" in err
 
 
@@ -249,7 +241,7 @@ def test_calibration_job_keys_of_the_wrong_type(tmp_path, capsys, item, expected
     ("parallel.workers=-1", "parallel.workers: must be >= 0"),
 ])
 def test_diagnosis_job_keys_of_the_wrong_type(tmp_path, capsys, item, expected):
-    err = _fails(capsys, ["diagnose", DIAGNOSE, "--out", str(tmp_path / "o"), "--set", item, "--no-build"])
+    err = cli_fails(capsys, ["diagnose", DIAGNOSE, "--out", str(tmp_path / "o"), "--set", item, "--no-build"])
     assert expected in err
 
 
@@ -260,7 +252,7 @@ def test_calibration_data_with_text_in_a_numeric_column(tmp_path, capsys):
     lines[header + 4] = ",".join([*row[:-1], "abc"])
     data = tmp_path / "text.csv"
     data.write_text("\n".join(lines) + "\n")
-    err = _fails(capsys, ["calibrate", CALIBRATE, "--out", str(tmp_path / "o"), "--set", f"data.path={data}", "--no-progress"])
+    err = cli_fails(capsys, ["calibrate", CALIBRATE, "--out", str(tmp_path / "o"), "--set", f"data.path={data}", "--no-progress"])
     assert "data.path (text.csv): column 'F_g' must hold numbers" in err and "got 'abc' at data row 3" in err
 
 

@@ -3,32 +3,24 @@
 ``--set`` key with the keys it may have meant, "did you mean" for model names and controller classes."""
 
 import pytest
-from test_master_support import EXAMPLES, gripper_dir, gripper_overrides  # noqa: F401
+from test_master_support import EXAMPLES, cli_fails, gripper_dir, gripper_overrides  # noqa: F401
 
 from cosim.cli import main
 
 IMPACT = str(EXAMPLES / "gripper_impact.toml")
 
 
-def _fails(capsys, argv):
-    """Run the CLI, assert exit 2 with one error message and no traceback; return the message."""
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    assert "Traceback" not in err and err.count("error:") == 1
-    return err
-
-
 def _run(capsys, tmp_path, *sets):
     argv = ["run", IMPACT, "--out", str(tmp_path / "o"), "--no-progress"]
     for s in sets:
         argv += ["--set", s]
-    return _fails(capsys, argv)
+    return cli_fails(capsys, argv)
 
 
 def test_missing_fmu_is_the_one_problem_and_says_how_to_build_it(tmp_path, capsys):
     config = tmp_path / "impact.toml"
     config.write_text(EXAMPLES.joinpath("gripper_impact.toml").read_text().replace("../fmus/", "fmus/"))
-    err = _fails(capsys, ["run", str(config), "--out", str(tmp_path / "o")])
+    err = cli_fails(capsys, ["run", str(config), "--out", str(tmp_path / "o")])
     # before: 6 problems, the 5 others about plot.panels and summary.force, which record the missing FMU's signals
     assert "1 problem in" in err and "plot.panels" not in err and "summary.force" not in err
     assert f"{config}:16: fmus.plant.path: FMU file '{tmp_path}/fmus/GripperPlant.fmu' does not exist" in err
@@ -78,7 +70,7 @@ def test_controller_class_case_slip(tmp_path, capsys, gripper_dir):  # noqa: F81
 ])
 def test_build_misspelt_model_name(tmp_path, capsys, source, model, meant):
     root = EXAMPLES.parent
-    err = _fails(capsys, ["build", str(root / source), "--model", model, "--out", str(tmp_path / "f")])
+    err = cli_fails(capsys, ["build", str(root / source), "--model", model, "--out", str(tmp_path / "f")])
     assert f"no model named {model!r}" in err and f"did you mean {meant}" in err
 
 
@@ -97,7 +89,7 @@ def test_build_misspelt_model_name(tmp_path, capsys, source, model, meant):
 ])
 def test_unbalanced_model_names_what_is_in_excess_with_its_line(tmp_path, capsys, body, expected):
     (tmp_path / "M.mo").write_text(f"model M\n{body}end M;\n")
-    err = _fails(capsys, ["build", str(tmp_path / "M.mo"), "--model", "M", "--out", str(tmp_path / "f")])
+    err = cli_fails(capsys, ["build", str(tmp_path / "M.mo"), "--model", "M", "--out", str(tmp_path / "f")])
     assert expected.replace("M.mo", f"{tmp_path}/M.mo") in err
     assert "b1c_definition" not in err and "rumoca" not in err  # before: rumoca's internal counts, no line
 
