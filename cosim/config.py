@@ -24,9 +24,8 @@ import warnings
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
-from cosim.errors import ParameterError
+from cosim.errors import ParameterError, ScaleWarning
 from cosim.fmi.instance import value_dtype
-from cosim.errors import ScaleWarning
 from cosim.paramfile import parameters_file_key
 from cosim.tomldoc import did_you_mean as _close
 from cosim.tomldoc import Problems, format_key, parse_overrides, read_toml

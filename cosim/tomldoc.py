@@ -337,11 +337,11 @@ def read_toml(path, overrides=(), what="config", origins=None):
         where = f"{path}:{m.group(1)}:{m.group(2)}" if m else str(path)
         msg = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(err))
         raise ConfigError(f"{where}: malformed TOML: {msg}") from err
+    keys = {format_key(k) for k in key_paths(data)}  # the file's own keys, before the overrides add theirs
     set_keys = {}
     for (p, v), item in zip(parse_overrides(overrides), overrides or ()):
         apply_override(data, p, v)
         set_keys[format_key(p)] = item.partition("=")[0].strip()
-    keys = {format_key(k) for k in key_paths(tomllib.loads(text))}
     return data, Problems(str(path), Locator(text), set_keys, keys, origins)
 
 

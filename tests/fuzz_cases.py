@@ -27,6 +27,7 @@ from cosim.config import load_config
 from cosim.diagnose.job import load_diagnose_job
 from cosim.errors import CosimError, ScaleWarning
 from cosim.haptic.params import load_arm_params, load_uncertainty_weight, load_user_params, user_params_table
+from cosim.tomldoc import key_paths
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -79,14 +80,6 @@ def toml_value(v):
     if isinstance(v, list):
         return "[" + ", ".join(toml_value(x) for x in v) + "]"
     return "{" + ", ".join(f"{k} = {toml_value(x)}" for k, x in v.items()) + "}"
-
-
-def key_paths(node, prefix=()):
-    """Every key path of a parsed document (list elements by index)."""
-    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
-    for k, v in items:
-        yield prefix + (k,)
-        yield from key_paths(v, prefix + (k,))
 
 
 def dotted(path):
