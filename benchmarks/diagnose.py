@@ -1,7 +1,7 @@
 """Counts of the discrepancy workflow on drawn cases of independent truths of each experiment, or a job's stage times.
 
 Run: python benchmarks/diagnose.py [--experiments E ...] [--cases N] [--seed S] [--truths 1 2 ...] [--effects ...]
-                                   [--rows FILE] [--workers W] [--validation]
+                                   [--rows FILE [--resume]] [--workers W] [--validation]
 Each case hides one effect, or none, in a truth written independently of the Modelica plant and its candidates,
 and is diagnosed by the experiment's baseline model with the whole effect library that applies to it offered.
 Per experiment (``--experiments``, default all), truth 1 is the one the workflow was developed against; truths 2
@@ -23,7 +23,9 @@ truth 2's results had been seen, to judge the changes made in response to them):
 A truth an experiment lacks is skipped. The effects drawn are "none" and those the experiment shows
 (docs/guide/diagnose.md, "Which experiment shows which effect"), unless ``--effects`` names others. The run's seed
 is drawn from the operating system unless ``--seed`` is given (to re-run a printed draw); every case's seed derives
-from it and is printed with its row; ``--rows`` appends every row to a JSON-lines file. Counts: named right per
+from it and is printed with its row; ``--rows`` appends every row to a JSON-lines file, and ``--resume`` with the
+same ``--seed`` takes the cases already there instead of diagnosing them again (a run of many hours done in parts;
+every row of the file must come from the checkout's commit). Counts: named right per
 effect with Wilson 95 % intervals, false alarms on "none", named right on the effects the experiment shows and the
 gap above the noise removed when named (the targets of issue 32: >= 85 %, <= 5 %, >= 80 %). After each case's
 row, the wall time of each stage of its diagnosis (as ``--job`` names them; ``--rows`` keeps them), the CPU time of
@@ -43,6 +45,7 @@ import json
 import os
 import resource
 import secrets
+import subprocess
 import sys
 import tempfile
 import time
@@ -194,12 +197,43 @@ EXPERIMENTS = {
 TRUTHS = ("1", "2", "2w", "3", "4")
 
 
-def draw_rows(experiment, truths, effects, cases, seed, workers, rows_file=None):
+@functools.cache
+def commit_of_checkout():
+    """The commit this benchmark's checkout is at, with ``+changes`` when its tracked files differ from it."""
+    def git(*args):
+        return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True).stdout.strip()
+    return git("rev-parse", "--short", "HEAD") + ("+changes" if git("status", "--porcelain", "--untracked-files=no")
+                                                  else "")
+
+
+def rows_done(rows_file, commit):
+    """The rows of ``rows_file`` diagnosed at ``commit``, by (experiment, truth set, run seed, case, effect, case
+    seed): what ``--resume`` takes instead of diagnosing again. A row of another commit is an error (the counts
+    of one table come from one commit)."""
+    done = {}
+    if rows_file is None or not rows_file.exists():
+        return done
+    for number, line in enumerate(rows_file.read_text(encoding="utf-8").splitlines(), 1):
+        row = json.loads(line)
+        if row.get("commit") != commit:
+            sys.exit(f"{rows_file}:{number}: a row of commit {row.get('commit')}, this checkout is at {commit}: "
+                     "--resume takes rows of one commit only")
+        done[_row_key(row["experiment"], row["truth_set"], row["run_seed"], row.get("case"), row["truth"],
+                      row["seed"])] = row
+    return done
+
+
+def _row_key(*fields):
+    return tuple(str(f) for f in fields)
+
+
+def draw_rows(experiment, truths, effects, cases, seed, workers, rows_file=None, done=None):
     """Diagnose ``cases`` drawn cases of each effect of each truth of ``experiment`` (those it lacks skipped);
     returns {truth: [row, ...]}, each row also appended to ``rows_file`` (JSON lines) when given. The truths share
     each case's seed: a paired comparison (the gripper truths draw the same baseline from it). Each row carries
     the wall time of each stage of its diagnosis (``stages``), the CPU time of this process (``cpu_seconds``: the
-    fits on Dask workers are not in it) and the load average when it ended (``load``)."""
+    fits on Dask workers are not in it), the load average when it ended (``load``) and the checkout's commit. A
+    case in ``done`` (:func:`rows_done`) is taken from there, not diagnosed again."""
     import cosim.diagnose.show as show_stage
     from cosim.diagnose import workflow
 
@@ -215,11 +249,16 @@ def draw_rows(experiment, truths, effects, cases, seed, workers, rows_file=None)
         for truth in rows:
             for b, effect in enumerate(effects):
                 case_seed = int(seeds[k, b])
+                key = _row_key(experiment, truth, seed, k, effect, case_seed)
+                if key in (done or {}):
+                    rows[truth].append(done[key])
+                    continue
                 calls.clear()
                 cpu = time.process_time()
                 with tempfile.TemporaryDirectory() as folder:
                     row = functions[truth](effect, case_seed, folder, workers)
-                row = {**row, "experiment": experiment, "truth_set": truth, "run_seed": seed,
+                row = {**row, "experiment": experiment, "truth_set": truth, "run_seed": seed, "case": k,
+                       "commit": commit_of_checkout(),
                        "stages": stage_times(calls), "cpu_seconds": round(time.process_time() - cpu, 1),
                        "load": os.getloadavg()[0]}
                 rows[truth].append(row)
@@ -266,7 +305,8 @@ def run_experiment(experiment, args, seed):
     shown = EXPERIMENTS[experiment][0]
     effects = args.effects or ["none", *shown]
     start = time.time()
-    rows = draw_rows(experiment, args.truths, effects, args.cases, seed, args.workers, args.rows)
+    done = rows_done(args.rows, commit_of_checkout()) if args.resume else None
+    rows = draw_rows(experiment, args.truths, effects, args.cases, seed, args.workers, args.rows, done)
     table, notes = count_table(rows, shown)
     print(f"\n{experiment}: {time.time() - start:.0f} s")
     for row in table:
@@ -290,6 +330,9 @@ def main(argv=None):
                         help="truths to draw cases of (default 1 2 3; 2w: the haptic second truth by Welch H1; 4: "
                              "reserved for the evaluation of issue 42)")
     parser.add_argument("--rows", type=Path, help="append every row to this JSON-lines file")
+    parser.add_argument("--resume", action="store_true",
+                        help="with --rows and --seed: take the cases already in the rows file (of this commit) "
+                             "instead of diagnosing them again")
     parser.add_argument("--effects", nargs="+", help="hidden effects (default: none and those the experiment shows)")
     parser.add_argument("--workers", type=int,
                         help="Dask workers (default: the job's; for drawn cases 2, the haptic ones 0)")
@@ -298,6 +341,8 @@ def main(argv=None):
     if args.job:
         time_job(args.job, args.workers, not args.no_build)
         return
+    if args.resume and (args.rows is None or args.seed is None):
+        parser.error("--resume needs --rows (the file to take cases from) and --seed (the run's seed)")
     seed = secrets.randbelow(2 ** 31) if args.seed is None else args.seed
     print(f"seed {seed}; experiments {args.experiments}; truths {args.truths}; {args.cases} cases each; the whole "
           "library of each experiment's model offered", flush=True)
