@@ -30,7 +30,7 @@ def verdict(job, decision, segments=(), ms_after=0.0):
     """
     d = decision
     if d.winner is not None:
-        named = f"missing effect: {d.effect} ({EFFECTS[d.effect].title})"
+        named = _finding(d.winner)
         left = _left_after(segments)
         if not left or ms_after <= d.chance:
             return named
@@ -51,6 +51,15 @@ def verdict(job, decision, segments=(), ms_after=0.0):
     return (f"no missing effect found: the baseline fits within the noise (mean square {d.mean_square:.3g} "
             f"noise levels squared, chance up to {d.chance:.3g}; segments above {job.gap_sigmas:g} noise "
             f"levels: {sum(r['significant'] for r in d.rows)})")
+
+
+def _finding(winner):
+    """The named candidate in words: a missing effect, or a law of another form with its fitted parameters."""
+    effect = EFFECTS[winner.effect]
+    if not effect.is_form:
+        return f"missing effect: {effect.name} ({effect.title})"
+    values = ", ".join(f"{n} = {winner.parameters[n]:.3g}" for n in winner.added_parameters if n in winner.parameters)
+    return f"{effect.law} is of another form: {effect.name} ({effect.title}; {values})"
 
 
 def why_plausible(job, decision, candidate):
@@ -116,8 +125,14 @@ def _named(job, d, advice, segments, ms_after, gap_removed):
                 f"the gap above the noise ({d.gap_levels:.1f} -> {np.sqrt(max(ms_after, 0.0)):.1f} noise levels)")
     if left:
         evidence += f"; {len(left)} segment(s) stay above {job.gap_sigmas:g} noise levels, largest {left[0].segment}"
-    step = (f"add {w.effect} to the model: the variant is in OUT/modelica and OUT/variant.diff; calibrate it "
-            f"with its parameters free")
+    if EFFECTS[w.effect].is_form:
+        step = (f"replace {EFFECTS[w.effect].law} of the model by the form {w.effect} ({EFFECTS[w.effect].replacement}"
+                f" in slot {EFFECTS[w.effect].slot}): the model misses no physics, its law has the wrong shape, so "
+                "the parameters of the old law fitted before are not to be trusted; the variant is in OUT/modelica "
+                "and OUT/variant.diff; calibrate it with its parameters free")
+    else:
+        step = (f"add {w.effect} to the model: the variant is in OUT/modelica and OUT/variant.diff; calibrate it "
+                f"with its parameters free")
     if advice:
         step += ". To tell it from " + "; ".join(_shows(a) for a in advice)
     return evidence, step

@@ -70,6 +70,9 @@ class Effect:
         The experiment that shows it (docs/guide/diagnose.md, "Which experiment shows which effect").
     shown_in : str
         The shipped example job of that experiment (a file under ``examples/``), "" when none ships.
+    law : str
+        For a *form* (a law of another form in place of one the baseline already has, not added physics): the law
+        it replaces, e.g. "the finger contact's law"; "" for an effect.
     """
 
     name: str
@@ -82,6 +85,12 @@ class Effect:
     frees: tuple = ()
     shown_by: str = "no experiment is known to show it"
     shown_in: str = ""
+    law: str = ""
+
+    @property
+    def is_form(self):
+        """Whether the candidate changes the form of a law the baseline has (else it adds an effect)."""
+        return bool(self.law)
 
 
 @dataclass(frozen=True)
@@ -176,6 +185,67 @@ EFFECTS = {
         bindings=_same("k_rel", "tau_rel"),
         signature="coated fingers: the force held after the impact decays with tau_rel (bare fingers: no change)",
         shown_by="current-step impact on coated fingers, force and encoder", shown_in="diagnose_impact.toml",
+    ),
+    # Forms: laws of another form in the slot of a law the baseline has (Gripper.Forms; sources and ranges in
+    # the blocks' comments and docs/models/gripper.md). Ranges from each form's physics, not from a measurement.
+    "power_law_coating": Effect(
+        name="power_law_coating",
+        title="a Hertz-type power law F = F_lim*(delta_c/d_lim)^n_c for the coating's first region instead of the "
+              "linear one",
+        parameters=(EffectParameter("n_c", 1.0, 1.0, 3.0, "1", "Exponent of the coating's first region",
+                                    starts=(1.5, 2.2)),),
+        slot="drive.contact", replacement="Gripper.Forms.PowerLawCoatingContact", bindings=_same("n_c"),
+        signature="coated fingers: the force rises later and steeper in the impact (bare fingers: no change)",
+        shown_by="current-step impact on coated fingers, force and encoder", shown_in="diagnose_impact.toml",
+        law="the finger contact's elastic law",
+    ),
+    "hunt_crossley_contact": Effect(
+        name="hunt_crossley_contact",
+        title="Hunt and Crossley's contact: F = F_s*(1 + lambda_c*v) with a power-law coating, no linear damping",
+        parameters=(EffectParameter("n_hc", 1.5, 1.0, 3.0, "1", "Exponent of the coating's first region",
+                                    starts=(1.0,)),
+                    EffectParameter("lambda_c", 6.0, 0.0, 1000.0, "s/m", "Hunt-Crossley damping per unit elastic "
+                                    "force", starts=(60.0,))),
+        slot="drive.contact", replacement="Gripper.Forms.HuntCrossleyContact",
+        bindings=(("n_c", "n_hc"), ("lambda_c", "lambda_c")),
+        signature="impact peak and rebound: no damping force at first touch, dissipation that grows with the force",
+        shown_by="current-step impact, force and encoder", shown_in="diagnose_impact.toml",
+        law="the finger contact's law (elastic and dissipative)",
+    ),
+    "hysteretic_coating": Effect(
+        name="hysteretic_coating",
+        title="a rate-independent (Bouc-Wen) hysteresis of the contact: a fraction a_h of the force carried by a "
+              "hysteretic element yielding at z_y",
+        parameters=(EffectParameter("a_h", 0.0, 0.0, 1.0, "1", "Fraction of the contact force that is hysteretic",
+                                    starts=(0.3,)),
+                    EffectParameter("z_h", 1e-4, 1e-6, 1e-3, "m", "Yield penetration of the hysteretic element",
+                                    starts=(1e-5,))),
+        slot="drive.contact", replacement="Gripper.Forms.HystereticCoatingContact",
+        bindings=(("a_h", "a_h"), ("z_y", "z_h")),
+        signature="the force held after the impact lower than the loading path gives, at any rate",
+        shown_by="current-step impact, force and encoder", shown_in="diagnose_impact.toml",
+        law="the finger contact's elastic law",
+    ),
+    "stribeck_guide": Effect(
+        name="stribeck_guide",
+        title="guide friction on a Stribeck curve (static level F_sg falling to F_c above v_sg), memoryless",
+        parameters=(EffectParameter("F_sg", "F_cj", 0.0, 20.0, "N", "Static guide friction level per jaw",
+                                    starts=(1.0,)),
+                    EffectParameter("v_sg", 1e-3, 1e-5, 1e-2, "m/s", "Stribeck velocity of the guides")),
+        slot="drive.guide", replacement="Gripper.Forms.StribeckCurveGuide", bindings=_same("F_sg", "v_sg"),
+        signature="more friction at low speed: restarts that need more current, slow motion damped",
+        shown_by="slide: the jaws stop and restart against the guides, current and encoder at 1 kHz",
+        law="the jaw guides' friction law",
+    ),
+    "dahl_guide": Effect(
+        name="dahl_guide",
+        title="Dahl's bristle friction in the guides: a presliding spring F_c/x_dg that slides at F_c",
+        parameters=(EffectParameter("x_dg", 1e-5, 1e-7, 1e-4, "m", "Presliding displacement of the guides",
+                                    starts=(1e-6,)),),
+        slot="drive.guide", replacement="Gripper.Forms.DahlGuide", bindings=(("x_d", "x_dg"),),
+        signature="friction that builds up over a distance after each reversal, not at once",
+        shown_by="slide: the jaws stop and restart against the guides, current and encoder at 1 kHz",
+        law="the jaw guides' friction law",
     ),
     # The haptic device + user (Haptic.Device7 and the other Haptic.Device* models).
     "hand_mass": Effect(
@@ -282,9 +352,9 @@ def _fits(source_text, model, effect, model_slots):
     return True
 
 
-def applicable(source_text, model):
+def applicable(source_text, model, forms=False):
     """Identifiers of the implemented effects that apply to ``model`` of the Modelica ``source_text`` (it has
-    their slot), in library order.
+    their slot), in library order; with ``forms``, the forms that apply (:attr:`Effect.is_form`) instead.
 
     Raises
     ------
@@ -294,7 +364,8 @@ def applicable(source_text, model):
         A slot of the model does not take the block of the effect that names it.
     """
     model_slots = slots(source_text, model)
-    return [name for name, effect in EFFECTS.items() if _fits(source_text, model, effect, model_slots)]
+    return [name for name, effect in EFFECTS.items()
+            if effect.is_form == forms and _fits(source_text, model, effect, model_slots)]
 
 
 # -- the variant's text -----------------------------------------------------------------------------------------

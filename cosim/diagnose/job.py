@@ -14,6 +14,7 @@ Job schema (paths relative to the job file)::
                   rtol (CVODES), max_nfev (least-squares evaluations per fit)
     [parameters.NAME]  start, min, max                                       # the baseline's free parameters
     [candidates]  effects = ["backdrive_efficiency", ...]                    # default: all that apply
+                  forms = ["power_law_coating", ...]    # laws of another form (default: none)
     [decision]    min_gap_removed = 0.5, min_delta_bic = 10, gap_sigmas = 3
     [parallel]    workers (0: in this process), scheduler (a Dask address)
 """
@@ -34,7 +35,7 @@ _SCHEMA = {
     "data": ("path", "records", "inputs", "start", "stop", "decimate"),
     "experiment": ("kind", "duration", "steady_s", "min_hold_s", "input", "sample_rate", "bands_per_decade"),
     "compare": ("signals", "rtol", "max_nfev"),
-    "candidates": ("effects",),
+    "candidates": ("effects", "forms"),
     "decision": ("min_gap_removed", "min_delta_bic", "gap_sigmas"),
     "parallel": ("workers", "scheduler"),
 }
@@ -75,7 +76,7 @@ class DiagnoseJob:
     free : dict
         Baseline parameter -> :class:`~cosim.fitting.FreeParameter`.
     effects : tuple of str
-        The candidate effects.
+        The candidates: the effects, then the forms (:attr:`~cosim.diagnose.effects.Effect.is_form`).
     min_gap_removed, min_delta_bic, gap_sigmas : float
         The decision's thresholds.
     workers : int
@@ -193,25 +194,8 @@ def load_diagnose_job(path, overrides=()):
         if "min_hold_s" in e else max(steady_s or 0.0, 0.05)
     rtol = number(problems, t["compare"], "rtol", ("compare",), default=1e-6, positive=True)
     max_nfev = number(problems, t["compare"], "max_nfev", ("compare",), default=40, positive=True, integer=True)
-    effects = t["candidates"].get("effects")
-    if effects is None:
-        try:
-            effects = applicable(source_text, model) if source_text else []
-        except ConfigError as err:  # no such model, or a slot that does not take its effect's block
-            problems.add(("candidates", "effects"), str(err))
-            effects = []
-    elif not isinstance(effects, list) or not all(isinstance(x, str) for x in effects):
-        problems.add(("candidates", "effects"), "must be a list of effect identifiers")
-        effects = []
-    else:
-        for n in effects:
-            if n not in EFFECTS:
-                problems.add(("candidates", "effects"), f"unknown effect {n!r}; implemented: {', '.join(EFFECTS)}")
-            elif source_text and model:
-                try:
-                    variant_text(source_text, model, EFFECTS[n])
-                except ConfigError as err:
-                    problems.add(("candidates", "effects"), str(err))
+    effects = _candidates(t["candidates"], "effects", source_text, model, problems)
+    effects += _candidates(t["candidates"], "forms", source_text, model, problems)
     dec = t["decision"]
     min_gap = number(problems, dec, "min_gap_removed", ("decision",), default=0.5, positive=True)
     min_bic = number(problems, dec, "min_delta_bic", ("decision",), default=10.0, positive=True)
@@ -231,6 +215,37 @@ def load_diagnose_job(path, overrides=()):
         max_nfev=max_nfev, free=free, effects=tuple(effects), min_gap_removed=min_gap, min_delta_bic=min_bic,
         gap_sigmas=gap_sigmas, workers=workers, scheduler=scheduler,
         input=experiment_input, sample_rate=sample_rate, bands_per_decade=per_decade)
+
+
+def _candidates(table, key, source_text, model, problems):
+    """The candidates of ``candidates.effects`` (default: every effect that applies) or ``candidates.forms``
+    (default: none), each checked to be of that sort and to fit the model."""
+    forms = key == "forms"
+    names = table.get(key)
+    if names is None:
+        if forms:
+            return []
+        try:
+            return applicable(source_text, model) if source_text else []
+        except ConfigError as err:  # no such model, or a slot that does not take its effect's block
+            problems.add(("candidates", key), str(err))
+            return []
+    if not isinstance(names, list) or not all(isinstance(x, str) for x in names):
+        problems.add(("candidates", key), f"must be a list of {'form' if forms else 'effect'} identifiers")
+        return []
+    for n in names:
+        if n not in EFFECTS:
+            known = ", ".join(name for name, e in EFFECTS.items() if e.is_form == forms)
+            problems.add(("candidates", key), f"unknown {'form' if forms else 'effect'} {n!r}; implemented: {known}")
+        elif EFFECTS[n].is_form != forms:
+            problems.add(("candidates", key), f"{n!r} is {'an effect' if forms else 'a form'}: list it under "
+                                              f"candidates.{'effects' if forms else 'forms'}")
+        elif source_text and model:
+            try:
+                variant_text(source_text, model, EFFECTS[n])
+            except ConfigError as err:
+                problems.add(("candidates", key), str(err))
+    return list(names)
 
 
 def _records(d, base, free, problems):

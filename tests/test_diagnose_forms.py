@@ -1,0 +1,92 @@
+"""The discrepancy workflow on a law of another form (issue 42): impact records whose coating follows a power law
+(the ``Gripper.Forms.PowerLawCoatingContact`` block, checked against its series balance in
+tests/test_gripper_forms.py) with an exponent drawn from the physical range, measured as the bench measures
+(``diagnose_truth_impact.measured_records``: load cell at 100 Hz with 0.5 N noise, truncated encoder counts),
+diagnosed against the linear coating with effects and forms offered: the form is named as a form, not as a
+missing effect, with its exponent.
+"""
+
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cosim.compile import lower
+from cosim.diagnose import load_diagnose_job, run_diagnosis
+from cosim.diagnose.fitting import Replay
+from cosim.diagnose.effects import EFFECTS, write_variant
+from cosim.errors import ConfigError
+from cosim.experiment import Experiment
+
+from diagnose_truth import SOURCE, make_case
+from diagnose_truth import write_job as write_staircase_job
+from diagnose_truth_impact import (CONDITION, DURATION, FORCE_NOISE, I_STEP, PLAY_NOMINAL, RATE_HZ, T_STEP,
+                                   measured_records, write_job)
+
+SEED = 1649861440  # drawn once (secrets.randbelow(2**31)), not chosen
+EFFECTS_OFFERED = ["contact_damping", "coating_relaxation", "gear_play"]
+FORMS_OFFERED = ["power_law_coating", "hysteretic_coating"]
+
+
+def _with_forms(path, forms):
+    """The job at ``path`` with ``candidates.forms`` set."""
+    text = path.read_text(encoding="utf-8").replace("[candidates]\n", f"[candidates]\nforms = {forms!r}\n".replace(
+        "'", '"'))
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _power_law_simulate(folder):
+    """A ``simulate`` for ``measured_records``: the current-step impact replayed through the power-law variant of
+    ``Gripper.GripperCurrentDriven`` at the truth's eta_g, T_c0 and n_c."""
+    path, name = write_variant(SOURCE, "Gripper.GripperCurrentDriven", EFFECTS["power_law_coating"], folder)
+    model = lower(path, name)
+
+    def simulate(truth, experiment, gap0):
+        time = np.arange(int(round(DURATION * RATE_HZ))) / RATE_HZ
+        current = np.where(time >= T_STEP - 1e-12, I_STEP, 0.0)
+        e = Experiment(time=time, inputs=current[:, None], measured=np.zeros((len(time), 2)), weights=np.ones(2),
+                       mask=np.ones(len(time), bool))
+        fixed = {**CONDITION, "play": PLAY_NOMINAL, "gap0": gap0, "eta_g": truth["eta_g"], "T_c0": truth["T_c0"]}
+        force, theta = Replay(model, e, ["F_g", "theta_m"], ["n_c"], np.ones(1), fixed=fixed).outputs(
+            {"n_c": truth["n_c"]})
+        return time, current, force, force, theta, current, None
+    return simulate
+
+
+@pytest.mark.slow
+def test_a_power_law_coating_is_named_as_a_form(tmp_path):
+    rng = np.random.default_rng(SEED)
+    truth = {"eta_g": rng.uniform(0.62, 0.75), "T_c0": rng.uniform(7e-3, 9e-3), "n_c": rng.uniform(1.5, 2.5)}
+    records = measured_records(_power_law_simulate(tmp_path / "truth"), truth, rng, FORCE_NOISE, 1, "impact")
+    job = load_diagnose_job(_with_forms(write_job(tmp_path, SOURCE, (records, truth), EFFECTS_OFFERED, 2, 20,
+                                                  "impact"), FORMS_OFFERED))
+    d = run_diagnosis(job, progress=False, build=False).to_json()
+    assert d["effect"] == "power_law_coating", d["verdict"]
+    assert d["verdict"].startswith("the finger contact's elastic law is of another form: power_law_coating")
+    assert "missing effect" not in d["verdict"]
+    assert abs(d["after"]["parameters"]["n_c"] - truth["n_c"]) < 0.1, (d["after"], truth)
+
+
+def _job_with(tmp_path, effects, forms):
+    """A staircase job of the first truth's shape whose candidates are ``effects`` and ``forms``."""
+    t, i, y, _ = make_case("none", np.random.default_rng(0))
+    return _with_forms(write_staircase_job(tmp_path, pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), effects),
+                       forms)
+
+
+def test_forms_are_listed_under_their_own_key(tmp_path):
+    job = load_diagnose_job(_job_with(tmp_path, ["gear_play"], ["stribeck_guide", "dahl_guide"]))
+    assert job.effects == ("gear_play", "stribeck_guide", "dahl_guide")
+    assert [EFFECTS[n].is_form for n in job.effects] == [False, True, True]
+
+
+@pytest.mark.parametrize("effects, forms, message", [
+    (["power_law_coating"], [], "candidates.effects: 'power_law_coating' is a form: list it under candidates.forms"),
+    ([], ["gear_play"], "candidates.forms: 'gear_play' is an effect: list it under candidates.effects"),
+    ([], ["cubic_coating"], "candidates.forms: unknown form 'cubic_coating'; implemented: power_law_coating"),
+])
+def test_a_candidate_of_the_wrong_sort_is_a_job_error(tmp_path, effects, forms, message):
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        load_diagnose_job(_job_with(tmp_path, effects, forms))
