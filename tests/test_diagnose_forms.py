@@ -16,7 +16,7 @@ from cosim.compile import lower
 from cosim.diagnose import load_diagnose_job, run_diagnosis
 from cosim.diagnose.fitting import Replay
 from cosim.diagnose.effects import EFFECTS, write_variant
-from cosim.errors import ConfigError
+from cosim.errors import ConfigError, EffectSlotError
 from cosim.experiment import Experiment
 
 from diagnose_truth import SOURCE, make_case
@@ -90,3 +90,28 @@ def test_forms_are_listed_under_their_own_key(tmp_path):
 def test_a_candidate_of_the_wrong_sort_is_a_job_error(tmp_path, effects, forms, message):
     with pytest.raises(ConfigError, match=re.escape(message)):
         load_diagnose_job(_job_with(tmp_path, effects, forms))
+
+
+def test_a_variant_takes_several_effects_each_in_its_slot(tmp_path):
+    """A round's variant holds what earlier rounds added and the candidate: the power-law coating, cogging and the
+    freed play in one model; at the neutral values (n_c = 1, no cogging) its impact is the baseline's to the
+    replays' tolerance (CVODES rtol 1e-6, the two models' equations in another order)."""
+    offered = [EFFECTS[n] for n in ("power_law_coating", "cogging", "gear_play")]
+    path, name = write_variant(SOURCE, "Gripper.GripperCurrentDriven", offered, tmp_path)
+    both, base = lower(path, name), lower(SOURCE, "Gripper.GripperCurrentDriven")
+    assert {"n_c", "T_cog", "phase_cog", "play"} <= {p.name for p in both.parameters}
+    time = np.arange(int(round(DURATION * RATE_HZ))) / RATE_HZ
+    current = np.where(time >= T_STEP - 1e-12, I_STEP, 0.0)
+    e = Experiment(time=time, inputs=current[:, None], measured=np.zeros((len(time), 2)), weights=np.ones(2),
+                   mask=np.ones(len(time), bool))
+    fixed = {**CONDITION, "play": PLAY_NOMINAL}
+    neutral = Replay(both, e, ["F_g", "theta_m"], ["n_c", "T_cog"], np.ones(2), fixed=fixed).outputs([1.0, 0.0])
+    baseline = Replay(base, e, ["F_g", "theta_m"], [], np.ones(0), fixed=fixed).outputs([])
+    assert np.max(np.abs(neutral[0])) > 50.0  # the fingers close on the object
+    np.testing.assert_allclose(neutral, baseline, rtol=2e-5, atol=1e-6)
+
+
+def test_two_candidates_in_one_slot_are_refused(tmp_path):
+    with pytest.raises(EffectSlotError, match="both fill slot drive.contact"):
+        write_variant(SOURCE, "Gripper.GripperCurrentDriven",
+                      [EFFECTS["power_law_coating"], EFFECTS["contact_damping"]], tmp_path)

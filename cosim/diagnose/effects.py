@@ -382,15 +382,17 @@ def _declarations(source_text, owner, effect, known_in):
                 raise EffectSlotError(f"effect parameter {p.name} starts from {p.start!r}, which {owner} does not "
                                       f"declare with a numeric default")
         lines.append(f'    parameter Real {p.name}(unit = "{p.unit}") = {default} "{p.description} '
-                     f'(effect {effect.name})";\n')
+                     f'({"form" if effect.is_form else "effect"} {effect.name})";\n')
         names.append(p.name)
     return lines, names
 
 
-def _model(name, description, base, modification, declarations):
-    args = ", ".join(f"{k} = {v}" for k, v in modification[1]) if modification else ""
-    head = f"redeclare {modification[0]}({args})" if modification else ""
-    extends = f"    extends {base}({head});\n" if head else f"    extends {base};\n"
+def _model(name, description, base, modifications, declarations):
+    """A model extending ``base`` with a ``redeclare`` per (component declaration, modifiers) of
+    ``modifications``."""
+    heads = [f"redeclare {component}({', '.join(f'{k} = {v}' for k, v in modifiers)})"
+             for component, modifiers in modifications]
+    extends = f"    extends {base}({', '.join(heads)});\n" if heads else f"    extends {base};\n"
     return f'  model {name} "{description}"\n{extends}{"".join(declarations)}  end {name};\n'
 
 
@@ -399,46 +401,67 @@ def _merge(modifiers, bindings):
     return tuple((k, v) for k, v in modifiers if k not in bound) + tuple(bindings)
 
 
-def variant_text(source_text, model, effect):
-    """The Modelica source of ``Pkg.Model`` with ``effect`` added: (variant model name, full package text).
+def _as_effects(effects):
+    """One Effect or a sequence of them, as a tuple; two in one slot are an EffectSlotError."""
+    effects = (effects,) if isinstance(effects, Effect) else tuple(effects)
+    taken = {}
+    for e in effects:
+        if e.slot and e.slot in taken:
+            raise EffectSlotError(f"effects {taken[e.slot]!r} and {e.name!r} both fill slot {e.slot}: a variant "
+                                  "takes one block per slot")
+        taken[e.slot] = e.name
+    return effects
 
-    The variant (and the subclass of the component class it needs) go into a sub-package ``Diagnosis`` appended
-    to the package.
+
+def variant_text(source_text, model, effects):
+    """The Modelica source of ``Pkg.Model`` with ``effects`` added (one :class:`Effect` or several, each in its own
+    slot): (variant model name, full package text).
+
+    The variant (and the subclass of each component class whose slots it fills) go into a sub-package
+    ``Diagnosis`` appended to the package; its name joins the effects' names.
 
     Raises
     ------
     ConfigError
         ``model`` is not a top-level model ``Pkg.Model`` of the source.
     EffectSlotError
-        The effect does not apply to ``model`` (no such slot or parameter), with the reason.
+        An effect does not apply to ``model`` (no such slot or parameter), with the reason, or two fill one slot.
     """
+    effects = _as_effects(effects)
     package, _, short = model.rpartition(".")
     if not package or "." in package:
         raise ConfigError(f"model {model!r}: the diagnosis writes variants of top-level models Pkg.Model")
     model_slots = slots(source_text, model)
-    if not _fits(source_text, model, effect, model_slots):
-        what = f"slot {effect.slot}" if effect.slot else "parameter " + ", ".join(n for n, _, _ in effect.frees)
-        raise EffectSlotError(f"effect {effect.name!r} does not apply to {model}: it has no {what} "
-                              f"(its slots: {', '.join(model_slots) or 'none'})")
-    tag = effect.name
-    blocks = []
-    if not effect.slot:
-        blocks.append(_model(f"{short}_{tag}", f"{model} with effect {tag}", model, None, []))
-    else:
+    for effect in effects:
+        if not _fits(source_text, model, effect, model_slots):
+            what = f"slot {effect.slot}" if effect.slot else "parameter " + ", ".join(n for n, _, _ in effect.frees)
+            raise EffectSlotError(f"effect {effect.name!r} does not apply to {model}: it has no {what} "
+                                  f"(its slots: {', '.join(model_slots) or 'none'})")
+    tag = "_".join(e.name for e in effects)
+    said = f"effect {tag}" if len(effects) == 1 else "effects " + ", ".join(e.name for e in effects)
+    blocks, top, top_decls, inner = [], [], [], {}  # inner: component -> (redeclares, declarations, passed)
+    for effect in (e for e in effects if e.slot):
         outer, _, leaf = effect.slot.rpartition(".")
-        slot = model_slots[effect.slot]
-        redeclare = (f"{effect.replacement} {leaf}", _merge(slot.modifiers, effect.bindings))
-        top_decls, _ = _declarations(source_text, model, effect, model)
-        if outer:  # the slot sits in a component: redeclare it in a subclass of the component's class
-            parent = model_slots[outer]
-            inner = f"{parent.default.rpartition('.')[2]}_{tag}"
-            decls, passed = _declarations(source_text, model, effect, parent.default)
-            blocks.append(_model(inner, f"{parent.default} with effect {tag}", parent.default, redeclare, decls))
-            redeclare = (f"{package}.Diagnosis.{inner} {outer}", _merge(parent.modifiers, _same(*passed)))
-        blocks.append(_model(f"{short}_{tag}", f"{model} with effect {tag}", model, redeclare, top_decls))
+        redeclare = (f"{effect.replacement} {leaf}", _merge(model_slots[effect.slot].modifiers, effect.bindings))
+        top_decls += _declarations(source_text, model, effect, model)[0]
+        if not outer:
+            top.append(redeclare)
+            continue
+        redeclares, decls, passed = inner.setdefault(outer, ([], [], []))
+        redeclares.append(redeclare)
+        more, names = _declarations(source_text, model, effect, model_slots[outer].default)
+        decls += more
+        passed += names
+    for outer, (redeclares, decls, passed) in inner.items():  # a slot in a component: redeclared in a subclass
+        parent = model_slots[outer]
+        name = f"{parent.default.rpartition('.')[2]}_{tag}"
+        blocks.append(_model(name, f"{parent.default} with {said}", parent.default, redeclares, decls))
+        top.append((f"{package}.Diagnosis.{name} {outer}", _merge(parent.modifiers, _same(*passed))))
+    blocks.append(_model(f"{short}_{tag}", f"{model} with {said}", model, top, top_decls))
     body = "".join("".join("  " + line if line.strip() else line for line in b.splitlines(keepends=True))
                    for b in blocks)
-    sub = (f'  package Diagnosis "Model variants written by cosim diagnose: the baseline plus one effect '
+    plus = "one effect" if len(effects) == 1 else "effects"
+    sub = (f'  package Diagnosis "Model variants written by cosim diagnose: the baseline plus {plus} '
            f'(docs/guide/diagnose.md)"\n{body}  end Diagnosis;\n')
     end = f"end {package};"
     if end not in source_text:
@@ -448,7 +471,8 @@ def variant_text(source_text, model, effect):
 
 
 def write_variant(source, model, effect, folder):
-    """Write the package with ``effect``'s variant of ``model`` to ``folder/<Pkg>/package.mo``.
+    """Write the package with the variant of ``model`` that adds ``effect`` (an :class:`Effect` or several) to
+    ``folder/<Pkg>/package.mo``.
 
     The folder gets only this one package, as the compiler front end loads every ``.mo`` of a directory.
 
@@ -458,8 +482,8 @@ def write_variant(source, model, effect, folder):
         The baseline's package file.
     model : str
         The baseline, ``Pkg.Model``.
-    effect : Effect
-        The effect to add.
+    effect : Effect or sequence of Effect
+        What to add (each in its own slot).
     folder : str or Path
         Where the package is written.
 
