@@ -48,7 +48,8 @@ def _power_law_simulate(folder):
         current = np.where(time >= T_STEP - 1e-12, I_STEP, 0.0)
         e = Experiment(time=time, inputs=current[:, None], measured=np.zeros((len(time), 2)), weights=np.ones(2),
                        mask=np.ones(len(time), bool))
-        fixed = {**CONDITION, "play": PLAY_NOMINAL, "gap0": gap0, "eta_g": truth["eta_g"], "T_c0": truth["T_c0"]}
+        fixed = {**CONDITION, "play": truth.get("play", PLAY_NOMINAL), "gap0": gap0, "eta_g": truth["eta_g"],
+                 "T_c0": truth["T_c0"]}
         force, theta = Replay(model, e, ["F_g", "theta_m"], ["n_c"], np.ones(1), fixed=fixed).outputs(
             {"n_c": truth["n_c"]})
         return time, current, force, force, theta, current, None
@@ -67,6 +68,24 @@ def test_a_power_law_coating_is_named_as_a_form(tmp_path):
     assert d["verdict"].startswith("the finger contact's elastic law is of another form: power_law_coating")
     assert "missing effect" not in d["verdict"]
     assert abs(d["after"]["parameters"]["n_c"] - truth["n_c"]) < 0.1, (d["after"], truth)
+
+
+@pytest.mark.slow
+def test_a_form_and_an_effect_are_found_in_two_rounds(tmp_path):
+    """The power-law coating and a gear play larger than the job's: two rounds name both (a form and an effect),
+    and what is left is within the noise."""
+    rng = np.random.default_rng(SEED + 1)
+    truth = {"eta_g": rng.uniform(0.62, 0.75), "T_c0": rng.uniform(7e-3, 9e-3), "n_c": rng.uniform(1.5, 2.5),
+             "play": np.radians(rng.uniform(1.4, 2.4))}
+    records = measured_records(_power_law_simulate(tmp_path / "truth"), truth, rng, FORCE_NOISE, 1, "impact")
+    job = load_diagnose_job(_with_forms(write_job(tmp_path, SOURCE, (records, truth), EFFECTS_OFFERED, 2, 20,
+                                                  "impact"), FORMS_OFFERED))
+    d = run_diagnosis(job, progress=False, build=False)
+    assert sorted(d.findings) == ["gear_play", "power_law_coating"], d.verdict
+    assert d.verdict.startswith("found in 2 rounds: ")
+    assert "what remains is within the noise" in d.verdict or len(d.rounds) == 2, d.verdict
+    assert [r.form for r in d.rounds[:2]] == [EFFECTS[n].is_form for n in d.findings]
+    assert d.gap_removed >= 0.8, d.gap_removed
 
 
 def _job_with(tmp_path, effects, forms):

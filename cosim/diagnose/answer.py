@@ -11,7 +11,7 @@ import numpy as np
 
 from cosim.diagnose.effects import EFFECTS
 
-__all__ = ["verdict", "answer", "why_plausible"]
+__all__ = ["verdict", "answer", "why_plausible", "finding_words"]
 
 
 def verdict(job, decision, segments=(), ms_after=0.0):
@@ -53,13 +53,20 @@ def verdict(job, decision, segments=(), ms_after=0.0):
             f"levels: {sum(r['significant'] for r in d.rows)})")
 
 
-def _finding(winner):
-    """The named candidate in words: a missing effect, or a law of another form with its fitted parameters."""
-    effect = EFFECTS[winner.effect]
+def finding_words(name, parameters, with_title=False):
+    """A named candidate in words: a missing effect, or a law of another form, with its fitted ``parameters``
+    (name -> value) and, ``with_title``, what it is."""
+    effect = EFFECTS[name]
+    values = ", ".join(f"{n} = {v:.3g}" for n, v in parameters.items())
     if not effect.is_form:
-        return f"missing effect: {effect.name} ({effect.title})"
-    values = ", ".join(f"{n} = {winner.parameters[n]:.3g}" for n in winner.added_parameters if n in winner.parameters)
-    return f"{effect.law} is of another form: {effect.name} ({effect.title}; {values})"
+        return f"missing effect: {name} ({effect.title if with_title else values})"
+    return f"{effect.law} is of another form: {name} ({f'{effect.title}; ' if with_title else ''}{values})"
+
+
+def _finding(winner):
+    """The winner of a round in words, with what it is (a form also with its fitted parameters)."""
+    added = {n: winner.parameters[n] for n in winner.added_parameters if n in winner.parameters}
+    return finding_words(winner.effect, added if EFFECTS[winner.effect].is_form else {}, with_title=True)
 
 
 def why_plausible(job, decision, candidate):

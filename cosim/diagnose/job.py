@@ -15,7 +15,7 @@ Job schema (paths relative to the job file)::
     [parameters.NAME]  start, min, max                                       # the baseline's free parameters
     [candidates]  effects = ["backdrive_efficiency", ...]                    # default: all that apply
                   forms = ["power_law_coating", ...]    # laws of another form (default: none)
-    [decision]    min_gap_removed = 0.5, min_delta_bic = 10, gap_sigmas = 3
+    [decision]    min_gap_removed = 0.5, min_delta_bic = 10, gap_sigmas = 3, rounds = 3
     [parallel]    workers (0: in this process), scheduler (a Dask address)
 """
 
@@ -36,7 +36,7 @@ _SCHEMA = {
     "experiment": ("kind", "duration", "steady_s", "min_hold_s", "input", "sample_rate", "bands_per_decade"),
     "compare": ("signals", "rtol", "max_nfev"),
     "candidates": ("effects", "forms"),
-    "decision": ("min_gap_removed", "min_delta_bic", "gap_sigmas"),
+    "decision": ("min_gap_removed", "min_delta_bic", "gap_sigmas", "rounds"),
     "parallel": ("workers", "scheduler"),
 }
 
@@ -89,6 +89,12 @@ class DiagnoseJob:
         Frequency kind: Hz of the zero-order hold the model is compared through (0: continuous).
     bands_per_decade : float
         Frequency kind: width of the frequency bands (the segments).
+    rounds : int
+        At most this many rounds: each adds the candidate it names and looks again at the gap left
+        (:mod:`cosim.diagnose.rounds`).
+    origin, adopted : tuple
+        In a later round's job (:func:`~cosim.diagnose.rounds.next_round`): the user's (source, model), whose
+        variant with the ``adopted`` candidates is this job's baseline.
     """
 
     path: Path
@@ -116,6 +122,15 @@ class DiagnoseJob:
     input: str = ""  # frequency kind: the excited model input
     sample_rate: float = 0.0  # frequency kind: Hz of the ZOH the model is compared through (0: continuous)
     bands_per_decade: float = 6.0  # frequency kind: width of the frequency bands (segments)
+    rounds: int = 3
+    origin: tuple = ()  # a later round's job: (source, model) of the user's baseline
+    adopted: tuple = ()  # a later round's job: the candidates earlier rounds added, in order
+
+    @property
+    def user_model(self):
+        """(source, model) of the baseline the user gave (a later round's job diagnoses it with earlier
+        findings added)."""
+        return self.origin or (self.source, self.model)
 
     @property
     def data_path(self):
@@ -200,6 +215,7 @@ def load_diagnose_job(path, overrides=()):
     min_gap = number(problems, dec, "min_gap_removed", ("decision",), default=0.5, positive=True)
     min_bic = number(problems, dec, "min_delta_bic", ("decision",), default=10.0, positive=True)
     gap_sigmas = number(problems, dec, "gap_sigmas", ("decision",), default=3.0, positive=True)
+    rounds = number(problems, dec, "rounds", ("decision",), default=3, positive=True, integer=True)
     workers = number(problems, t["parallel"], "workers", ("parallel",), default=2, integer=True)
     if workers is not None and workers < 0:
         problems.add(("parallel", "workers"), f"must be >= 0 (0: in this process); got {workers}")
@@ -214,7 +230,7 @@ def load_diagnose_job(path, overrides=()):
         duration=duration, steady_s=steady_s, min_hold_s=min_hold_s, signals=tuple(signals), rtol=rtol,
         max_nfev=max_nfev, free=free, effects=tuple(effects), min_gap_removed=min_gap, min_delta_bic=min_bic,
         gap_sigmas=gap_sigmas, workers=workers, scheduler=scheduler,
-        input=experiment_input, sample_rate=sample_rate, bands_per_decade=per_decade)
+        input=experiment_input, sample_rate=sample_rate, bands_per_decade=per_decade, rounds=rounds)
 
 
 def _candidates(table, key, source_text, model, problems):

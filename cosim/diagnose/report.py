@@ -139,6 +139,13 @@ def _report(diagnosis, figures):
     lines = [f"# Diagnosis: {d.model}", "", f"**{d.verdict}**", ""]
     if d.evidence:
         lines += [f"- **evidence**: {d.evidence}", f"- **next step**: {d.next_step}", ""]
+    if len(d.rounds) > 1:
+        lines += ["## Rounds", "", "Each round adds what the one before found and looks again at the gap left (RMS "
+                  "residual in noise levels).", "", "| round | found | kind | fitted parameters | gap before | gap "
+                  "after |", "|---|---|---|---|---|---|"]
+        lines += [f"| {r.number} | {r.effect} | {'form' if r.form else 'effect' if r.effect != 'none' else '-'} | "
+                  f"{values(r.parameters) or '-'} | {r.gap_before:.1f} | {r.gap_after:.1f} |" for r in d.rounds]
+        lines += [""]
     if d.also_explained_by:
         lines += [f"Nearly as good on the held-out segments: {', '.join(d.also_explained_by)} (the data do not "
                   f"tell these apart).", ""]
@@ -164,7 +171,8 @@ def _report(diagnosis, figures):
                   f"{r.max_error_after:.4g}{unit}; largest difference to the CVODES replay "
                   f"{max(r.max_difference_to_replay_before, r.max_difference_to_replay_after):.3g}{unit}", ""]
     lines += _not_identifiable(d)
-    lines += ["## Candidates", "",
+    of_round = f" (round {len(d.rounds)}: its baseline has the earlier findings)" if len(d.rounds) > 1 else ""
+    lines += [f"## Candidates{of_round}", "",
               "Fitted on the even segments, scored on the odd ones (score: fraction of the baseline's held-out gap "
               "above the noise that the candidate removes).", "",
               f"| effect | score | ΔBIC | ΔAIC | p (LR) | RMSE after [{unit.strip()}] | fitted parameters |",
@@ -173,7 +181,8 @@ def _report(diagnosis, figures):
         params = values(c.parameters, c.added_parameters)
         lines.append(f"| {c.effect} | {c.score:.3f} | {c.delta_bic:.1f} | {c.delta_aic:.1f} | "
                      f"{c.p_value:.2g} | {c.rmse_after:.4g} | {params} |")
-    lines += ["", "## Where the gap is", "", "| segment | signal | samples | bias before | RMSE before | × noise | "
+    lines += ["", f"## Where the gap is{of_round}", "",
+              "| segment | signal | samples | bias before | RMSE before | × noise | "
               "shape | RMSE after |", "|---|---|---|---|---|---|---|---|"]
     for r in d.segments:
         lines.append(f"| {r.segment} | {r.signal} | {r.samples} | {r.bias_before:+.3g} | "

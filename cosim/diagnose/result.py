@@ -5,7 +5,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-__all__ = ["Noise", "Candidate", "Rerun", "RecordSummary", "SegmentRow", "Traces", "Diagnosis"]
+__all__ = ["Round", "Noise", "Candidate", "Rerun", "RecordSummary", "SegmentRow", "Traces", "Diagnosis"]
 
 FOLD_SCHEME = "two-fold over segments: fit on the even ones, score on the odd ones, and back"
 
@@ -139,6 +139,36 @@ class Traces:
 
 
 @dataclass(frozen=True)
+class Round:
+    """One round of a diagnosis (:mod:`cosim.diagnose.rounds`): what it named and the gap before and after.
+
+    Attributes
+    ----------
+    number : int
+        1 for the user's baseline; each later round's baseline has the earlier rounds' findings added.
+    effect : str
+        The candidate named, or ``"none"``.
+    form : bool
+        Whether it is a law of another form (else a missing effect).
+    parameters : dict
+        Its own parameters, fitted on every cost sample.
+    gap_before, gap_after : float
+        RMS residual in noise levels of the round's baseline and after its finding (the baseline's for none).
+    outcome, verdict : str
+        The round's answer (as a one-round :class:`Diagnosis` says it).
+    """
+
+    number: int
+    effect: str
+    form: bool
+    parameters: dict
+    gap_before: float
+    gap_after: float
+    outcome: str
+    verdict: str
+
+
+@dataclass(frozen=True)
 class Diagnosis:
     """The result of a diagnosis: :meth:`to_json` is the content of ``diagnosis.json`` (each attribute below is
     the key of that name unless said otherwise); ``traces`` feed the plots.
@@ -204,6 +234,10 @@ class Diagnosis:
         experiment that shows it (:func:`~cosim.diagnose.workflow.advise`).
     evidence, next_step : str
         The report's lines under the verdict.
+    rounds : tuple of Round
+        Every round run (:mod:`cosim.diagnose.rounds`); after more than one, the diagnosis is the last named
+        round's, with ``effect`` the first finding, the verdict listing every finding in order, and the gap
+        before (``baseline_mean_square``, ``rmse_before``, ``gap.noise_levels``) the user's baseline's.
     """
 
     job: str
@@ -247,6 +281,12 @@ class Diagnosis:
     not_identifiable: list = ()
     evidence: str = ""
     next_step: str = ""
+    rounds: tuple = ()
+
+    @property
+    def findings(self):
+        """The candidates named, round by round."""
+        return [r.effect for r in self.rounds if r.effect != "none"]
 
     @property
     def rmse_before(self):
@@ -287,6 +327,7 @@ class Diagnosis:
             "folds": {"scheme": FOLD_SCHEME, "samples": self.fold_samples},
             "decision": self.decision,
             "candidates": [c.to_json() for c in self.candidates],
+            "rounds": [asdict(r) for r in self.rounds],
         })
 
 

@@ -87,9 +87,11 @@ def show(job, samples, noise, scores, decision, folder, build=True, out=None):
     path, variant = variant_of(job, winner.effect, folder / "winner")
     final = _final_fit(job, samples, noise, winner, path, variant)
     variant_source = path.read_text(encoding="utf-8")
+    source = job.user_model[0]  # the user's file: the diff shows every finding so far
     variant_diff = "".join(difflib.unified_diff(
-        Path(job.source).read_text(encoding="utf-8").splitlines(keepends=True),
-        variant_source.splitlines(keepends=True), fromfile=str(job.source), tofile=f"{job.source} ({winner.effect})"))
+        Path(source).read_text(encoding="utf-8").splitlines(keepends=True),
+        variant_source.splitlines(keepends=True), fromfile=str(source),
+        tofile=f"{source} ({', '.join((*job.adopted, winner.effect))})"))
     fmu, rerun = None, None
     if build:
         with _build_folder(out) as target:

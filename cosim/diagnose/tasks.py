@@ -63,9 +63,11 @@ def task_of(job, effect, weights, mask, path=None, variant=None, **fields):
 
 
 def variant_of(job, name, folder):
-    """The job's baseline with the effect ``name`` written into a copy of its package in ``folder``; returns the
-    copy's path and the variant's model name."""
-    return write_variant(job.source, job.model, EFFECTS[name], folder)
+    """The job's baseline with the candidate ``name`` written into a copy of its package in ``folder`` (in a later
+    round: the user's baseline with the candidates of earlier rounds and ``name``); returns the copy's path and the
+    variant's model name."""
+    source, model = job.user_model
+    return write_variant(source, model, [EFFECTS[n] for n in (*job.adopted, name)], folder)
 
 
 def _effect(name):

@@ -385,7 +385,9 @@ def _diagnosis(job, samples, noise, split, scores, decision, shown, advice=()):
 
 
 def run_diagnosis(job, progress=True, build=True, out=None):
-    """Run the workflow on a loaded job.
+    """Run the workflow on a loaded job, round after round (:mod:`cosim.diagnose.rounds`): while a round names a
+    candidate and a gap is left after it, the next round diagnoses the model with it added, up to
+    ``job.rounds``.
 
     Parameters
     ----------
@@ -395,30 +397,46 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     build : bool, default True
         Build the winner's FMU (for a time series also the baseline's) and re-run both through the master.
     out : str or Path, optional
-        Where the built FMUs (``out/fmu``) and the re-run configs (``out/rerun``) go; without it, a new folder
-        the result's ``fmu`` and ``rerun.configs`` name.
+        Where the built FMUs (``out/fmu``) and the re-run configs (``out/rerun``) go, a later round's under
+        ``out/round<k>``; without it, a new folder the result's ``fmu`` and ``rerun.configs`` name.
 
     Returns
     -------
     Diagnosis
+        With one :class:`~cosim.diagnose.result.Round` per round run (:func:`~cosim.diagnose.rounds.combine`).
 
     Raises
     ------
     cosim.errors.ConfigError
         When no hold of a staircase lasts ``experiment.steady_s``.
     """
+    from cosim.diagnose.rounds import combine, gap_left, next_round
+
+    with tempfile.TemporaryDirectory(prefix="cosim-diagnose-") as scratch, \
+            keep_local_cluster(job.workers):  # the variants' Modelica packages; one Dask cluster for every stage
+        diagnoses = [_round(job, progress, build, out, Path(scratch) / "round1")]
+        while len(diagnoses) < job.rounds and gap_left(diagnoses[-1]):
+            k = len(diagnoses) + 1
+            job = next_round(job, diagnoses[-1], Path(scratch) / f"round{k}" / "baseline")
+            if not job.effects:
+                break
+            diagnoses.append(_round(job, progress, build, out and Path(out) / f"round{k}",
+                                    Path(scratch) / f"round{k}"))
+        return combine(diagnoses)
+
+
+def _round(job, progress, build, out, scratch):
+    """One round of the workflow on ``job``'s baseline (variants written into ``scratch``)."""
     samples = load_samples(job)
     noise = estimate_noise(job, samples)
     base = map_here(lambda _, report: fit_free(samples.model, samples.records, job, dict(job.free), noise.weights,
                                                samples.mask, "baseline", report),
                     [None], desc="baseline fit", progress=progress, report=True)[0]
     split = split_segments(job, samples, noise)
-    with tempfile.TemporaryDirectory(prefix="cosim-diagnose-") as scratch, \
-            keep_local_cluster(job.workers):  # the variants' Modelica packages; one Dask cluster for every stage
-        scores = score_candidates(job, samples, noise, split, base, Path(scratch), progress)
-        decision = decide(job, samples, noise, split, scores)
-        shown = show(job, samples, noise, scores, decision, Path(scratch), build, out)
-        advice = advise(job, samples, noise, split, scores, decision, Path(scratch))
+    scores = score_candidates(job, samples, noise, split, base, scratch, progress)
+    decision = decide(job, samples, noise, split, scores)
+    shown = show(job, samples, noise, scores, decision, scratch, build, out)
+    advice = advise(job, samples, noise, split, scores, decision, scratch)
     return _diagnosis(job, samples, noise, split, scores, decision, shown, advice)
 
 
@@ -435,7 +453,7 @@ def advise(job, samples, noise, split, scores, decision, folder):
         here = change_here(scores.fits[c.effect][0].outputs, base, noise.weights, samples.mask, segments)
         values = {n: c.parameters[n] for n in c.added_parameters if n in c.parameters}
         shown = change_on(c.effect, values, scores.base.parameters, folder / f"advice_{c.effect}",
-                          this=(job.kind.name, job.model))
+                          this=(job.kind.name, job.user_model[1]))
         out.append({"effect": c.effect, "title": EFFECTS[c.effect].title, "why": why_plausible(job, decision, c),
                     "score": c.score,
                     "delta_bic": c.delta_bic, "parameters": values, "change_here": here, "shown_by": shown})
