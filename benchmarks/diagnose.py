@@ -70,7 +70,7 @@ from validation import write_section  # noqa: E402
 # Noise sd [N] of the first staircase truth's load cell (the second draws its own).
 STAIRCASE_NOISE = 0.3
 
-# The workflow's stages as run_diagnosis calls them (cosim.diagnose.workflow); those a version lacks are skipped.
+# The workflow's stages as run_round calls them (cosim.diagnose.workflow); those a version lacks are skipped.
 STAGES = ("load_samples", "estimate_noise", "fit_free", "split_segments", "score_candidates", "_screen", "_fold_fits",
           "run_tasks", "_restart_baseline", "decide", "show", "_final_fit", "_rerun_both", "advise", "_diagnosis")
 # (depth, stage, wall s) of every stage call of the drawn cases since the last case began
@@ -113,7 +113,7 @@ def stage_times(calls):
 def time_job(path, workers=None, build=True):
     """Diagnose the job at ``path`` and print the time of each stage."""
     import cosim.diagnose.show as show_stage
-    from cosim.diagnose import fitting, workflow
+    from cosim.diagnose import fitting, run_diagnosis, workflow
 
     replays = [0]
     evaluate = fitting.Replay.evaluate
@@ -130,7 +130,7 @@ def time_job(path, workers=None, build=True):
     load = os.getloadavg()
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as out:
-        s = workflow.run_diagnosis(job, progress=False, build=build, out=out).to_json()
+        s = run_diagnosis(job, progress=False, build=build, out=out).to_json()
     wall = time.perf_counter() - start
     cpu = resource.getrusage(resource.RUSAGE_SELF)
     workers_cpu = resource.getrusage(resource.RUSAGE_CHILDREN)  # the Dask cluster's processes, ended by now
@@ -199,11 +199,12 @@ TRUTHS = ("1", "2", "2w", "3", "4")
 
 @functools.cache
 def commit_of_checkout():
-    """The commit this benchmark's checkout is at, with ``+changes`` when its tracked files differ from it."""
+    """The commit this benchmark's checkout is at, with ``+changes`` when its tracked files other than
+    docs/validation.md (which ``--validation`` writes) differ from it."""
     def git(*args):
         return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True).stdout.strip()
-    return git("rev-parse", "--short", "HEAD") + ("+changes" if git("status", "--porcelain", "--untracked-files=no")
-                                                  else "")
+    changed = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)docs/validation.md")
+    return git("rev-parse", "--short", "HEAD") + ("+changes" if changed else "")
 
 
 def rows_done(rows_file, commit):

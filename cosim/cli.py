@@ -166,9 +166,10 @@ def _add_diagnose(sub):
         help="find where simulation and measurement disagree, name the missing effect, add it",
         description=("Calibrate the baseline model on the measured data (one record, or repeated trials diagnosed "
                      "together: data.records), locate significant residuals by segment, fit each candidate "
-                     "effect (Modelica variants) in parallel, name the winner or 'none', write the variant into "
-                     "the Modelica source, rebuild and re-run through the master. Writes OUT/diagnosis.json, "
-                     "OUT/report.md and PNGs."),
+                     "effect or form of a law (Modelica variants) in parallel, name the winner or 'none', write "
+                     "the variant into the Modelica source, rebuild and re-run through the master; while a gap is "
+                     "left after the winner, look again with it added (decision.rounds, default 3). Writes "
+                     "OUT/diagnosis.json, OUT/report.md and PNGs."),
     )
     p.add_argument("job", help="diagnosis job (.toml)")
     p.add_argument("--out", help="output folder (default out/<job stem>)")

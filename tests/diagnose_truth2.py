@@ -29,6 +29,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
+from cosim.diagnose import EFFECTS
 from diagnose_truth import F_GUIDE, GAIN, K_T, staircase
 
 __all__ = ["TRUTH2_EFFECTS", "SHOWN_ON_STAIRCASE", "cogging_table", "simulate", "make_case2", "case_frame2"]
@@ -222,17 +223,32 @@ def diagnosis_row(summary, truth, seed, noise, seconds):
     """One evaluation row from a diagnosis's summary (``Diagnosis.to_json()``) of a truth's case: the truth, the
     named effect, its verdict, the gap removed and the figures the counts need (``noise``: the truth's noise)."""
     s = summary
-    return {"truth": truth["effect"], "seed": seed, "named": s["effect"], "verdict": s["verdict"],
+    findings = list(dict.fromkeys(r["effect"] for r in s.get("rounds", ()) if r["effect"] != "none"
+                                  and not r.get("dropped")))
+    return {"truth": truth["effect"], "seed": seed, "named": s["effect"], "findings": findings,
+            "verdict": s["verdict"],
             "gap_found": s["gap_found"], "gap_removed": s["gap_removed"],
             "baseline_mean_square": s["baseline_mean_square"], "rmse_before": s["rmse_before"],
             "rmse_after": s["rmse_after"], "noise": noise, "seconds": seconds,
             "truth_parameters": {k: float(v) for k, v in truth.items() if k != "effect"}}
 
 
+def _findings(row):
+    """A row's findings (a row written before the rounds: its one named effect)."""
+    return row.get("findings", [] if row["named"] == "none" else [row["named"]])
+
+
+def _effects_named(row):
+    """The effects (not forms) among a row's findings."""
+    return [f for f in _findings(row) if not EFFECTS[f].is_form]
+
+
 def count_rows(rows, shown=SHOWN_ON_STAIRCASE):
     """Counts over diagnosed rows (:func:`diagnose_case2`): per truth effect, named right / cases; false alarms
     on ``none``; named with at least 80 % of the gap removed; each with its Wilson 95 % interval. The target
-    "named right" counts only the effects the experiment is said to show (``shown``)."""
+    "named right" counts only the effects the experiment is said to show (``shown``). After rounds (issue 42) an
+    effect is named right when it is among a case's findings, and a false alarm is an effect (not a form of a law
+    the model has) among the findings of a case without one."""
     def wilson(k, n):
         if n == 0:
             return (float("nan"), float("nan"))
@@ -244,16 +260,16 @@ def count_rows(rows, shown=SHOWN_ON_STAIRCASE):
     out = {}
     for effect in sorted({r["truth"] for r in rows}):
         mine = [r for r in rows if r["truth"] == effect]
-        right = [r for r in mine if r["named"] == effect]
+        right = [r for r in mine if (not _effects_named(r) if effect == "none" else effect in _findings(r))]
         entry = {"cases": len(mine), "named_right": len(right), "interval": wilson(len(right), len(mine)),
-                 "named": sorted(r["named"] for r in mine)}
+                 "named": sorted("+".join(_findings(r)) or "none" for r in mine)}
         if effect != "none":
             entry["gap_removed_80"] = sum(r["gap_removed"] >= 0.8 for r in right)
         out[effect] = entry
     none = [r for r in rows if r["truth"] == "none"]
-    alarms = sum(r["named"] != "none" for r in none)
+    alarms = sum(bool(_effects_named(r)) for r in none)
     shown_rows = [r for r in rows if r["truth"] in shown]
-    named = sum(r["named"] == r["truth"] for r in shown_rows)
+    named = sum(r["truth"] in _findings(r) for r in shown_rows)
     out["summary"] = {"false_alarms": alarms, "none_cases": len(none), "false_alarm_interval": wilson(alarms, len(none)),
                       "named_right_shown": named, "shown_cases": len(shown_rows),
                       "named_right_interval": wilson(named, len(shown_rows))}

@@ -7,6 +7,7 @@ missing effect, with its exponent.
 """
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -24,6 +25,7 @@ from diagnose_truth import write_job as write_staircase_job
 from diagnose_truth_impact import (CONDITION, DURATION, FORCE_NOISE, I_STEP, PLAY_NOMINAL, RATE_HZ, T_STEP,
                                    measured_records, write_job)
 
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 SEED = 1649861440  # drawn once (secrets.randbelow(2**31)), not chosen
 EFFECTS_OFFERED = ["contact_damping", "coating_relaxation", "gear_play"]
 FORMS_OFFERED = ["power_law_coating", "hysteretic_coating"]
@@ -134,3 +136,16 @@ def test_two_candidates_in_one_slot_are_refused(tmp_path):
     with pytest.raises(EffectSlotError, match="both fill slot drive.contact"):
         write_variant(SOURCE, "Gripper.GripperCurrentDriven",
                       [EFFECTS["power_law_coating"], EFFECTS["contact_damping"]], tmp_path)
+
+
+@pytest.mark.slow
+def test_a_stand_in_named_first_is_dropped_when_the_later_findings_explain_it():
+    """The shipped rounds example (a power-law coating and a lagging, offset load cell, examples/data/rounds_demo.py):
+    the first round takes the coating's soft first touch for gear play; after the coating and the load cell are
+    found, the play is not needed, is dropped, and the last round named again on a baseline without it."""
+    d = run_diagnosis(load_diagnose_job(EXAMPLES / "diagnose_rounds.toml"), progress=False, build=False)
+    assert d.findings == ["power_law_coating", "loadcell_filter"], d.verdict
+    assert [r.effect for r in d.rounds if r.dropped] == ["gear_play"]
+    assert "gear_play (named in an earlier round) dropped" in d.verdict
+    assert abs(d.after_parameters["n_c"] - 1.8) < 0.05 and abs(d.after_parameters["F_off"] - 1.5) < 0.1
+    assert d.gap_removed >= 0.95

@@ -1,11 +1,12 @@
 """Discrepancy workflow (``cosim diagnose``): replay and compare a calibrated baseline with measured data, locate
-where and how the residual exceeds the noise, name the missing effect from a library of Modelica candidates, add
-it and show the gap shrink. See docs/guide/diagnose.md."""
+where and how the residual exceeds the noise, name the missing effect (or the law of another form) from a library
+of Modelica candidates, add it and show the gap shrink, round after round while a gap is left. See
+docs/guide/diagnose.md."""
 
 from cosim.diagnose.effects import EFFECTS, effect_names, get_effect, write_variant
 from cosim.diagnose.job import DiagnoseJob, load_diagnose_job
 from cosim.diagnose.result import Diagnosis
-from cosim.diagnose.workflow import run_diagnosis
+from cosim.diagnose.rounds import run_diagnosis
 
 __all__ = ["EFFECTS", "effect_names", "get_effect", "write_variant", "DiagnoseJob", "load_diagnose_job",
            "Diagnosis", "run_diagnosis", "diagnose"]
@@ -20,7 +21,8 @@ def diagnose(path, out="out/diagnosis", overrides=(), progress=True, build=True,
         Job file (TOML, see :mod:`cosim.diagnose.job`).
     out : str or Path, default "out/diagnosis"
         Output folder: diagnosis.json, report.md, PNGs, the variant's Modelica and diff, fmu/ (the baseline's and
-        the winner's FMUs) and rerun/ (the run configs that replay them through the master). New, empty, or a
+        the winner's FMUs) and rerun/ (the run configs that replay them through the master); a later round's under
+        round<k>/. New, empty, or a
         previous cosim output (with ``force``); written beside it and moved into place at the end
         (:func:`cosim.outputs.output_folder`).
     overrides : sequence of str

@@ -141,9 +141,11 @@ def _report(diagnosis, figures):
         lines += [f"- **evidence**: {d.evidence}", f"- **next step**: {d.next_step}", ""]
     if len(d.rounds) > 1:
         lines += ["## Rounds", "", "Each round adds what the one before found and looks again at the gap left (RMS "
-                  "residual in noise levels).", "", "| round | found | kind | fitted parameters | gap before | gap "
+                  "residual in noise levels). A finding the later ones explain is dropped, and the last round is "
+                  "run again without it.", "", "| round | found | kind | fitted parameters | gap before | gap "
                   "after |", "|---|---|---|---|---|---|"]
-        lines += [f"| {r.number} | {r.effect} | {'form' if r.form else 'effect' if r.effect != 'none' else '-'} | "
+        lines += [f"| {r.number} | {r.effect}{' (dropped)' if r.dropped else ''} | "
+                  f"{'form' if r.form else 'effect' if r.effect != 'none' else '-'} | "
                   f"{values(r.parameters) or '-'} | {r.gap_before:.1f} | {r.gap_after:.1f} |" for r in d.rounds]
         lines += [""]
     if d.also_explained_by:

@@ -156,6 +156,9 @@ class Round:
         RMS residual in noise levels of the round's baseline and after its finding (the baseline's for none).
     outcome, verdict : str
         The round's answer (as a one-round :class:`Diagnosis` says it).
+    dropped : bool
+        The candidate it named is not in the final model: the later findings explain what it did
+        (:func:`~cosim.diagnose.rounds.least_needed`).
     """
 
     number: int
@@ -166,6 +169,7 @@ class Round:
     gap_after: float
     outcome: str
     verdict: str
+    dropped: bool = False
 
 
 @dataclass(frozen=True)
@@ -285,8 +289,8 @@ class Diagnosis:
 
     @property
     def findings(self):
-        """The candidates named, round by round."""
-        return [r.effect for r in self.rounds if r.effect != "none"]
+        """The candidates the final model holds, in the order the rounds named them."""
+        return list(dict.fromkeys(r.effect for r in self.rounds if r.effect != "none" and not r.dropped))
 
     @property
     def rmse_before(self):

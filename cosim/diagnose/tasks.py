@@ -154,6 +154,8 @@ def screen_task(task):
 def run_tasks(job, tasks, progress, function=fit_task, desc="candidate effects"):
     """``function`` of every task: in this process (``parallel.workers = 0``, or one task and no scheduler), else
     on the job's Dask workers; a fit's progress lines (iteration, cost, time left) beside the bar."""
+    if not tasks:  # nothing to run: no empty progress bar
+        return []
     report = function is fit_task
     if job.workers <= 0 or len(tasks) <= 1 and not job.scheduler:
         return map_here(function, tasks, desc=desc, progress=progress, report=report)

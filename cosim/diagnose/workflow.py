@@ -37,16 +37,14 @@ torque such as cogging at one rest angle; impacts with the object placed anew ea
 In code, each step is a stage, a function returning a frozen dataclass (:mod:`cosim.diagnose.stages`) that the
 next stages read: the samples (:class:`Samples`), the noise (:class:`Noise`), the segments and folds
 (:class:`Split`), the candidates' scores (:class:`Scores`), the decision (:class:`Decision`) and the show
-(:class:`Show`, :mod:`cosim.diagnose.show`); :func:`run_diagnosis` chains them into a :class:`Diagnosis`, whose
+(:class:`Show`, :mod:`cosim.diagnose.show`); :func:`run_round` chains them into a :class:`Diagnosis`, whose
 :meth:`Diagnosis.to_json` is the content of ``diagnosis.json``. What differs between experiment kinds (cost
 samples, noise, segments, replay) is asked of the job's kind (:mod:`cosim.diagnose.kinds`); the fits run as
 :class:`~cosim.diagnose.tasks.FitTask` records in the workers; the answer's words are in
 :mod:`cosim.diagnose.answer`.
 """
 
-import tempfile
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 from scipy import stats
@@ -61,10 +59,10 @@ from cosim.diagnose.show import show
 from cosim.diagnose.stages import Decision, Samples, Scores, Split
 from cosim.diagnose.tasks import added_parameters, fit_free, free_at, run_tasks, screen_task, task_of, variant_of
 from cosim.experiment import Experiment
-from cosim.parallel import keep_local_cluster, map_here
+from cosim.parallel import map_here
 
 __all__ = ["load_samples", "estimate_noise", "split_segments",
-           "score_candidates", "rivals_of", "decide", "show", "run_diagnosis", "advise"]
+           "score_candidates", "rivals_of", "decide", "show", "run_round", "advise"]
 
 # Candidates refitted on the folds after the screen (:func:`_screen`): the best and one rival. Fixed
 # before any benchmark ran with the screen; not tuned to a case.
@@ -384,49 +382,15 @@ def _diagnosis(job, samples, noise, split, scores, decision, shown, advice=()):
         not_identifiable=list(advice), evidence=evidence, next_step=next_step)
 
 
-def run_diagnosis(job, progress=True, build=True, out=None):
-    """Run the workflow on a loaded job, round after round (:mod:`cosim.diagnose.rounds`): while a round names a
-    candidate and a gap is left after it, the next round diagnoses the model with it added, up to
-    ``job.rounds``.
-
-    Parameters
-    ----------
-    job : cosim.diagnose.job.DiagnoseJob
-    progress : bool, default True
-        Progress bar over the candidate fits.
-    build : bool, default True
-        Build the winner's FMU (for a time series also the baseline's) and re-run both through the master.
-    out : str or Path, optional
-        Where the built FMUs (``out/fmu``) and the re-run configs (``out/rerun``) go, a later round's under
-        ``out/round<k>``; without it, a new folder the result's ``fmu`` and ``rerun.configs`` name.
-
-    Returns
-    -------
-    Diagnosis
-        With one :class:`~cosim.diagnose.result.Round` per round run (:func:`~cosim.diagnose.rounds.combine`).
+def run_round(job, progress, build, out, scratch):
+    """One round of the workflow (stages 1-5 and the answer) on ``job``'s baseline, variants written into
+    ``scratch``; :func:`cosim.diagnose.rounds.run_diagnosis` runs the rounds.
 
     Raises
     ------
     cosim.errors.ConfigError
         When no hold of a staircase lasts ``experiment.steady_s``.
     """
-    from cosim.diagnose.rounds import combine, gap_left, next_round
-
-    with tempfile.TemporaryDirectory(prefix="cosim-diagnose-") as scratch, \
-            keep_local_cluster(job.workers):  # the variants' Modelica packages; one Dask cluster for every stage
-        diagnoses = [_round(job, progress, build, out, Path(scratch) / "round1")]
-        while len(diagnoses) < job.rounds and gap_left(diagnoses[-1]):
-            k = len(diagnoses) + 1
-            job = next_round(job, diagnoses[-1], Path(scratch) / f"round{k}" / "baseline")
-            if not job.effects:
-                break
-            diagnoses.append(_round(job, progress, build, out and Path(out) / f"round{k}",
-                                    Path(scratch) / f"round{k}"))
-        return combine(diagnoses)
-
-
-def _round(job, progress, build, out, scratch):
-    """One round of the workflow on ``job``'s baseline (variants written into ``scratch``)."""
     samples = load_samples(job)
     noise = estimate_noise(job, samples)
     base = map_here(lambda _, report: fit_free(samples.model, samples.records, job, dict(job.free), noise.weights,
