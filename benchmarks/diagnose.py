@@ -1,7 +1,7 @@
 """Counts of the discrepancy workflow on drawn cases of independent truths of each experiment, or a job's stage times.
 
 Run: python benchmarks/diagnose.py [--experiments E ...] [--cases N] [--seed S] [--truths 1 2 ...] [--effects ...]
-                                   [--rows FILE [--resume]] [--workers W] [--validation]
+                                   [--forms] [--rows FILE [--resume]] [--workers W] [--validation]
 Each case hides one effect, or none, in a truth written independently of the Modelica plant and its candidates,
 and is diagnosed by the experiment's baseline model with the whole effect library that applies to it offered.
 Per experiment (``--experiments``, default all), truth 1 is the one the workflow was developed against; truths 2
@@ -20,7 +20,9 @@ truth 2's results had been seen, to judge the changes made in response to them):
   ``tests/diagnose_truth2_haptic.py`` (built without the project's transfer-function code; truth set ``2w``: the
   same records estimated by Welch H1 instead of at the multisine's lines).
 
-A truth an experiment lacks is skipped. The effects drawn are "none" and those the experiment shows
+A truth an experiment lacks is skipped. ``--forms`` offers the forms of laws (``candidates.forms``) too; a case is
+then diagnosed in rounds as ``cosim diagnose`` does, and counted named right when the hidden effect is among its
+findings. The effects drawn are "none" and those the experiment shows
 (docs/guide/diagnose.md, "Which experiment shows which effect"), unless ``--effects`` names others. The run's seed
 is drawn from the operating system unless ``--seed`` is given (to re-run a printed draw); every case's seed derives
 from it and is printed with its row; ``--rows`` appends every row to a JSON-lines file, and ``--resume`` with the
@@ -59,6 +61,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
 from diagnose_truth import make_case  # noqa: E402
+import diagnose_truth2  # noqa: E402
 from diagnose_truth2 import SHOWN_ON_STAIRCASE, count_rows, diagnose_case2, diagnose_frame, library  # noqa: E402
 from diagnose_truth2_haptic import SHOWN as SHOWN_ON_HAPTIC  # noqa: E402
 from diagnose_truth2_haptic import diagnose_case_haptic1, diagnose_case_haptic2  # noqa: E402
@@ -209,7 +212,7 @@ def commit_of_checkout():
 
 def rows_done(rows_file, commit):
     """The rows of ``rows_file`` diagnosed at ``commit``, by (experiment, truth set, run seed, case, effect, case
-    seed): what ``--resume`` takes instead of diagnosing again. A row of another commit is an error (the counts
+    seed, forms offered): what ``--resume`` takes instead of diagnosing again. A row of another commit is an error (the counts
     of one table come from one commit)."""
     done = {}
     if rows_file is None or not rows_file.exists():
@@ -220,7 +223,7 @@ def rows_done(rows_file, commit):
             sys.exit(f"{rows_file}:{number}: a row of commit {row.get('commit')}, this checkout is at {commit}: "
                      "--resume takes rows of one commit only")
         done[_row_key(row["experiment"], row["truth_set"], row["run_seed"], row.get("case"), row["truth"],
-                      row["seed"])] = row
+                      row["seed"], row.get("forms", False))] = row
     return done
 
 
@@ -250,7 +253,7 @@ def draw_rows(experiment, truths, effects, cases, seed, workers, rows_file=None,
         for truth in rows:
             for b, effect in enumerate(effects):
                 case_seed = int(seeds[k, b])
-                key = _row_key(experiment, truth, seed, k, effect, case_seed)
+                key = _row_key(experiment, truth, seed, k, effect, case_seed, diagnose_truth2.OFFER_FORMS)
                 if key in (done or {}):
                     rows[truth].append(done[key])
                     continue
@@ -259,6 +262,7 @@ def draw_rows(experiment, truths, effects, cases, seed, workers, rows_file=None,
                 with tempfile.TemporaryDirectory() as folder:
                     row = functions[truth](effect, case_seed, folder, workers)
                 row = {**row, "experiment": experiment, "truth_set": truth, "run_seed": seed, "case": k,
+                       "forms": diagnose_truth2.OFFER_FORMS,
                        "commit": commit_of_checkout(),
                        "stages": stage_times(calls), "cpu_seconds": round(time.process_time() - cpu, 1),
                        "load": os.getloadavg()[0]}
@@ -331,6 +335,9 @@ def main(argv=None):
                         help="truths to draw cases of (default 1 2 3; 2w: the haptic second truth by Welch H1; 4: "
                              "reserved for the evaluation of issue 42)")
     parser.add_argument("--rows", type=Path, help="append every row to this JSON-lines file")
+    parser.add_argument("--forms", action="store_true",
+                        help="offer the forms of laws (candidates.forms) beside the effects to the gripper truths' "
+                             "cases (issue 42's evaluation)")
     parser.add_argument("--resume", action="store_true",
                         help="with --rows and --seed: take the cases already in the rows file (of this commit) "
                              "instead of diagnosing them again")
@@ -345,8 +352,9 @@ def main(argv=None):
     if args.resume and (args.rows is None or args.seed is None):
         parser.error("--resume needs --rows (the file to take cases from) and --seed (the run's seed)")
     seed = secrets.randbelow(2 ** 31) if args.seed is None else args.seed
+    diagnose_truth2.OFFER_FORMS = args.forms
     print(f"seed {seed}; experiments {args.experiments}; truths {args.truths}; {args.cases} cases each; the whole "
-          "library of each experiment's model offered", flush=True)
+          f"library of each experiment's model offered{', forms too' if args.forms else ''}", flush=True)
     for experiment in args.experiments:
         run_experiment(experiment, args, seed)
 

@@ -123,13 +123,18 @@ max_nfev = 20
 
 def free_and_candidates(eta_g, T_c0, effects, workers, phi_b=None):
     """The end of a gripper diagnosis job: ``eta_g`` and ``T_c0`` [N.m] free from these starts (and, when given, the
-    presliding angle ``phi_b`` [rad] within a factor two of its start), the candidate ``effects`` and the number of
-    Dask ``workers``."""
+    presliding angle ``phi_b`` [rad] within a factor two of its start), the candidate ``effects`` (forms among them
+    listed under ``candidates.forms``) and the number of Dask ``workers``."""
+    from cosim.diagnose import EFFECTS
+
     presliding = "" if phi_b is None else \
         f"[parameters.phi_b]\nstart = {phi_b!r}\nmin = {phi_b / 2!r}\nmax = {2 * phi_b!r}\n"
+    forms = [n for n in effects if EFFECTS[n].is_form]
+    listed = f"effects = {json.dumps([n for n in effects if n not in forms])}\n" + \
+        (f"forms = {json.dumps(forms)}\n" if forms else "")
     return (f"[parameters.eta_g]\nstart = {eta_g!r}\nmin = 0.3\nmax = 1.0\n"
             f"[parameters.T_c0]\nstart = {T_c0!r}\nmin = 1e-4\nmax = 0.05\n" + presliding +
-            f"[candidates]\neffects = {json.dumps(list(effects))}\n[parallel]\nworkers = {workers}\n")
+            f"[candidates]\n{listed}[parallel]\nworkers = {workers}\n")
 
 
 def write_job(folder, frame, effects, workers=2, extra=""):

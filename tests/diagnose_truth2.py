@@ -183,13 +183,18 @@ def case_frame2(effect, seed):
 
 # -- the evaluation: diagnose drawn cases and count (benchmarks/diagnose.py may call these) ------------------------
 
+# The gripper truths' library offers the forms too (issue 42's evaluation): set by benchmarks/diagnose.py --forms.
+OFFER_FORMS = False
+
+
 def library(source_text=None):
     """Every effect of the library that applies to the gripper's current-driven model (the full library the
-    issue asks the evaluation to offer)."""
+    issue asks the evaluation to offer), and every form with ``OFFER_FORMS``."""
     from cosim.diagnose.effects import applicable
     from diagnose_truth import SOURCE
 
-    return applicable(source_text or SOURCE.read_text(encoding="utf-8"), "Gripper.GripperCurrentDriven")
+    text, model = source_text or SOURCE.read_text(encoding="utf-8"), "Gripper.GripperCurrentDriven"
+    return applicable(text, model) + (applicable(text, model, forms=True) if OFFER_FORMS else [])
 
 
 def diagnose_case2(effect, seed, folder, effects=None, workers=2):

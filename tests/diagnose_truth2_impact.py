@@ -300,11 +300,15 @@ MODELS = {"impact": "Gripper.GripperCurrentDriven", "slide": "Gripper.GripperCur
 
 
 def library(experiment):
-    """Every effect of the library that applies to the model of ``experiment`` (the whole library is offered)."""
+    """Every effect of the library that applies to the model of ``experiment`` (the whole library is offered),
+    and every form with ``diagnose_truth2.OFFER_FORMS``."""
+    import diagnose_truth2
     from cosim.diagnose.effects import applicable
     from diagnose_truth import SOURCE
 
-    return applicable(SOURCE.read_text(encoding="utf-8"), MODELS[experiment])
+    text = SOURCE.read_text(encoding="utf-8")
+    return applicable(text, MODELS[experiment]) + (
+        applicable(text, MODELS[experiment], forms=True) if diagnose_truth2.OFFER_FORMS else [])
 
 
 def diagnose_records(case, seed, folder, experiment, workers=2, max_nfev=20):
