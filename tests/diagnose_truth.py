@@ -129,7 +129,7 @@ def free_and_candidates(eta_g, T_c0, effects, workers, phi_b=None):
 
     presliding = "" if phi_b is None else \
         f"[parameters.phi_b]\nstart = {phi_b!r}\nmin = {phi_b / 2!r}\nmax = {2 * phi_b!r}\n"
-    forms = [n for n in effects if EFFECTS[n].is_form]
+    forms = [n for n in effects if n in EFFECTS and EFFECTS[n].is_form]  # an unknown name: the job says so
     listed = f"effects = {json.dumps([n for n in effects if n not in forms])}\n" + \
         (f"forms = {json.dumps(forms)}\n" if forms else "")
     return (f"[parameters.eta_g]\nstart = {eta_g!r}\nmin = 0.3\nmax = 1.0\n"
