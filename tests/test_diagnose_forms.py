@@ -6,6 +6,7 @@ encoder counts), diagnosed against the linear coating with effects and forms off
 as a form, each with its value; the shipped rounds example's stand-in dropped; the job's checks on forms.
 """
 
+import json
 import re
 from pathlib import Path
 
@@ -29,14 +30,6 @@ EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 SEED = 1649861440  # drawn once (secrets.randbelow(2**31)), not chosen
 EFFECTS_OFFERED = ["contact_damping", "coating_relaxation", "gear_play"]
 FORMS_OFFERED = ["power_law_coating", "hysteretic_coating"]
-
-
-def _with_forms(path, forms):
-    """The job at ``path`` with ``candidates.forms`` set."""
-    text = path.read_text(encoding="utf-8").replace("[candidates]\n", f"[candidates]\nforms = {forms!r}\n".replace(
-        "'", '"'))
-    path.write_text(text, encoding="utf-8")
-    return path
 
 
 def _power_law_simulate(folder):
@@ -66,8 +59,8 @@ def test_a_form_and_an_effect_are_found_in_two_rounds(tmp_path):
     truth = {"eta_g": rng.uniform(0.62, 0.75), "T_c0": rng.uniform(7e-3, 9e-3), "n_c": rng.uniform(1.5, 2.5),
              "play": np.radians(rng.uniform(1.4, 2.4))}
     records = measured_records(_power_law_simulate(tmp_path / "truth"), truth, rng, FORCE_NOISE, 1, "impact")
-    job = load_diagnose_job(_with_forms(write_job(tmp_path, SOURCE, (records, truth), EFFECTS_OFFERED, 2, 20,
-                                                  "impact"), FORMS_OFFERED))
+    job = load_diagnose_job(write_job(tmp_path, SOURCE, (records, truth), EFFECTS_OFFERED + FORMS_OFFERED, 2, 20,
+                                      "impact"))  # the forms go under candidates.forms
     d = run_diagnosis(job, progress=False, build=False)
     assert sorted(d.findings) == ["gear_play", "power_law_coating"], d.verdict
     assert d.verdict.startswith("found in 2 rounds: ")
@@ -81,10 +74,13 @@ def test_a_form_and_an_effect_are_found_in_two_rounds(tmp_path):
 
 
 def _job_with(tmp_path, effects, forms):
-    """A staircase job of the first truth's shape whose candidates are ``effects`` and ``forms``."""
+    """A staircase job of the first truth's shape whose candidates are ``effects`` and ``forms``, as written (a
+    form among the effects stays there)."""
     t, i, y, _ = make_case("none", np.random.default_rng(0))
-    return _with_forms(write_staircase_job(tmp_path, pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), effects),
-                       forms)
+    path = write_staircase_job(tmp_path, pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), [])
+    listed = f"[candidates]\neffects = {json.dumps(effects)}\nforms = {json.dumps(forms)}\n"
+    path.write_text(path.read_text(encoding="utf-8").replace("[candidates]\neffects = []\n", listed), encoding="utf-8")
+    return path
 
 
 def test_forms_are_listed_under_their_own_key(tmp_path):
