@@ -24,6 +24,8 @@ import numpy as np
 from cosim.diagnose.answer import finding_words
 from cosim.diagnose.effects import EFFECTS, write_variant
 from cosim.diagnose.result import Round
+from cosim.diagnose.tasks import run_tasks, task_of
+from cosim.diagnose.workflow import run_round
 from cosim.fitting import FreeParameter
 from cosim.parallel import keep_local_cluster
 
@@ -54,18 +56,16 @@ def run_diagnosis(job, progress=True, build=True, out=None):
     cosim.errors.ConfigError
         When no hold of a staircase lasts ``experiment.steady_s``.
     """
-    from cosim.diagnose.workflow import run_round
-
     with tempfile.TemporaryDirectory(prefix="cosim-diagnose-") as scratch, \
             keep_local_cluster(job.workers):  # the variants' Modelica packages; one Dask cluster for every round
         scratch = Path(scratch)
+        done = [(job, run_round(job, progress, build, out, scratch / "round1"))]  # (round's job, its diagnosis)
 
         def another(round_job):
             k = len(done) + 1
             done.append((round_job, run_round(round_job, progress, build, out and Path(out) / f"round{k}",
                                               scratch / f"round{k}")))
 
-        done = [(job, run_round(job, progress, build, out, scratch / "round1"))]
         while len(done) < job.rounds and gap_left(done[-1][1]):
             last_job, last = done[-1]
             following = job_with(job, (*last_job.adopted, last.effect), last.after_parameters,
@@ -121,8 +121,6 @@ def least_needed(job, findings, final, folder, progress):
     """The finding the others do not need, or None: the model with every finding and the model without each are
     fitted on every cost sample (from ``final``'s values, in parallel); the finding whose removal costs the least
     BIC is returned when that is below ``job.min_delta_bic``."""
-    from cosim.diagnose.tasks import run_tasks, task_of
-
     weights = final.noise.weights
     mask = final.traces.mask
     jobs = [job_with(job, [f for f in findings if f != left], final.after_parameters, folder / (left or "all"))
