@@ -196,7 +196,7 @@ EFFECTS = {
                                     starts=(1.5, 2.2)),),
         slot="drive.contact", replacement="Gripper.Forms.PowerLawCoatingContact", bindings=_same("n_c"),
         signature="coated fingers: the force rises later and steeper in the impact (bare fingers: no change)",
-        shown_by="current-step impact on coated fingers, force and encoder", shown_in="diagnose_impact.toml",
+        shown_by="current-step impact on coated fingers, force and encoder", shown_in="diagnose_rounds.toml",
         law="the finger contact's elastic law",
     ),
     "hunt_crossley_contact": Effect(
@@ -209,7 +209,7 @@ EFFECTS = {
         slot="drive.contact", replacement="Gripper.Forms.HuntCrossleyContact",
         bindings=(("n_c", "n_hc"), ("lambda_c", "lambda_c")),
         signature="impact peak and rebound: no damping force at first touch, dissipation that grows with the force",
-        shown_by="current-step impact, force and encoder", shown_in="diagnose_impact.toml",
+        shown_by="current-step impact on coated fingers, force and encoder", shown_in="diagnose_rounds.toml",
         law="the finger contact's law (elastic and dissipative)",
     ),
     "hysteretic_coating": Effect(
@@ -223,7 +223,7 @@ EFFECTS = {
         slot="drive.contact", replacement="Gripper.Forms.HystereticCoatingContact",
         bindings=(("a_h", "a_h"), ("z_y", "z_h")),
         signature="the force held after the impact lower than the loading path gives, at any rate",
-        shown_by="current-step impact, force and encoder", shown_in="diagnose_impact.toml",
+        shown_by="current-step impact on coated fingers, force and encoder", shown_in="diagnose_rounds.toml",
         law="the finger contact's elastic law",
     ),
     "stribeck_guide": Effect(
