@@ -93,7 +93,7 @@ class DiagnoseJob:
         At most this many rounds: each adds the candidate it names and looks again at the gap left
         (:mod:`cosim.diagnose.rounds`).
     origin, adopted : tuple
-        In a later round's job (:func:`~cosim.diagnose.rounds.next_round`): the user's (source, model), whose
+        In a later round's job (:func:`~cosim.diagnose.rounds.job_with`): the user's (source, model), whose
         variant with the ``adopted`` candidates is this job's baseline.
     """
 
