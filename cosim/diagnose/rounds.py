@@ -24,7 +24,7 @@ import numpy as np
 from cosim.diagnose.answer import finding_words
 from cosim.diagnose.effects import EFFECTS, write_variant
 from cosim.diagnose.result import Round
-from cosim.diagnose.tasks import run_tasks, task_of
+from cosim.diagnose.tasks import added_parameters, run_tasks, task_of
 from cosim.diagnose.workflow import run_round
 from cosim.fitting import FreeParameter
 from cosim.parallel import keep_local_cluster
@@ -128,23 +128,17 @@ def least_needed(job, findings, final, folder, progress):
     tasks = [task_of(j, "baseline", weights, mask, baseline=j.free) for j in jobs]
     fits = run_tasks(job, tasks, progress, desc="checking each finding against the others")
     n_fit = int(mask.sum()) * len(final.signals)
-    cost = {left: fit.chi2 - fits[0].chi2 - _added(left) * np.log(n_fit)
+    cost = {left: fit.chi2 - fits[0].chi2 - len(added_parameters(left)) * np.log(n_fit)
             for left, fit in zip(findings, fits[1:])}
     weakest = min(cost, key=cost.get)
     return weakest if cost[weakest] < job.min_delta_bic else None
-
-
-def _added(name):
-    """How many parameters the candidate ``name`` adds or frees."""
-    return len(EFFECTS[name].parameters) + len(EFFECTS[name].frees)
 
 
 def round_of(number, diagnosis):
     """A one-round diagnosis as a :class:`~cosim.diagnose.result.Round`."""
     d = diagnosis
     named = d.effect != "none"
-    added = ([p.name for p in EFFECTS[d.effect].parameters] + [n for n, _, _ in EFFECTS[d.effect].frees]
-             if named else [])
+    added = added_parameters(d.effect) if named else []
     return Round(number=number, effect=d.effect, form=named and EFFECTS[d.effect].is_form,
                  parameters={n: d.after_parameters[n] for n in added}, gap_before=d.gap["noise_levels"],
                  gap_after=d.gap["remaining_noise_levels"], outcome=d.outcome, verdict=d.verdict)
@@ -178,7 +172,7 @@ def combine(diagnoses, findings):
 def _verdict(rounds, findings, last):
     """Every finding in order, the ones dropped, then what is left after the last one."""
     values = {n: v for r in rounds for n, v in r.parameters.items()}
-    found = [finding_words(f, {n: values[n] for n in _names(f) if n in values}) for f in findings]
+    found = [finding_words(f, {n: values[n] for n in added_parameters(f) if n in values}) for f in findings]
     left = rounds[-1].gap_after
     if last.outcome == "named" and gap_left(last):
         tail = f"a gap of {left:.1f} noise levels remains after {len(rounds)} rounds (the job's decision.rounds)"
@@ -192,11 +186,6 @@ def _verdict(rounds, findings, last):
     also = (f"; {', '.join(dropped)} (named in an earlier round) dropped: the later findings explain what it did"
             if dropped else "")
     return f"found in {len(rounds)} rounds: " + "; then ".join(found) + also + f"; {tail}"
-
-
-def _names(name):
-    """The parameter names of the candidate ``name``."""
-    return [p.name for p in EFFECTS[name].parameters] + [n for n, _, _ in EFFECTS[name].frees]
 
 
 def _next_step(rounds, findings, last):
