@@ -441,34 +441,21 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
   end Effects;
 
   package Forms "Alternative forms of laws the baseline already has (issue 42): each fills the slot of the law it replaces, with the form's source cited; where it can, it equals the baseline's law at a neutral value of its parameters (said in each block)"
-    model PowerLawCoatingContact "Components.FingerContact whose coating's first region follows a power law F = F_lim*(delta_c/d_lim)^n_c (Hertz-type), n_c = 1 the baseline"
-      extends Gripper.Interfaces.ContactSlot;
-      // Source: the force of an elastic indentation grows as a power of its depth, F ~ delta^(3/2) for a sphere
-      // on a flat (Hertz 1882), delta^2 for a cone (Sneddon 1965), delta^1 for a flat punch (Johnson, Contact
-      // Mechanics, 1985, ch. 3-5); soft robotic fingertips: Xydas and Kao, Int. J. Robotics Research 18 (1999)
-      // 941-950 (a power law of a nonlinear elastic finger). n_c in [1, 3] spans those (a coating that softens
-      // under compression, n_c < 1, would buckle). The power law passes through (d_lim, F_lim = k_P*d_lim), so the
-      // second region (slope k_H) and the damping are the baseline's. The massless coating node balances
-      // k_s*(pen - delta_c) = F_el(delta_c) with k_s the finger and object in series: delta_c by six Newton steps
-      // from min(pen, d_lim), to the right of the root, where Newton on this convex increasing residual converges
-      // monotonically (exact in one step at n_c = 1).
-      parameter Real gap0(unit = "m") = 0.002 "Gap between the bare finger surface and the object at x = 0";
-      parameter Real t_coat(unit = "m", min = 0) = 0 "Coating thickness (0 for bare fingers)";
-      parameter Real k_f(unit = "N/m", min = 0) = 1.46e6 "Finger stiffness (FEM)";
-      parameter Real k_obj(unit = "N/m", min = 0) = 3.53e7 "Object stiffness on one side (cylinder)";
-      parameter Real k_P(unit = "N/m", min = 0) = 1e12 "Coating first-region stiffness at d_lim (secant; 1e12: no coating)";
-      parameter Real k_H_ratio(unit = "1", min = 0) = 100 "Coating second-region stiffness / first-region stiffness";
-      parameter Real d_lim(unit = "m", min = 0) = 0.0015 "Coating deflection at the region boundary";
-      parameter Real C_p(unit = "N.s/m", min = 0) = 2000 "Contact damping, first region";
-      parameter Real C_h(unit = "N.s/m", min = 0) = 2000 "Contact damping, second region";
-      parameter Real w_tr(unit = "m", min = 0) = 5e-6 "Width of the damping blend across the region boundary";
-      parameter Real n_c(unit = "1", min = 1, max = 3) = 1 "Exponent of the coating's first region (1: linear, the baseline)";
-      parameter Real k_H(unit = "N/m") = k_H_ratio*k_P "Coating second-region stiffness";
-      parameter Real k_s(unit = "N/m") = 1/(1/k_f + 1/k_obj) "Finger and object in series";
+    model PowerLawSeries "The coating's first region as a power law F = F_lim*(delta_c/d_lim)^n through (d_lim, F_lim = k_P*d_lim), its second region linear (slope k_H), in series with the finger and the object: the elastic force and the coating deflection at a penetration"
+      // The massless coating node balances k_s*(p - delta_c) = F_el(delta_c) with k_s the finger and object in
+      // series. In the first region delta_c comes from six Newton steps from min(p, d_lim), to the right of the
+      // root, where Newton on this convex increasing residual converges monotonically (exact in one step at
+      // n = 1); the second region is linear, so explicit.
+      parameter Real k_s(unit = "N/m") "Finger and object in series";
+      parameter Real k_P(unit = "N/m") "Coating first-region stiffness at d_lim (secant)";
+      parameter Real k_H(unit = "N/m") "Coating second-region stiffness";
+      parameter Real d_lim(unit = "m") "Coating deflection at the region boundary";
+      parameter Real n(unit = "1") "Exponent of the first region";
       parameter Real F_lim(unit = "N") = k_P*d_lim "Force at the coating region boundary";
       parameter Real p_lim(unit = "m") = d_lim + F_lim/k_s "Penetration at the coating region boundary";
-      Real pen(unit = "m") "Penetration of the (coated) finger into the object";
-      Real p(unit = "m") "Penetration, floored at 0";
+      input Real p(unit = "m") "Penetration, >= 0";
+      output Real F_s(unit = "N") "Elastic contact force";
+      output Real delta_c(unit = "m") "Coating deflection";
       Real d0(unit = "m") "Newton start";
       Real d1(unit = "m");
       Real d2(unit = "m");
@@ -476,25 +463,17 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       Real d4(unit = "m");
       Real d5(unit = "m");
       Real d6(unit = "m") "Coating deflection in the first region";
-      Real F_s(unit = "N") "Elastic contact force";
-      Real C(unit = "N.s/m") "Current damping coefficient";
-      Real F_d(unit = "N") "Damping force before limiting";
     equation
-      pen = x - (gap0 - t_coat);
-      p = max(pen, 0);
       d0 = min(p, d_lim);
-      d1 = Gripper.Forms.powerLawStep(d0, p, F_lim, d_lim, n_c, k_s);
-      d2 = Gripper.Forms.powerLawStep(d1, p, F_lim, d_lim, n_c, k_s);
-      d3 = Gripper.Forms.powerLawStep(d2, p, F_lim, d_lim, n_c, k_s);
-      d4 = Gripper.Forms.powerLawStep(d3, p, F_lim, d_lim, n_c, k_s);
-      d5 = Gripper.Forms.powerLawStep(d4, p, F_lim, d_lim, n_c, k_s);
-      d6 = Gripper.Forms.powerLawStep(d5, p, F_lim, d_lim, n_c, k_s);
+      d1 = Gripper.Forms.powerLawStep(d0, p, F_lim, d_lim, n, k_s);
+      d2 = Gripper.Forms.powerLawStep(d1, p, F_lim, d_lim, n, k_s);
+      d3 = Gripper.Forms.powerLawStep(d2, p, F_lim, d_lim, n, k_s);
+      d4 = Gripper.Forms.powerLawStep(d3, p, F_lim, d_lim, n, k_s);
+      d5 = Gripper.Forms.powerLawStep(d4, p, F_lim, d_lim, n, k_s);
+      d6 = Gripper.Forms.powerLawStep(d5, p, F_lim, d_lim, n, k_s);
       delta_c = noEvent(if p <= p_lim then d6 else (k_s*p + (k_H - k_P)*d_lim)/(k_s + k_H));
       F_s = k_s*(p - delta_c);
-      C = C_p + (C_h - C_p)*0.5*(1 + tanh((delta_c - d_lim)/w_tr));
-      F_d = C*v;
-      F = noEvent(if pen > 0 then max(0, F_s + min(F_s, F_d)) else 0);
-    end PowerLawCoatingContact;
+    end PowerLawSeries;
 
     function powerLawStep "One Newton step on k_s*(p - d) = F_lim*(d/d_lim)^n for the coating deflection d"
       input Real d(unit = "m") "Current iterate (>= the root)";
@@ -511,7 +490,39 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       d_next := d - (F_lim*r^n + k_s*(d - p))/(n*F_lim/d_lim*r^(n - 1) + k_s);
     end powerLawStep;
 
-    model HuntCrossleyContact "Finger, coating and object whose dissipation is Hunt and Crossley's: F = F_s*(1 + lambda_c*v), no linear damping; the elastic part is PowerLawCoatingContact's"
+    model PowerLawCoatingContact "Components.FingerContact whose coating's first region follows a power law F = F_lim*(delta_c/d_lim)^n_c (Hertz-type), n_c = 1 the baseline"
+      extends Gripper.Interfaces.ContactSlot;
+      // Source: the force of an elastic indentation grows as a power of its depth, F ~ delta^(3/2) for a sphere
+      // on a flat (Hertz 1882), delta^2 for a cone (Sneddon 1965), delta^1 for a flat punch (Johnson, Contact
+      // Mechanics, 1985, ch. 3-5); soft robotic fingertips: Xydas and Kao, Int. J. Robotics Research 18 (1999)
+      // 941-950 (a power law of a nonlinear elastic finger). n_c in [1, 3] spans those (a coating that softens
+      // under compression, n_c < 1, would buckle). The power law passes through (d_lim, F_lim = k_P*d_lim), so the
+      // second region (slope k_H) and the damping are the baseline's; the series balance is PowerLawSeries'.
+      parameter Real gap0(unit = "m") = 0.002 "Gap between the bare finger surface and the object at x = 0";
+      parameter Real t_coat(unit = "m", min = 0) = 0 "Coating thickness (0 for bare fingers)";
+      parameter Real k_f(unit = "N/m", min = 0) = 1.46e6 "Finger stiffness (FEM)";
+      parameter Real k_obj(unit = "N/m", min = 0) = 3.53e7 "Object stiffness on one side (cylinder)";
+      parameter Real k_P(unit = "N/m", min = 0) = 1e12 "Coating first-region stiffness at d_lim (secant; 1e12: no coating)";
+      parameter Real k_H_ratio(unit = "1", min = 0) = 100 "Coating second-region stiffness / first-region stiffness";
+      parameter Real d_lim(unit = "m", min = 0) = 0.0015 "Coating deflection at the region boundary";
+      parameter Real C_p(unit = "N.s/m", min = 0) = 2000 "Contact damping, first region";
+      parameter Real C_h(unit = "N.s/m", min = 0) = 2000 "Contact damping, second region";
+      parameter Real w_tr(unit = "m", min = 0) = 5e-6 "Width of the damping blend across the region boundary";
+      parameter Real n_c(unit = "1", min = 1, max = 3) = 1 "Exponent of the coating's first region (1: linear, the baseline)";
+      Gripper.Forms.PowerLawSeries law(k_s = 1/(1/k_f + 1/k_obj), k_P = k_P, k_H = k_H_ratio*k_P, d_lim = d_lim, n = n_c);
+      Real pen(unit = "m") "Penetration of the (coated) finger into the object";
+      Real C(unit = "N.s/m") "Current damping coefficient";
+      Real F_d(unit = "N") "Damping force before limiting";
+    equation
+      pen = x - (gap0 - t_coat);
+      law.p = max(pen, 0);
+      delta_c = law.delta_c;
+      C = C_p + (C_h - C_p)*0.5*(1 + tanh((delta_c - d_lim)/w_tr));
+      F_d = C*v;
+      F = noEvent(if pen > 0 then max(0, law.F_s + min(law.F_s, F_d)) else 0);
+    end PowerLawCoatingContact;
+
+    model HuntCrossleyContact "Finger, coating and object whose dissipation is Hunt and Crossley's: F = F_s*(1 + lambda_c*v), no linear damping; the elastic part is PowerLawSeries'"
       extends Gripper.Interfaces.ContactSlot;
       // Source: Hunt and Crossley, J. Applied Mechanics 42 (1975) 440-445: a damping force proportional to the
       // elastic force times the penetration rate, which vanishes at first touch and at separation, so the force
@@ -532,33 +543,13 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       parameter Real w_tr(unit = "m", min = 0) = 5e-6 "Unused (kept for the slot's modifiers)";
       parameter Real n_c(unit = "1", min = 1, max = 3) = 1 "Exponent of the coating's first region";
       parameter Real lambda_c(unit = "s/m", min = 0) = 10 "Hunt-Crossley damping per unit elastic force";
-      parameter Real k_H(unit = "N/m") = k_H_ratio*k_P "Coating second-region stiffness";
-      parameter Real k_s(unit = "N/m") = 1/(1/k_f + 1/k_obj) "Finger and object in series";
-      parameter Real F_lim(unit = "N") = k_P*d_lim "Force at the coating region boundary";
-      parameter Real p_lim(unit = "m") = d_lim + F_lim/k_s "Penetration at the coating region boundary";
+      Gripper.Forms.PowerLawSeries law(k_s = 1/(1/k_f + 1/k_obj), k_P = k_P, k_H = k_H_ratio*k_P, d_lim = d_lim, n = n_c);
       Real pen(unit = "m") "Penetration of the (coated) finger into the object";
-      Real p(unit = "m") "Penetration, floored at 0";
-      Real d0(unit = "m") "Newton start";
-      Real d1(unit = "m");
-      Real d2(unit = "m");
-      Real d3(unit = "m");
-      Real d4(unit = "m");
-      Real d5(unit = "m");
-      Real d6(unit = "m") "Coating deflection in the first region";
-      Real F_s(unit = "N") "Elastic contact force";
     equation
       pen = x - (gap0 - t_coat);
-      p = max(pen, 0);
-      d0 = min(p, d_lim);
-      d1 = Gripper.Forms.powerLawStep(d0, p, F_lim, d_lim, n_c, k_s);
-      d2 = Gripper.Forms.powerLawStep(d1, p, F_lim, d_lim, n_c, k_s);
-      d3 = Gripper.Forms.powerLawStep(d2, p, F_lim, d_lim, n_c, k_s);
-      d4 = Gripper.Forms.powerLawStep(d3, p, F_lim, d_lim, n_c, k_s);
-      d5 = Gripper.Forms.powerLawStep(d4, p, F_lim, d_lim, n_c, k_s);
-      d6 = Gripper.Forms.powerLawStep(d5, p, F_lim, d_lim, n_c, k_s);
-      delta_c = noEvent(if p <= p_lim then d6 else (k_s*p + (k_H - k_P)*d_lim)/(k_s + k_H));
-      F_s = k_s*(p - delta_c);
-      F = noEvent(if pen > 0 then max(0, F_s*(1 + lambda_c*v)) else 0);
+      law.p = max(pen, 0);
+      delta_c = law.delta_c;
+      F = noEvent(if pen > 0 then max(0, law.F_s*(1 + lambda_c*v)) else 0);
     end HuntCrossleyContact;
 
     model HystereticCoatingContact "Components.FingerContact with a rate-independent hysteresis of the contact (Bouc-Wen): a fraction a_h of the elastic force carried by a hysteretic element, a_h = 0 the baseline"
