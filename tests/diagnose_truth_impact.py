@@ -234,6 +234,12 @@ def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
 
     The truth dict holds the drawn parameters under the names of the Modelica parameters they correspond to
     where there is one (``eta_g``, ``T_c0``, ``play``, ``F_sj``)."""
+    truth = draw_truth(effect, rng)
+    return measured_records(_record, truth, rng, noise, trials, experiment), truth
+
+
+def draw_truth(effect, rng):
+    """One gripper's drawn parameters with the hidden ``effect`` (the truth dict of :func:`make_case`)."""
     if effect not in TRUTH_EFFECTS:
         raise ValueError(f"truth effect must be one of {', '.join(TRUTH_EFFECTS)}; got {effect!r}")
     truth = draw_baseline(effect, rng)
@@ -253,7 +259,7 @@ def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
         truth["T_cog"], truth["phase_cog"] = float(rng.uniform(1.5e-3, 4e-3)), float(rng.uniform(-np.pi, np.pi))
         truth["T_cog2"] = float(truth["T_cog"] * rng.uniform(0.1, 0.3))
         truth["phase_cog2"] = float(rng.uniform(-np.pi, np.pi))
-    return measured_records(_record, truth, rng, noise, trials, experiment), truth
+    return truth
 
 
 def effect_signal(case, experiment="impact"):
@@ -452,4 +458,42 @@ def write_job(folder, source, case, effects, workers=0, max_nfev=20, experiment=
                                hold="" if impact else "\nmin_hold_s = 0.1", duration=records[0][0][-1],
                                floor=0.002 if speed else 0.1, angle_floor=2 * np.pi / COUNTS, max_nfev=max_nfev)
                     + free_and_candidates(0.68, 7.88e-3, effects, workers, phi_b=PHI_B_START if impact else None))
+    return path
+
+
+EXPERIMENT_TABLE = """
+[[experiments]]
+name = "{name}"
+kind = "{kind}"
+path = "{name}.csv"
+inputs = {{ i_ref = "i_ref" }}
+duration = {duration}{hold}
+parameters = {{ gap0 = {gap0!r} }}
+"""
+
+
+def write_experiments_job(folder, source, records, effects, workers=0, max_nfev=20):
+    """Write the records of one gripper's impact and slide (``records``: experiment -> one record of
+    :func:`measured_records`) as ``<experiment>.csv`` and one diagnosis job of both (``[[experiments]]``, each
+    as :func:`write_job` sets it up, the object's distance fixed per experiment) into ``folder``; returns the
+    job path. Free, shared by both: ``eta_g``, ``T_c0`` and ``phi_b``."""
+    import pandas as pd
+
+    tables = []
+    for name, (t, u, y, angle, placed) in records.items():
+        if name == "speed":
+            raise ValueError("the speed run has another model (GripperSpeedControlled): not in a job with these")
+        pd.DataFrame({"time": t, "i_ref": u, "F_g": y, "theta_m": angle}).to_csv(folder / f"{name}.csv", index=False)
+        tables.append(EXPERIMENT_TABLE.format(name=name, kind="impact" if name == "impact" else "staircase",
+                                              duration=t[-1], hold="" if name == "impact" else "\nmin_hold_s = 0.1",
+                                              gap0=placed["gap0"]))
+    fixed = {**CONDITION, "play": PLAY_NOMINAL}
+    model = (f'[model]\nsource = "{source.as_posix()}"\nname = "Gripper.GripperCurrentDriven"\n'
+             "parameters = { " + ", ".join(f"{k} = {v!r}" for k, v in fixed.items()) + " }\n")
+    compare = ('[compare]\nsignals = [{ output = "F_g", column = "F_g", noise = 0.1 }, '
+               f'{{ output = "theta_m", column = "theta_m", noise = {2 * np.pi / COUNTS!r} }}]\n'
+               f"rtol = 1e-6\nmax_nfev = {max_nfev}\n")
+    path = folder / "job.toml"
+    path.write_text(model + "".join(tables) + compare
+                    + free_and_candidates(0.68, 7.88e-3, effects, workers, phi_b=PHI_B_START))
     return path

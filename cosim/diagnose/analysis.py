@@ -180,6 +180,7 @@ def segment_table(time, residual, predicted, measured, mask, segments, noise, th
             row = {"segment": seg.label, "kind": seg.kind, "t0": seg.t0, "t1": seg.t1, "level": seg.level,
                    "signal": j, "samples": int(r.size), "bias": bias, "rmse": rmse,
                    "max_error": float(np.max(np.abs(r_all))), "significant": bool(rmse > threshold * level),
+                   "noise": level,
                    "sigmas": rmse / level if level > 0 else float("inf")}
             row["shape"] = shape(r_all, r, predicted[j, inside], measured[j, inside], level) \
                 if row["significant"] else "within noise"
@@ -238,18 +239,17 @@ def _correlation(x, y):
     return float(np.mean((x - np.mean(x)) * (y - np.mean(y))) / (sx * sy))
 
 
-def branch_shapes(segments, rows, noise):
+def branch_shapes(segments, rows):
     """Shapes across segments of a staircase: *hysteresis width* (the up and down holds at the same level
-    disagree with the model differently) and *missing plateau* (consecutive rising holds where the measured
-    force stays flat while the model's rises, or the reverse: a held branch the model does not hold)."""
+    disagree with the model differently by more than three noise levels of their rows)."""
     findings = []
     by_level = {}
     for row in rows:
         if row["signal"] == 0 and row["kind"] in ("up", "down"):
             by_level.setdefault(round(row["level"], 6), {})[row["kind"]] = row
-    widths = [(lvl, d["down"]["bias"] - d["up"]["bias"]) for lvl, d in sorted(by_level.items())
-              if "up" in d and "down" in d]
-    wide = [(lvl, w) for lvl, w in widths if abs(w) > 3 * noise[0]]
+    widths = [(lvl, d["down"]["bias"] - d["up"]["bias"], max(d["down"]["noise"], d["up"]["noise"]))
+              for lvl, d in sorted(by_level.items()) if "up" in d and "down" in d]
+    wide = [(lvl, w) for lvl, w, level in widths if abs(w) > 3 * level]
     if wide:
         findings.append({"shape": "hysteresis width",
                          "detail": "residual differs between the rising and the falling branch at "

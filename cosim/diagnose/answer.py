@@ -11,10 +11,10 @@ import numpy as np
 
 from cosim.diagnose.effects import EFFECTS
 
-__all__ = ["verdict", "answer", "why_plausible", "finding_words"]
+__all__ = ["verdict", "answer", "why_plausible", "finding_words", "shown_words"]
 
 
-def verdict(job, decision, segments=(), ms_after=0.0):
+def verdict(job, decision, segments=(), ms_after=0.0, shown_by=()):
     """The first line of the answer: the effect named (and, when a gap remains after it by the rule that finds
     the baseline's, that gap), the gap no candidate explains (its size and where it is largest), or a baseline
     within the noise.
@@ -27,10 +27,12 @@ def verdict(job, decision, segments=(), ms_after=0.0):
         The segment table before and after the winner.
     ms_after : float, default 0.0
         The winner's mean square in noise levels squared.
+    shown_by : sequence of str, optional
+        Records of several experiments: the ones that showed the winner (:func:`~cosim.diagnose.workflow.shown_by`).
     """
     d = decision
     if d.winner is not None:
-        named = _finding(d.winner)
+        named = _finding(d.winner) + shown_words(shown_by)
         left = _left_after(segments)
         if not left or ms_after <= d.chance:
             return named
@@ -51,6 +53,13 @@ def verdict(job, decision, segments=(), ms_after=0.0):
     return (f"no missing effect found: the baseline fits within the noise (mean square {d.mean_square:.3g} "
             f"noise levels squared, chance up to {d.chance:.3g}; segments above {job.gap_sigmas:g} noise "
             f"levels: {sum(r['significant'] for r in d.rows)})")
+
+
+def shown_words(experiments):
+    """Which experiments showed a finding, as words ("" when the job has one experiment)."""
+    if not experiments:
+        return ""
+    return f", shown by the {' and the '.join(experiments)} record{'s' if len(experiments) > 1 else ''}"
 
 
 def finding_words(name, parameters, with_title=False):

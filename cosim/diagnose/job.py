@@ -10,6 +10,10 @@ Job schema (paths relative to the job file)::
     [experiment]  kind = "staircase"|"impact"|"frequency", duration (s: the data must cover it),
                   steady_s (the last steady_s of each hold enter the cost; staircase), min_hold_s
                   frequency: input (the model input excited), sample_rate (Hz; 0: continuous), bands_per_decade
+    or, for records of different experiments of one plant diagnosed together (time series), instead of
+    [data] and [experiment], one table per record:
+    [[experiments]]  name, kind = "staircase"|"impact", path, inputs, parameters = {name = value},
+                     duration, steady_s, min_hold_s                        # as in [data] and [experiment]
     [compare]     signals = [{output = "F_g", column = "F_g", noise = 0.5}]   # noise: floor under the estimate
                   rtol (CVODES), max_nfev (least-squares evaluations per fit)
     [parameters.NAME]  start, min, max                                       # the baseline's free parameters
@@ -25,7 +29,7 @@ from pathlib import Path
 
 from cosim.diagnose.effects import EFFECTS, applicable, variant_text
 from cosim.errors import ConfigError
-from cosim.diagnose.kinds import KINDS, kind_of
+from cosim.diagnose.kinds import KINDS, Part, Several, kind_of
 from cosim.tomldoc import bounded_parameters, number, read_text, read_toml, sections, signal_tables, string, values
 
 __all__ = ["DiagnoseJob", "load_diagnose_job", "load_experiment", "load_records"]
@@ -64,7 +68,8 @@ class DiagnoseJob:
     decimate : int
         Keep every n-th sample.
     kind : cosim.diagnose.kinds.ExperimentKind
-        The experiment's kind (``experiment.kind``; a staircase without ``steady_s`` is a speed run).
+        The experiment's kind (``experiment.kind``; a staircase without ``steady_s`` is a speed run); for
+        ``[[experiments]]`` a :class:`~cosim.diagnose.kinds.Several` holding each record's experiment.
     duration, steady_s, min_hold_s : float
         Length the data must cover, the steady tail of each hold that enters the cost, the shortest hold, s.
     signals : tuple
@@ -159,7 +164,8 @@ def load_diagnose_job(path, overrides=()):
     """
     path = Path(path)
     data, problems = read_toml(path, overrides, what="job")
-    t = sections(data, problems, _SCHEMA)
+    several = "experiments" in data
+    t = sections(data, problems, _SCHEMA, free_form=("parameters", "experiments"))
     base = path.parent
     source = base / (string(problems, t["model"], "source", ("model",)) or "")
     model = string(problems, t["model"], "name", ("model",)) or ""
@@ -173,7 +179,13 @@ def load_diagnose_job(path, overrides=()):
             except ConfigError as err:
                 problems.add(("model", "source"), str(err))
     free = bounded_parameters(data, problems, required=False)
-    records = _records(t["data"], base, free, problems)
+    if several:
+        for section in sorted({"data", "experiment"} & set(data)):
+            problems.add((section,), "give either [data] and [experiment] (one experiment) or [[experiments]] "
+                                     "(several), not both")
+        records, parts = _experiments(data["experiments"], base, free, problems)
+    else:
+        records, parts = _records(t["data"], base, free, problems), ()
     e = t["experiment"]
     kind = string(problems, e, "kind", ("experiment",), default="staircase")
     inputs = t["data"].get("inputs", {})
@@ -190,7 +202,7 @@ def load_diagnose_job(path, overrides=()):
                                                  "phase)")
         if len(records) > 1:
             problems.add(("data", "records"), "a frequency response is one measured FRF: give data.path")
-    elif not isinstance(inputs, dict) or not inputs or not all(isinstance(v, str) for v in inputs.values()):
+    elif not several and not _inputs_ok(inputs):
         problems.add(("data", "inputs"), "must map model inputs to data columns, e.g. {i_ref = \"i_ref\"}")
         inputs = {}
     d = t["data"]
@@ -226,7 +238,7 @@ def load_diagnose_job(path, overrides=()):
     return DiagnoseJob(
         path=path, source=source, model=model, fixed=fixed,
         records=tuple(records), inputs=dict(inputs), window=(start, stop), decimate=decimate,
-        kind=kind_of(kind, steady_s),
+        kind=Several(parts=tuple(parts)) if several else kind_of(kind, steady_s),
         duration=duration, steady_s=steady_s, min_hold_s=min_hold_s, signals=tuple(signals), rtol=rtol,
         max_nfev=max_nfev, free=free, effects=tuple(effects), min_gap_removed=min_gap, min_delta_bic=min_bic,
         gap_sigmas=gap_sigmas, workers=workers, scheduler=scheduler,
@@ -262,6 +274,53 @@ def _candidates(table, key, source_text, model, problems):
             except ConfigError as err:
                 problems.add(("candidates", key), str(err))
     return list(names)
+
+
+def _inputs_ok(inputs):
+    """Whether ``inputs`` maps model inputs to data columns."""
+    return isinstance(inputs, dict) and bool(inputs) and all(isinstance(v, str) for v in inputs.values())
+
+
+_EXPERIMENT_KEYS = ("name", "kind", "path", "inputs", "parameters", "duration", "steady_s", "min_hold_s")
+
+
+def _experiments(tables, base, free, problems):
+    """The records of ``[[experiments]]`` (data file, fixed values) and each one's experiment
+    (:class:`~cosim.diagnose.kinds.Part`), checked: time-series kinds only, names and files each once."""
+    if not isinstance(tables, list) or not tables or not all(isinstance(x, dict) for x in tables):
+        problems.add(("experiments",), "must be an array of tables [[experiments]], each with kind, path and inputs")
+        return [], []
+    records, parts = [], []
+    for k, e in enumerate(tables):
+        where = ("experiments", k)
+        for key in sorted(set(e) - set(_EXPERIMENT_KEYS)):
+            problems.add(where + (key,), f"unknown key; allowed: {', '.join(_EXPERIMENT_KEYS)}")
+        kind = string(problems, e, "kind", where) or ""
+        if kind == "frequency":
+            problems.add(where + ("kind",), "a frequency response is not a time series: diagnose it in a job of its "
+                                            "own")
+        elif kind and kind not in KINDS:
+            problems.add(where + ("kind",), f"must be 'staircase' or 'impact'; got {kind!r}")
+        data_file = string(problems, e, "path", where) or ""
+        if not _inputs_ok(e.get("inputs")):
+            problems.add(where + ("inputs",), "must map model inputs to data columns, e.g. {i_ref = \"i_ref\"}")
+        fixed = values(problems, e, "parameters", where)
+        for name in sorted(set(fixed) & set(free)):
+            problems.add(where + ("parameters", name), "is a free parameter ([parameters]); an experiment can only "
+                                                      "fix a parameter")
+        steady_s = number(problems, e, "steady_s", where, default=0.0)
+        parts.append(Part(
+            name=string(problems, e, "name", where, default=f"{kind} {k + 1}"),
+            kind=kind_of(kind, steady_s) if kind in KINDS else None,
+            inputs=dict(e["inputs"]) if _inputs_ok(e.get("inputs")) else {},
+            duration=number(problems, e, "duration", where, positive=True) if "duration" in e else None,
+            steady_s=steady_s, min_hold_s=number(problems, e, "min_hold_s", where, positive=True)
+            if "min_hold_s" in e else max(steady_s or 0.0, 0.05)))
+        records.append((base / data_file, fixed))
+    for what, items in (("name", [p.name for p in parts]), ("path", [r for r, _ in records])):
+        for item in sorted({str(x) for x in items if items.count(x) > 1}):
+            problems.add(("experiments",), f"{what} {item!r} is given to more than one experiment")
+    return records, parts
 
 
 def _records(d, base, free, problems):

@@ -17,9 +17,12 @@ from cosim.diagnose.analysis import (band_shape, cross_correlation, frequency_ba
 from cosim.diagnose.fitting import Replay
 from cosim.diagnose.frequency import DEG_PER_DB, FrequencyReplay, frequency_noise, load_frequency_experiment
 from cosim.diagnose.result import Noise
+from cosim.diagnose.stages import Samples
+from cosim.errors import ConfigError
 from cosim.experiment import align_experiment, steady_mask
 
-__all__ = ["ExperimentKind", "Staircase", "SpeedRun", "Records", "FrequencyResponse", "KINDS", "kind_of"]
+__all__ = ["ExperimentKind", "Staircase", "SpeedRun", "Records", "FrequencyResponse", "Part", "Several", "KINDS",
+           "kind_of"]
 
 MIN_QUIET_SAMPLES = 20  # fewer samples in an impact's approach and steady holds: its noise from every sample
 NOISE_WINDOW_S = 0.2  # s: the steady end of each hold a speed run (no steady_s) estimates its noise on
@@ -36,10 +39,13 @@ class ExperimentKind:
         ``experiment.kind`` in the job and ``kind`` in ``diagnosis.json``.
     time_series : bool
         The master can re-run it with the measured inputs (a frequency response is not a time series).
+    parts : tuple of Part
+        For records of several experiments (:class:`Several`), each record's experiment; else empty.
     """
 
     name: str = ""
     time_series: bool = True
+    parts: tuple = ()
 
     def load(self, job, model, path=None):
         """The record at ``path`` (default: the job's first) aligned with ``model``: an Experiment (mask: every
@@ -198,6 +204,80 @@ class FrequencyResponse(ExperimentKind):
         return f"{t0:.3g}-{t1:.3g} Hz"
 
 
+@dataclass(frozen=True)
+class Part:
+    """One experiment of a job of several (``[[experiments]]``): its name, kind and what its kind reads from a
+    job (the data's inputs, the duration the data must cover, a staircase's steady tail and shortest hold)."""
+
+    name: str
+    kind: ExperimentKind
+    inputs: dict
+    duration: float = None
+    steady_s: float = 0.0
+    min_hold_s: float = 0.05
+
+
+@dataclass(frozen=True)
+class Several(ExperimentKind):
+    """Records of different time-series experiments of one plant (``[[experiments]]``: a staircase, impacts, a
+    slide), diagnosed together: record k is the experiment ``parts[k]``, and each stage asks that part's kind
+    about its record (its cost samples, noise, segments), so that the fits sum every record's chi-square over
+    one set of parameters, each residual weighed by its own record's noise."""
+
+    name: str = "several"
+
+    def part_job(self, job, k):
+        """The job as record k's experiment alone: its record, kind and settings."""
+        p = self.parts[k]
+        return replace(job, records=(job.records[k],), kind=p.kind, inputs=p.inputs, duration=p.duration,
+                       steady_s=p.steady_s, min_hold_s=p.min_hold_s)
+
+    def load(self, job, model, path=None):
+        """The record at ``path`` (default: the first) as its experiment's kind reads it."""
+        k = [p for p, _ in job.records].index(path) if path is not None else 0
+        part = self.part_job(job, k)
+        return part.kind.load(part, model, path)
+
+    def cost_mask(self, job, records, present):
+        """Each record's cost samples as its kind takes them, end to end.
+
+        Raises
+        ------
+        cosim.errors.ConfigError
+            When a record has none (no hold of a staircase lasts its ``min_hold_s``, by default its
+            ``steady_s``).
+        """
+        masks = []
+        for k, (record, piece) in enumerate(zip(records, _pieces(present, records))):
+            part = self.part_job(job, k)
+            masks.append(part.kind.cost_mask(part, [record], piece))
+            if not masks[-1].any():
+                raise ConfigError(f"{job.path}: experiments[{k}] ({self.parts[k].name}): no sample enters the cost "
+                                  f"(a staircase: no hold lasts its min_hold_s = {part.min_hold_s:g} s)")
+        return np.concatenate(masks)
+
+    def noise(self, job, samples):
+        """Each record's noise as its kind estimates it, spread over the record's samples (shape (n_signals,
+        N)); ``parts`` holds each record's own."""
+        own = [self.part_job(job, k).kind.noise(self.part_job(job, k), record_samples(samples, k))
+               for k in range(len(samples.records))]
+        lengths = [len(r.time) for r, _ in samples.records]
+        sigma = np.hstack([np.repeat(n.sigma[:, None], m, axis=1) for n, m in zip(own, lengths)])
+        estimated = np.median(np.hstack([np.repeat(n.estimated[:, None], m, axis=1)
+                                         for n, m in zip(own, lengths)]), axis=1)
+        return Noise(estimated=estimated, floor=samples.floor, sigma=sigma, parts=tuple(own))
+
+    def segments(self, job, samples, noise):
+        """Each record cut as its kind cuts it, with its own noise level, labelled by its experiment's name."""
+        s, segments = samples, []
+        for k, ((r, _), shift, p) in enumerate(zip(s.records, s.shifts, s.sampled)):
+            part = self.part_job(job, k)
+            for piece in part.kind.cut(part, r.time[p], r.inputs[p], r.measured[p, 0], noise.parts[k].sigma[0]):
+                segments.append(replace(piece, index=len(segments), t0=piece.t0 + shift, t1=piece.t1 + shift,
+                                        label=f"{self.parts[k].name}: {piece.label}"))
+        return segments, None
+
+
 KINDS = {"staircase": Staircase(), "impact": Records(), "frequency": FrequencyResponse()}
 
 
@@ -221,6 +301,22 @@ def kind_of(name, steady_s=0.0):
     """
     kind = KINDS[name]
     return SpeedRun() if isinstance(kind, Staircase) and not steady_s else kind
+
+
+def record_samples(samples, k):
+    """Record k of ``samples`` (a :class:`~cosim.diagnose.stages.Samples` of records end to end) alone, on its
+    own time base."""
+    s = samples
+    ends = np.cumsum([0] + [len(r.time) for r, _ in s.records])
+    cut = slice(ends[k], ends[k + 1])
+    return Samples(model=s.model, records=[s.records[k]], experiment=s.records[k][0], shifts=[0.0],
+                   sampled=[s.sampled[k]], present=s.present[cut], mask=s.mask[cut], channels=s.channels,
+                   units=s.units, floor=s.floor)
+
+
+def _pieces(values, records):
+    """``values`` over the records end to end, cut into one array per record."""
+    return np.split(values, np.cumsum([len(r.time) for r, _ in records])[:-1])
 
 
 def _spread(where, values):

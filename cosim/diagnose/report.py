@@ -20,10 +20,11 @@ def plot_diagnosis(diagnosis, folder):
     file names."""
     d, tr = diagnosis, diagnosis.traces
     folder = Path(folder)
-    if not KINDS[d.kind].time_series:
+    if d.kind in KINDS and not KINDS[d.kind].time_series:  # records of several experiments are time series
         return _plot_frequency(diagnosis, folder)
     names = []
     n = tr.measured.shape[0]
+    after = " and ".join(d.findings or [d.effect])  # the final model holds every finding of the rounds
     fig, axes = plt.subplots(2 * n, 1, figsize=(10, 3.2 * 2 * n), sharex=True)
     for j in range(n):
         ax, ar = axes[2 * j], axes[2 * j + 1]
@@ -32,17 +33,17 @@ def plot_diagnosis(diagnosis, folder):
                 label=f"baseline (RMSE {d.rmse_before_per_signal[j]:.3g})")
         if d.effect != "none":
             ax.plot(*_apart(tr.time, tr.after[j]), color="C3", lw=1.2,
-                    label=f"with {d.effect} (RMSE {d.rmse_after_per_signal[j]:.3g})")
+                    label=f"with {after} (RMSE {d.rmse_after_per_signal[j]:.3g})")
         label = f"{d.signals[j]} [{d.units[j]}]"
         ax.set_ylabel(label)
         ax.legend(loc="best", fontsize=8)
         ax.grid(alpha=0.3)
-        sigma = d.noise.used[j]
+        sigma = d.noise.sigma[j] if d.noise.sigma.ndim == 2 else d.noise.used[j]
         ar.plot(tr.time[tr.mask], (tr.before[j] - tr.measured[j])[tr.mask], ".", ms=2, color="C0", label="baseline")
         if d.effect != "none":
             ar.plot(tr.time[tr.mask], (tr.after[j] - tr.measured[j])[tr.mask], ".", ms=2, color="C3",
-                    label=d.effect)
-        ar.axhspan(-3 * sigma, 3 * sigma, color="0.85", label="±3 noise")
+                    label=after)
+        ar.fill_between(tr.time, -3 * sigma, 3 * sigma, color="0.85", label="±3 noise")
         ar.set_ylabel(f"residual {label}")
         ar.legend(loc="best", fontsize=8)
         ar.grid(alpha=0.3)
@@ -127,6 +128,20 @@ def _apart(time, values):
     return np.insert(time, cut, np.nan), np.insert(values, cut, np.nan)
 
 
+def _experiments(d):
+    """The table of a job of several experiments: each one's noise and gap before and after, and what the
+    finding removed from it (where it shows)."""
+    if not d.experiments:
+        return []
+    lines = ["## Experiments", "", "Each record's own noise (1 sd, per channel) weighs its residuals; the gap is "
+             "its RMS residual in noise levels on its cost samples. A finding shows where it removes chi-square.",
+             "", "| experiment | kind | cost samples | noise | gap before | gap after | chi-square removed |",
+             "|---|---|---|---|---|---|---|"]
+    lines += [f"| {e.name} | {e.kind} | {e.samples} | {', '.join(f'{v:.3g}' for v in e.noise)} | "
+              f"{e.gap_before:.1f} | {e.gap_after:.1f} | {e.chi2_removed:.4g} |" for e in d.experiments]
+    return lines + [""]
+
+
 def _report(diagnosis, figures):
     d = diagnosis
     unit = f" {d.units[0]}" if d.units and d.units[0] else ""
@@ -148,11 +163,13 @@ def _report(diagnosis, figures):
                   f"{'form' if r.form else 'effect' if r.effect != 'none' else '-'} | "
                   f"{values(r.parameters) or '-'} | {r.gap_before:.1f} | {r.gap_after:.1f} |" for r in d.rounds]
         lines += [""]
+    lines += _experiments(d)
     if d.also_explained_by:
         lines += [f"Nearly as good on the held-out segments: {', '.join(d.also_explained_by)} (the data do not "
                   f"tell these apart).", ""]
     records = d.records
-    data = f"`{d.data}`" if len(records) == 1 else f"{len(records)} records (repeated trials, one fit): " + \
+    together = "experiments" if d.experiments else "repeated trials"
+    data = f"`{d.data}`" if len(records) == 1 else f"{len(records)} records ({together}, one fit): " + \
         ", ".join(f"`{r.path}`" + (f" ({values(r.parameters)})" if r.parameters else "") for r in records)
     lines += [f"- data: {data}; signals: {', '.join(d.signals)}",
               f"- noise (1 sd) estimated from the data: {', '.join(f'{v:.3g}' for v in d.noise.estimated)}; "

@@ -5,7 +5,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-__all__ = ["Round", "Noise", "Candidate", "Rerun", "RecordSummary", "SegmentRow", "Traces", "Diagnosis"]
+__all__ = ["Round", "ExperimentGap", "Noise", "Candidate", "Rerun", "RecordSummary", "SegmentRow", "Traces", "Diagnosis"]
 
 FOLD_SCHEME = "two-fold over segments: fit on the even ones, score on the odd ones, and back"
 
@@ -13,11 +13,13 @@ FOLD_SCHEME = "two-fold over segments: fit on the even ones, score on the odd on
 @dataclass(frozen=True)
 class Noise:
     """The noise level (1 sd) of each channel: ``estimated`` from the data, the job's ``floor`` and the level
-    ``sigma`` the residuals are weighed with, shape (n_signals,) or per frequency (n_signals, N)."""
+    ``sigma`` the residuals are weighed with, shape (n_signals,), or per sample (n_signals, N) for a frequency
+    response and for records of several experiments, whose ``parts`` are each record's own Noise."""
 
     estimated: np.ndarray
     floor: np.ndarray
     sigma: np.ndarray
+    parts: tuple = ()
 
     @property
     def weights(self):
@@ -31,7 +33,8 @@ class Noise:
 
     def to_json(self):
         """The ``noise`` entry of ``diagnosis.json``."""
-        return {"estimated": self.estimated.tolist(), "floor": self.floor.tolist(), "used": self.used}
+        entry = {"estimated": self.estimated.tolist(), "floor": self.floor.tolist(), "used": self.used}
+        return {**entry, "per_record": [n.to_json() for n in self.parts]} if self.parts else entry
 
 
 @dataclass(frozen=True)
@@ -159,6 +162,8 @@ class Round:
     dropped : bool
         The candidate it named is not in the final model: the later findings explain what it did
         (:func:`~cosim.diagnose.rounds.least_needed`).
+    shown_by : tuple of str
+        For records of several experiments, the ones that showed its finding (:attr:`Diagnosis.shown_by`).
     """
 
     number: int
@@ -170,6 +175,35 @@ class Round:
     outcome: str
     verdict: str
     dropped: bool = False
+    shown_by: tuple = ()
+
+
+@dataclass(frozen=True)
+class ExperimentGap:
+    """One experiment of a job of several (``[[experiments]]``): its gap before and after the winner.
+
+    Attributes
+    ----------
+    name, kind : str
+        The experiment's name and kind.
+    samples : int
+        Its cost samples.
+    noise : list of float
+        Its noise level per channel.
+    gap_before, gap_after : float
+        RMS weighted residual on its cost samples, noise levels: the baseline's, the winner's (the baseline's for
+        none).
+    chi2_removed : float
+        The chi-square the winner removes from this record (0 for none): where the finding shows.
+    """
+
+    name: str
+    kind: str
+    samples: int
+    noise: list
+    gap_before: float
+    gap_after: float
+    chi2_removed: float
 
 
 @dataclass(frozen=True)
@@ -238,6 +272,11 @@ class Diagnosis:
         experiment that shows it (:func:`~cosim.diagnose.workflow.advise`).
     evidence, next_step : str
         The report's lines under the verdict.
+    experiments : tuple of ExperimentGap
+        For records of several experiments, each one's gap before and after.
+    shown_by : tuple of str
+        For records of several experiments, those where the winner removes at least ``min_delta_bic`` of
+        chi-square, the most first (the one it removes most from when none does).
     rounds : tuple of Round
         Every round run (:mod:`cosim.diagnose.rounds`); after more than one, the diagnosis is the last named
         round's, with ``effect`` the first finding, the verdict listing every finding in order, and the gap
@@ -286,6 +325,8 @@ class Diagnosis:
     evidence: str = ""
     next_step: str = ""
     rounds: tuple = ()
+    experiments: tuple = ()
+    shown_by: tuple = ()
 
     @property
     def findings(self):
@@ -332,6 +373,7 @@ class Diagnosis:
             "decision": self.decision,
             "candidates": [c.to_json() for c in self.candidates],
             "rounds": [asdict(r) for r in self.rounds],
+            "experiments": [asdict(e) for e in self.experiments], "shown_by": list(self.shown_by),
         })
 
 

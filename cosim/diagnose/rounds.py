@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.diagnose.answer import finding_words
+from cosim.diagnose.answer import finding_words, shown_words
 from cosim.diagnose.effects import EFFECTS, write_variant
 from cosim.diagnose.result import Round
 from cosim.diagnose.tasks import added_parameters, run_tasks, task_of
@@ -141,7 +141,8 @@ def round_of(number, diagnosis):
     added = added_parameters(d.effect) if named else []
     return Round(number=number, effect=d.effect, form=named and EFFECTS[d.effect].is_form,
                  parameters={n: d.after_parameters[n] for n in added}, gap_before=d.gap["noise_levels"],
-                 gap_after=d.gap["remaining_noise_levels"], outcome=d.outcome, verdict=d.verdict)
+                 gap_after=d.gap["remaining_noise_levels"], outcome=d.outcome, verdict=d.verdict,
+                 shown_by=d.shown_by)
 
 
 def combine(diagnoses, findings):
@@ -166,13 +167,30 @@ def combine(diagnoses, findings):
         gap={**final.gap, "noise_levels": first.gap["noise_levels"], "where": first.gap["where"]},
         traces=replace(final.traces, before=first.traces.before),
         evidence="; ".join(f"round {k}: {d.evidence}" for k, d in enumerate(diagnoses, 1) if d.evidence),
-        next_step=_next_step(rounds, findings, last), not_identifiable=last.not_identifiable)
+        next_step=_next_step(rounds, findings, last), not_identifiable=last.not_identifiable,
+        experiments=_experiments(first, final), shown_by=_shown(rounds)[findings[0]] if findings else ())
+
+
+def _experiments(first, final):
+    """Each experiment's gap from the user's baseline (the first round's) to the final model, and the chi-square
+    all the findings together remove from it."""
+    channels = len(final.signals)
+    return tuple(replace(e, gap_before=b.gap_before,
+                         chi2_removed=(b.gap_before ** 2 - e.gap_after ** 2) * e.samples * channels)
+                 for b, e in zip(first.experiments, final.experiments))
+
+
+def _shown(rounds):
+    """Candidate -> the experiments that showed it (a finding confirmed again: its last round's)."""
+    return {r.effect: r.shown_by for r in rounds}
 
 
 def _verdict(rounds, findings, last):
     """Every finding in order, the ones dropped, then what is left after the last one."""
     values = {n: v for r in rounds for n, v in r.parameters.items()}
-    found = [finding_words(f, {n: values[n] for n in added_parameters(f) if n in values}) for f in findings]
+    shown = _shown(rounds)
+    found = [finding_words(f, {n: values[n] for n in added_parameters(f) if n in values}) + shown_words(shown[f])
+             for f in findings]
     left = rounds[-1].gap_after
     if last.outcome == "named" and gap_left(last):
         tail = f"a gap of {left:.1f} noise levels remains after {len(rounds)} rounds (the job's decision.rounds)"

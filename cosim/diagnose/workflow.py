@@ -54,7 +54,7 @@ from cosim.diagnose.analysis import branch_shapes, in_segment, rmse_per_signal, 
 from cosim.diagnose.answer import answer, verdict, why_plausible
 from cosim.diagnose.effects import EFFECTS
 from cosim.diagnose.fitting import weighted
-from cosim.diagnose.result import Candidate, Diagnosis, RecordSummary, SegmentRow, Traces
+from cosim.diagnose.result import Candidate, Diagnosis, ExperimentGap, RecordSummary, SegmentRow, Traces
 from cosim.diagnose.show import show
 from cosim.diagnose.stages import Decision, Samples, Scores, Split
 from cosim.diagnose.tasks import added_parameters, fit_free, free_at, run_tasks, screen_task, task_of, variant_of
@@ -307,7 +307,7 @@ def decide(job, samples, noise, split, scores):
                  and c.delta_bic >= job.min_delta_bic]
     winner = max(qualified, key=lambda c: (c.score, c.delta_bic)) if qualified else None
     rivals = rivals_of(winner, qualified)
-    return Decision(rows=rows, shapes=branch_shapes(split.segments, rows, sigma),
+    return Decision(rows=rows, shapes=branch_shapes(split.segments, rows),
                     whiteness=whiteness(residual[0, mask]), cross_correlation=cross, mean_square=ms_baseline,
                     chance=chance, gap_found=gap_found, winner=winner, rivals=rivals,
                     outcome=_outcome(gap_found, winner, ms_baseline > chance),
@@ -339,6 +339,29 @@ def _segment_rows(samples, noise, split, job, rows, after):
                  for rb, ra in zip(rows, rows_after))
 
 
+def experiment_gaps(job, samples, noise, before, after):
+    """For records of several experiments (``job.kind.parts``), each one's gap before and after (RMS weighted
+    residual on its cost samples) and the chi-square ``after`` removes from it; empty for one experiment."""
+    ends = np.cumsum([0] + [len(r.time) for r, _ in samples.records])
+    gaps = []
+    for k, part in enumerate(job.kind.parts):
+        cut, mask = slice(ends[k], ends[k + 1]), samples.mask[ends[k]:ends[k + 1]]
+        weights, measured = noise.weights[:, cut], samples.measured[:, cut]
+        r_before, r_after = (weighted(y[:, cut] - measured, weights)[:, mask] for y in (before, after))
+        gaps.append(ExperimentGap(name=part.name, kind=part.kind.name, samples=int(mask.sum()),
+                                  noise=noise.parts[k].used, gap_before=float(np.sqrt(np.mean(r_before ** 2))),
+                                  gap_after=float(np.sqrt(np.mean(r_after ** 2))),
+                                  chi2_removed=float(np.sum(r_before ** 2) - np.sum(r_after ** 2))))
+    return tuple(gaps)
+
+
+def shown_by(gaps, min_delta_bic):
+    """The experiments (:func:`experiment_gaps`) where a finding removes at least ``min_delta_bic`` of
+    chi-square, the most first; the one it removes most from when none does."""
+    ranked = sorted(gaps, key=lambda g: -g.chi2_removed)
+    return tuple(g.name for g in ranked if g.chi2_removed >= min_delta_bic) or tuple(g.name for g in ranked[:1])
+
+
 def _diagnosis(job, samples, noise, split, scores, decision, shown, advice=()):
     """The stages' results as a :class:`Diagnosis`, with the answer a user acts on (:func:`answer`)."""
     s, base, final = samples, scores.base, shown.final
@@ -348,13 +371,15 @@ def _diagnosis(job, samples, noise, split, scores, decision, shown, advice=()):
     ms_after, ms_baseline = _ms(shown.after, y, noise.weights, mask), decision.mean_square
     segments = _segment_rows(s, noise, split, job, decision.rows, shown.after)
     gap_removed = float(1 - (ms_after - 1) / (ms_baseline - 1)) if ms_baseline > 1 else 0.0
+    gaps = experiment_gaps(job, s, noise, base.outputs, shown.after)
+    where = shown_by(gaps, job.min_delta_bic) if gaps and decision.winner is not None else ()
     evidence, next_step = answer(job, s, decision, advice, segments, ms_after, gap_removed, scores.candidates)
     return Diagnosis(
         job=str(job.path), model=job.model, data=str(job.data_path),
         records=tuple(RecordSummary(path=str(path), parameters=trial, samples=len(r.time), compared=int(p.sum()),
                                     time_shift=shift)
                       for (path, trial), (r, _), shift, p in zip(job.records, s.records, s.shifts, s.sampled)),
-        effect=decision.effect, verdict=verdict(job, decision, segments, ms_after),
+        effect=decision.effect, verdict=verdict(job, decision, segments, ms_after, where),
         also_explained_by=decision.rivals,
         kind=job.kind.name, signals=s.channels, units=s.units,
         inputs=[u.name for u in model.inputs] if time_series else [],
@@ -379,7 +404,7 @@ def _diagnosis(job, samples, noise, split, scores, decision, shown, advice=()):
         variant_source=shown.variant_source, variant_diff=shown.variant_diff,
         outcome=decision.outcome, gap={"noise_levels": decision.gap_levels, "where": list(decision.where),
                                        "remaining_noise_levels": float(np.sqrt(max(ms_after, 0.0)))},
-        not_identifiable=list(advice), evidence=evidence, next_step=next_step)
+        not_identifiable=list(advice), evidence=evidence, next_step=next_step, experiments=gaps, shown_by=where)
 
 
 def run_round(job, progress, build, out, scratch):
