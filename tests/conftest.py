@@ -10,6 +10,12 @@ COMPILER_MODELS = ROOT / "tests" / "models" / "compiler" / "CompilerTests.mo"
 HYBRID_MODELS = ROOT / "tests" / "models" / "hybrid" / "Hybrid.mo"
 
 
+def pytest_collection_modifyitems(items):
+    """The slow tests first (in their order): started early on every xdist worker, they do not leave one worker
+    running a long test alone while the other has finished."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
+
 @pytest.fixture(scope="session")
 def compiler_fmu(tmp_path_factory):
     """Build ``CompilerTests.<name>`` once per session; returns a function name -> FMU path."""
