@@ -22,7 +22,7 @@ from cosim.errors import ConfigError
 from cosim.experiment import align_experiment, steady_mask
 
 __all__ = ["ExperimentKind", "Staircase", "SpeedRun", "Records", "FrequencyResponse", "Part", "Several", "KINDS",
-           "kind_of"]
+           "kind_of", "record_slices", "record_samples"]
 
 MIN_QUIET_SAMPLES = 20  # fewer samples in an impact's approach and steady holds: its noise from every sample
 NOISE_WINDOW_S = 0.2  # s: the steady end of each hold a speed run (no steady_s) estimates its noise on
@@ -248,9 +248,9 @@ class Several(ExperimentKind):
             ``steady_s``).
         """
         masks = []
-        for k, (record, piece) in enumerate(zip(records, _pieces(present, records))):
+        for k, (record, cut) in enumerate(zip(records, record_slices(records))):
             part = self.part_job(job, k)
-            masks.append(part.kind.cost_mask(part, [record], piece))
+            masks.append(part.kind.cost_mask(part, [record], present[cut]))
             if not masks[-1].any():
                 raise ConfigError(f"{job.path}: experiments[{k}] ({self.parts[k].name}): no sample enters the cost "
                                   f"(a staircase: no hold lasts its min_hold_s = {part.min_hold_s:g} s)")
@@ -303,20 +303,20 @@ def kind_of(name, steady_s=0.0):
     return SpeedRun() if isinstance(kind, Staircase) and not steady_s else kind
 
 
+def record_slices(records):
+    """Where each of the ``records`` (``(Experiment, trial)`` pairs) lies in their samples end to end."""
+    ends = np.cumsum([0] + [len(r.time) for r, _ in records])
+    return [slice(a, b) for a, b in zip(ends[:-1], ends[1:])]
+
+
 def record_samples(samples, k):
     """Record k of ``samples`` (a :class:`~cosim.diagnose.stages.Samples` of records end to end) alone, on its
     own time base."""
     s = samples
-    ends = np.cumsum([0] + [len(r.time) for r, _ in s.records])
-    cut = slice(ends[k], ends[k + 1])
+    cut = record_slices(s.records)[k]
     return Samples(model=s.model, records=[s.records[k]], experiment=s.records[k][0], shifts=[0.0],
                    sampled=[s.sampled[k]], present=s.present[cut], mask=s.mask[cut], channels=s.channels,
                    units=s.units, floor=s.floor)
-
-
-def _pieces(values, records):
-    """``values`` over the records end to end, cut into one array per record."""
-    return np.split(values, np.cumsum([len(r.time) for r, _ in records])[:-1])
 
 
 def _spread(where, values):

@@ -53,13 +53,13 @@ def plot_diagnosis(diagnosis, folder):
     fig.savefig(folder / "fit.png", dpi=110)
     plt.close(fig)
     names.append("fit.png")
-    if tr.inputs.shape[1] >= 1 and any(seg.kind in ("up", "down") for seg in d.segments):
+    if d.kind == "staircase" and tr.inputs.shape[1] >= 1 and any(seg.kind in ("up", "down") for seg in d.segments):
         fig, ax = plt.subplots(figsize=(7, 5))
         m = tr.mask
         ax.plot(tr.inputs[m, 0], tr.measured[0, m], ".", ms=3, color="0.5", label="measured")
         ax.plot(tr.inputs[m, 0], tr.before[0, m], ".", ms=3, color="C0", label="baseline")
         if d.effect != "none":
-            ax.plot(tr.inputs[m, 0], tr.after[0, m], ".", ms=3, color="C3", label=f"with {d.effect}")
+            ax.plot(tr.inputs[m, 0], tr.after[0, m], ".", ms=3, color="C3", label=f"with {after}")
         ax.set_xlabel(f"{d.inputs[0]} (held level) [{d.input_units[0]}]")
         ax.set_ylabel(f"{d.signals[0]} [{d.units[0]}]")
         ax.grid(alpha=0.3)

@@ -54,6 +54,7 @@ from cosim.diagnose.analysis import branch_shapes, in_segment, rmse_per_signal, 
 from cosim.diagnose.answer import answer, verdict, why_plausible
 from cosim.diagnose.effects import EFFECTS
 from cosim.diagnose.fitting import weighted
+from cosim.diagnose.kinds import record_slices
 from cosim.diagnose.result import Candidate, Diagnosis, ExperimentGap, RecordSummary, SegmentRow, Traces
 from cosim.diagnose.show import show
 from cosim.diagnose.stages import Decision, Samples, Scores, Split
@@ -62,7 +63,7 @@ from cosim.experiment import Experiment
 from cosim.parallel import map_here
 
 __all__ = ["load_samples", "estimate_noise", "split_segments",
-           "score_candidates", "rivals_of", "decide", "show", "run_round", "advise"]
+           "score_candidates", "rivals_of", "decide", "show", "run_round", "advise", "experiment_gaps", "shown_by"]
 
 # Candidates refitted on the folds after the screen (:func:`_screen`): the best and one rival. Fixed
 # before any benchmark ran with the screen; not tuned to a case.
@@ -342,11 +343,9 @@ def _segment_rows(samples, noise, split, job, rows, after):
 def experiment_gaps(job, samples, noise, before, after):
     """For records of several experiments (``job.kind.parts``), each one's gap before and after (RMS weighted
     residual on its cost samples) and the chi-square ``after`` removes from it; empty for one experiment."""
-    ends = np.cumsum([0] + [len(r.time) for r, _ in samples.records])
     gaps = []
-    for k, part in enumerate(job.kind.parts):
-        cut, mask = slice(ends[k], ends[k + 1]), samples.mask[ends[k]:ends[k + 1]]
-        weights, measured = noise.weights[:, cut], samples.measured[:, cut]
+    for k, (part, cut) in enumerate(zip(job.kind.parts, record_slices(samples.records))):
+        mask, weights, measured = samples.mask[cut], noise.weights[:, cut], samples.measured[:, cut]
         r_before, r_after = (weighted(y[:, cut] - measured, weights)[:, mask] for y in (before, after))
         gaps.append(ExperimentGap(name=part.name, kind=part.kind.name, samples=int(mask.sum()),
                                   noise=noise.parts[k].used, gap_before=float(np.sqrt(np.mean(r_before ** 2))),
