@@ -16,6 +16,8 @@ truth 2's results had been seen, to judge the changes made in response to them):
   speed run under a PI loop): ``tests/diagnose_truth_impact.py``, ``tests/diagnose_truth2_impact.py`` and
   ``tests/diagnose_truth3_impact.py``; truth 4 (``tests/diagnose_truth4_impact.py``, laws of forms outside the
   candidate library) is reserved for the evaluation of issue 42 and is drawn only when ``--truths`` names it;
+* ``impact+slide`` (issue 42, item 3): one gripper of each of those truths measured by an impact and a slide,
+  both records in one job (``[[experiments]]``); its rows also say which records showed the first finding;
 * ``haptic`` (the PHANToM's frequency response with a user): ``tests/diagnose_truth_haptic.py`` and
   ``tests/diagnose_truth2_haptic.py`` (built without the project's transfer-function code; truth set ``2w``: the
   same records estimated by Welch H1 instead of at the multisine's lines).
@@ -65,7 +67,8 @@ import diagnose_truth2  # noqa: E402
 from diagnose_truth2 import SHOWN_ON_STAIRCASE, count_rows, diagnose_case2, diagnose_frame, library  # noqa: E402
 from diagnose_truth2_haptic import SHOWN as SHOWN_ON_HAPTIC  # noqa: E402
 from diagnose_truth2_haptic import diagnose_case_haptic1, diagnose_case_haptic2  # noqa: E402
-from diagnose_truth2_impact import SHOWN_BY, diagnose_case_impact1, diagnose_case_impact2  # noqa: E402
+from diagnose_truth2_impact import (SHOWN_BY, diagnose_case_impact1, diagnose_case_impact2,  # noqa: E402
+                                   diagnose_experiments_case)
 
 from cosim.diagnose import load_diagnose_job  # noqa: E402
 from validation import write_section  # noqa: E402
@@ -184,6 +187,24 @@ def _staircase4(effect, seed, folder, workers):
     return diagnose_case4(effect, seed, folder, None, workers)
 
 
+def _both(truth):
+    """The ``impact+slide`` case function of gripper truth ``truth`` (its module imported when a case is drawn:
+    truth 4 stays unread until named)."""
+    def case(effect, seed, folder, workers):
+        import diagnose_truth_impact
+        import diagnose_truth2_impact
+
+        if truth == "1":
+            draw, simulate = diagnose_truth_impact.draw_truth, diagnose_truth_impact.record_of
+        elif truth == "2":
+            draw, simulate = diagnose_truth2_impact.draw_truth, diagnose_truth2_impact.simulate
+        else:
+            module = __import__(f"diagnose_truth{truth}_impact")
+            draw, simulate = module.draw_truth, module.simulate
+        return diagnose_experiments_case(draw, simulate, int(truth))(effect, seed, folder, workers)
+    return case
+
+
 def _welch(effect, seed, folder, workers):
     return diagnose_case_haptic2(effect, seed, folder, workers, estimator="welch")
 
@@ -196,6 +217,9 @@ EXPERIMENTS = {
                                "3": _gripper(name, _truth3), "4": _gripper(name, _truth4)}, 2)
        for name in ("impact", "slide", "speed")},
     "haptic": (SHOWN_ON_HAPTIC, {"1": diagnose_case_haptic1, "2": diagnose_case_haptic2, "2w": _welch}, 0),
+    # last: the seed streams of the experiments above keep their index
+    "impact+slide": (tuple(dict.fromkeys(SHOWN_BY["impact"] + SHOWN_BY["slide"])),
+                     {truth: _both(truth) for truth in ("1", "2", "3", "4")}, 2),
 }
 TRUTHS = ("1", "2", "2w", "3", "4")
 

@@ -366,3 +366,30 @@ def truth_case_functions(draw_truth, simulate, truth_model):
                 "truth_model": truth_model, "effect_signal": effect_signal(case, experiment)}
 
     return make_case, effect_signal, diagnose_case
+
+
+def diagnose_experiments_case(draw_truth, simulate, truth_model):
+    """A case function (effect, seed, folder, workers) -> row for ``benchmarks/diagnose.py``: one gripper of a
+    truth (its ``draw_truth`` and ``simulate``, as :func:`truth_case_functions` takes them) measured by an impact
+    and a slide, diagnosed in one job of both (``[[experiments]]``) with the whole library of the current-driven
+    model offered; the row also says which records showed the first finding (``shown_by``)."""
+    def diagnose_case(effect, seed, folder, workers=2):
+        import time
+        from pathlib import Path
+
+        from cosim.diagnose import load_diagnose_job, run_diagnosis
+        from diagnose_truth import SOURCE
+        from diagnose_truth2 import diagnosis_row
+        from diagnose_truth_impact import write_experiments_job
+
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        rng = np.random.default_rng(seed)
+        truth = draw_truth(effect, rng)
+        records = {e: measured_records(simulate, truth, rng, FORCE_NOISE, 1, e)[0] for e in ("impact", "slide")}
+        job = load_diagnose_job(write_experiments_job(folder, SOURCE, records, library("impact"), workers))
+        start = time.perf_counter()
+        s = run_diagnosis(job, progress=False, build=False).to_json()
+        return {**diagnosis_row(s, truth, seed, FORCE_NOISE, time.perf_counter() - start),
+                "experiment": "impact+slide", "truth_model": truth_model, "shown_by": s["shown_by"]}
+    return diagnose_case

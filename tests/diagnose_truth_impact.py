@@ -45,8 +45,9 @@ import numpy as np
 
 from diagnose_truth import free_and_candidates
 
-__all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "draw_baseline", "make_case",
-           "effect_signal", "measured_records", "hidden_effect_signal", "write_job", "SHOWN_IN",
+__all__ = ["TRUTH_EFFECTS", "CONDITION", "FORCE_NOISE", "COUNTS", "simulate", "draw_baseline", "draw_truth",
+           "make_case", "record_of", "effect_signal", "measured_records", "hidden_effect_signal", "write_job",
+           "write_experiments_job", "SHOWN_IN",
            "check_seed_gives_same_case", "check_effect_changes_record", "check_play_seen_at_reversal"]
 
 TRUTH_EFFECTS = ("none", "gear_play", "contact_damping", "coating_relaxation", "stiction", "cogging",
@@ -235,7 +236,7 @@ def make_case(effect, rng, noise=FORCE_NOISE, trials=1, experiment="impact"):
     The truth dict holds the drawn parameters under the names of the Modelica parameters they correspond to
     where there is one (``eta_g``, ``T_c0``, ``play``, ``F_sj``)."""
     truth = draw_truth(effect, rng)
-    return measured_records(_record, truth, rng, noise, trials, experiment), truth
+    return measured_records(record_of, truth, rng, noise, trials, experiment), truth
 
 
 def draw_truth(effect, rng):
@@ -265,10 +266,10 @@ def draw_truth(effect, rng):
 def effect_signal(case, experiment="impact"):
     """How much the hidden effect alone changes the case's records (:func:`hidden_effect_signal`): an upper bound
     on the evidence a diagnosis can find, since the baseline's free parameters may absorb part of it."""
-    return hidden_effect_signal(_record, case, experiment)
+    return hidden_effect_signal(record_of, case, experiment)
 
 
-def _record(truth, experiment, gap0):
+def record_of(truth, experiment, gap0):
     """One noise-free record of ``experiment`` for a truth dict from :func:`make_case`, the object at ``gap0`` [m],
     in the form the other truths' ``simulate`` gives it: (time [s], input, load-cell reading [N] (ideal: the
     contact force), contact force [N], motor angle [rad], q current [A], None: the jaw travel is not kept)."""

@@ -15,7 +15,7 @@ from cosim.diagnose.kinds import Records, Several, SpeedRun
 from cosim.errors import ConfigError
 
 from diagnose_truth import SOURCE
-from diagnose_truth_impact import _record, draw_truth, measured_records, write_experiments_job
+from diagnose_truth_impact import draw_truth, measured_records, record_of, write_experiments_job
 
 SEED = 722727826  # drawn once (secrets.randbelow(2**31)), not chosen
 NOISE = {"impact": 0.5, "slide": 1.5}  # N (1 sd): each record's load cell
@@ -26,7 +26,7 @@ def _records(effect, seed, noise):
     noise [N] per experiment as given."""
     rng = np.random.default_rng(seed)
     truth = draw_truth(effect, rng)
-    return {e: measured_records(_record, truth, rng, noise[e], 1, e)[0] for e in ("impact", "slide")}, truth
+    return {e: measured_records(record_of, truth, rng, noise[e], 1, e)[0] for e in ("impact", "slide")}, truth
 
 
 def _job_text(tmp_path, experiments, extra=""):
