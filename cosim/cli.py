@@ -166,9 +166,10 @@ def _add_diagnose(sub):
         help="find where simulation and measurement disagree, name the missing effect, add it",
         description=("Calibrate the baseline model on the measured data (one record; repeated trials diagnosed "
                      "together: data.records; or records of several experiments of one plant: [[experiments]], "
-                     "the answer saying which record showed each finding), locate significant residuals by segment, fit each candidate "
-                     "effect or form of a law (Modelica variants) in parallel, name the winner or 'none', write "
-                     "the variant into the Modelica source, rebuild and re-run through the master; while a gap is "
+                     "the answer saying which record showed each finding), locate significant residuals by "
+                     "segment, fit each candidate effect or form of a law (Modelica variants) in parallel, name "
+                     "the winner or 'none', write the variant into the Modelica source, rebuild and re-run "
+                     "through the master; while a gap is "
                      "left after the winner, look again with it added (decision.rounds, default 3). Writes "
                      "OUT/diagnosis.json, OUT/report.md and PNGs."),
     )

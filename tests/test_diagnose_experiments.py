@@ -97,7 +97,7 @@ def test_each_record_is_weighed_by_its_own_noise_and_cut_as_its_kind_says(tmp_pa
         measured = np.isfinite(records[name][2])
         np.testing.assert_array_equal(samples.mask[cut], measured)
     labels = [seg.label for seg in split.segments]
-    assert any(label.startswith("impact: ") for label in labels) and any(label.startswith("slide: ") for label in labels)
+    assert any(x.startswith("impact: ") for x in labels) and any(x.startswith("slide: ") for x in labels)
     impact = {seg.kind for seg in split.segments if seg.label.startswith("impact: ")}
     slide = {seg.kind for seg in split.segments if seg.label.startswith("slide: ")}
     assert impact <= {"approach", "impact", "tightening", "steady"} and "impact" in impact, impact
@@ -124,8 +124,8 @@ def test_a_finding_is_shown_by_the_records_it_removes_chi_square_from():
     noise = Noise(estimated=np.array([1.0]), floor=np.zeros(1), sigma=sigma,
                   parts=(Noise(np.array([0.5]), np.zeros(1), np.array([0.5])),
                          Noise(np.array([2.0]), np.zeros(1), np.array([2.0]))))
-    samples = Samples(model=None, records=records, experiment=record(10)[0], shifts=[0.0, 0.05], sampled=[], present=None,
-                      mask=np.ones(10, bool), channels=["F_g"], units=["N"], floor=np.zeros(1))
+    samples = Samples(model=None, records=records, experiment=record(10)[0], shifts=[0.0, 0.05], sampled=[],
+                      present=None, mask=np.ones(10, bool), channels=["F_g"], units=["N"], floor=np.zeros(1))
     job = SimpleNamespace(kind=Several(parts=(Part("one", Records(), {}), Part("two", SpeedRun(), {}))))
     before = np.r_[np.full(4, 1.0), np.full(6, 6.0)][None, :]
     after = np.r_[np.full(4, 0.5), np.full(6, -6.0)][None, :]

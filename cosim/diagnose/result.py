@@ -5,7 +5,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-__all__ = ["Round", "ExperimentGap", "Noise", "Candidate", "Rerun", "RecordSummary", "SegmentRow", "Traces", "Diagnosis"]
+__all__ = ["Round", "ExperimentGap", "Noise", "Candidate", "Rerun", "RecordSummary", "SegmentRow", "Traces",
+           "Diagnosis"]
 
 FOLD_SCHEME = "two-fold over segments: fit on the even ones, score on the odd ones, and back"
 
