@@ -234,7 +234,8 @@ def test_shipped_speed_job_loads_the_speed_run():
     ("coating_relaxation", 1660404856, 1),
     # finding of the drawn seed (docs/dev/diagnose-history.md, "Speed (issue 32)"): the baseline fits the three
     # impacts within the noise (mean square 0.706 noise levels squared), so no gap is found and "none" is answered
-    pytest.param("cogging", 1974176483, 3, marks=pytest.mark.xfail(strict=True, reason="detent below the noise")),
+    pytest.param("cogging", 1974176483, 3, marks=[pytest.mark.finding,
+                                                   pytest.mark.xfail(strict=True, reason="detent below the noise")]),
     ("load_dependent_friction", 847392348, 1),
     ("none", 1955914767, 1),
 ])
@@ -271,6 +272,7 @@ def test_workflow_names_the_hidden_impact_effect(effect, seed, trials, tmp_path)
     # contact_damping: the truth's law c_hc*pen^p_hc*v has no parameter in common with lambda_hc*F_s*v
 
 
+@pytest.mark.finding
 @pytest.mark.xfail(strict=True, reason="finding (issue 32): with the whole library offered and every candidate fitted "
                    "(the screen ranked stiction low; the fits go on in its order while the gap is unexplained), "
                    "stiction's fold fits from the screen's best start find the breakaway (F_sj 7.13 N, truth 6.91 N) "
