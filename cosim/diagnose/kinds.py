@@ -74,11 +74,18 @@ class ExperimentKind:
         segment shape classifier (None: the time-domain default)."""
         s, segments = samples, []
         for k, ((r, _), shift, p) in enumerate(zip(s.records, s.shifts, s.sampled)):
-            for piece in self.cut(job, r.time[p], r.inputs[p], r.measured[p, 0], noise.sigma[0]):
+            for piece in self.cut_record(job, k, r.time[p], r.inputs[p], r.measured[p, 0], noise):
                 segments.append(replace(piece, index=len(segments), t0=piece.t0 + shift, t1=piece.t1 + shift,
-                                        label=piece.label if len(s.records) == 1 else
-                                        f"record {k} ({job.records[k][0].name}): {piece.label}"))
+                                        label=self.record_label(job, k, piece.label)))
         return segments, None
+
+    def cut_record(self, job, k, time, inputs, measured, noise):
+        """Record k's segments: :meth:`cut` with the first channel's noise level."""
+        return self.cut(job, time, inputs, measured, noise.sigma[0])
+
+    def record_label(self, job, k, label):
+        """A segment's label, with its record for repeated trials."""
+        return label if len(job.records) == 1 else f"record {k} ({job.records[k][0].name}): {label}"
 
     def cut(self, job, time, inputs, measured, noise):
         """One record's natural segments (list of :class:`~cosim.diagnose.analysis.Segment`) from its time,
@@ -259,23 +266,22 @@ class Several(ExperimentKind):
     def noise(self, job, samples):
         """Each record's noise as its kind estimates it, spread over the record's samples (shape (n_signals,
         N)); ``parts`` holds each record's own."""
-        own = [self.part_job(job, k).kind.noise(self.part_job(job, k), record_samples(samples, k))
-               for k in range(len(samples.records))]
+        parts = [self.part_job(job, k) for k in range(len(samples.records))]
+        own = [part.kind.noise(part, record_samples(samples, k)) for k, part in enumerate(parts)]
         lengths = [len(r.time) for r, _ in samples.records]
         sigma = np.hstack([np.repeat(n.sigma[:, None], m, axis=1) for n, m in zip(own, lengths)])
         estimated = np.median(np.hstack([np.repeat(n.estimated[:, None], m, axis=1)
                                          for n, m in zip(own, lengths)]), axis=1)
         return Noise(estimated=estimated, floor=samples.floor, sigma=sigma, parts=tuple(own))
 
-    def segments(self, job, samples, noise):
-        """Each record cut as its kind cuts it, with its own noise level, labelled by its experiment's name."""
-        s, segments = samples, []
-        for k, ((r, _), shift, p) in enumerate(zip(s.records, s.shifts, s.sampled)):
-            part = self.part_job(job, k)
-            for piece in part.kind.cut(part, r.time[p], r.inputs[p], r.measured[p, 0], noise.parts[k].sigma[0]):
-                segments.append(replace(piece, index=len(segments), t0=piece.t0 + shift, t1=piece.t1 + shift,
-                                        label=f"{self.parts[k].name}: {piece.label}"))
-        return segments, None
+    def cut_record(self, job, k, time, inputs, measured, noise):
+        """Record k cut as its kind cuts it, with its own noise level."""
+        part = self.part_job(job, k)
+        return part.kind.cut(part, time, inputs, measured, noise.parts[k].sigma[0])
+
+    def record_label(self, job, k, label):
+        """A segment's label with its experiment's name."""
+        return f"{self.parts[k].name}: {label}"
 
 
 KINDS = {"staircase": Staircase(), "impact": Records(), "frequency": FrequencyResponse()}
