@@ -40,18 +40,20 @@ JOB = ROOT / "examples" / "calibrate_static.toml"
 PARAMETERS_FILE = "calibrated/static_paper.toml"  # relative to the config: the shipped static calibration
 
 
-def run_overrides(eta, condition, scale="calibrated", step_s=None, top_a=None):
-    """The `cosim run --set` items: the plant's scale (k_t, T_c0), eta_g, the job's condition on the plant, and
-    optionally a shorter staircase (steps of ``step_s`` up to ``top_a``)."""
+def run_overrides(eta, condition, scale="calibrated", step_s=None, top_a=None, plant_fmu=None):
+    """The `cosim run --set` items: the plant FMU (``plant_fmu``, default the config's), the plant's scale (k_t,
+    T_c0), eta_g, the job's condition on the plant, and optionally a shorter staircase (steps of ``step_s`` up to
+    ``top_a``)."""
+    items = [] if plant_fmu is None else [f"fmus.plant.path={Path(plant_fmu).as_posix()}"]
     if scale == "calibrated":
-        items = [f"fmus.plant.parameters_file={PARAMETERS_FILE}"]
+        items.append(f"fmus.plant.parameters_file={PARAMETERS_FILE}")
     else:  # the FMU's own values, even under a parameters file the config may read
-        declared = load_config(CONFIG).fmus["plant"].info.variables
-        items = [f"fmus.plant.parameters.{n}={float(declared[n].start)!r}" for n in ("k_t", "T_c0")]
+        declared = load_config(CONFIG, items).fmus["plant"].info.variables
+        items += [f"fmus.plant.parameters.{n}={float(declared[n].start)!r}" for n in ("k_t", "T_c0")]
     items.append(f"fmus.plant.parameters.eta_g={eta!r}")
     items += [f"fmus.plant.parameters.{k}={v!r}" for k, v in condition.items()]
     if step_s is not None or top_a is not None:
-        spec = load_config(CONFIG).controllers["outer"]
+        spec = load_config(CONFIG, items).controllers["outer"]
         outer = {**spec.cls.parameters, **spec.parameters}
         step_s = outer["step_s"] if step_s is None else step_s
         top_a = outer["top_A"] if top_a is None else top_a
@@ -85,12 +87,13 @@ def write_data(results, path, noise, seed):
 
 
 def round_trip(out, eta=0.7, noise=0.5, seed=43, scale="calibrated", step_s=None, top_a=None, job_condition=True,
-               job_overrides=()):
-    """Run, write the data, calibrate; return the figures (see the module docstring)."""
+               job_overrides=(), plant_fmu=None):
+    """Run, write the data, calibrate; return the figures (see the module docstring). ``plant_fmu``: a
+    GripperPlant FMU other than the config's fmus/GripperPlant.fmu (the tests' own build)."""
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     condition = load_job(JOB).fixed if job_condition else {}
-    overrides = run_overrides(eta, condition, scale, step_s, top_a)
+    overrides = run_overrides(eta, condition, scale, step_s, top_a, plant_fmu)
     values = truth(overrides)
     set_items = [a for o in overrides for a in ("--set", o)]
     wall_run = cosim("run", CONFIG, "--out", out / "run", "--force", *set_items)

@@ -24,9 +24,9 @@ ETA, NOISE = 0.70, 0.5
 
 
 @pytest.mark.slow
-def test_static_job_recovers_the_co_simulated_efficiency(tmp_path):
+def test_static_job_recovers_the_co_simulated_efficiency(gripper_fmus, tmp_path):
     figures = round_trip(tmp_path, eta=ETA, noise=NOISE, seed=43, step_s=1.5, top_a=1.5,
-                         job_overrides=["multistart.count=1"])
+                         job_overrides=["multistart.count=1"], plant_fmu=gripper_fmus["GripperPlant"])
     assert figures["truth"]["eta_g"] == ETA and figures["parameters_files"]
     eta = figures["fit"]["eta_g"]
     assert abs(eta["value"] - ETA) < 2 * eta["std_error"], figures
