@@ -276,6 +276,13 @@ def _candidates(table, key, source_text, model, problems):
     return list(names)
 
 
+def _refuse_free(problems, where, fixed, free, what):
+    """A record's own parameter values may fix parameters, never set one the diagnosis frees."""
+    for name in sorted(set(fixed) & set(free)):
+        problems.add(where + ("parameters", name), f"is a free parameter ([parameters]); {what} can only fix a "
+                                                   "parameter")
+
+
 def _inputs_ok(inputs):
     """Whether ``inputs`` maps model inputs to data columns."""
     return isinstance(inputs, dict) and bool(inputs) and all(isinstance(v, str) for v in inputs.values())
@@ -305,9 +312,7 @@ def _experiments(tables, base, free, problems):
         if not _inputs_ok(e.get("inputs")):
             problems.add(where + ("inputs",), "must map model inputs to data columns, e.g. {i_ref = \"i_ref\"}")
         fixed = values(problems, e, "parameters", where)
-        for name in sorted(set(fixed) & set(free)):
-            problems.add(where + ("parameters", name), "is a free parameter ([parameters]); an experiment can only "
-                                                      "fix a parameter")
+        _refuse_free(problems, where, fixed, free, "an experiment")
         steady_s = number(problems, e, "steady_s", where, default=0.0)
         parts.append(Part(
             name=string(problems, e, "name", where, default=f"{kind} {k + 1}"),
@@ -351,9 +356,7 @@ def _records(d, base, free, problems):
                                                   for v in trial.values()):
             problems.add(where + ("parameters",), "must map parameter names to numbers")
             trial = {}
-        for name in sorted(set(trial) & set(free)):
-            problems.add(where + ("parameters", name), "is a free parameter ([parameters]); a trial can only fix a "
-                                                       "parameter")
+        _refuse_free(problems, where, trial, free, "a trial")
         records.append((base / r["path"], {n: float(v) for n, v in trial.items()}))
     return records
 
