@@ -45,6 +45,7 @@ the FMU builds) and the load average before and after: the machine may be shared
 
 import argparse
 import functools
+import importlib
 import json
 import os
 import resource
@@ -191,17 +192,9 @@ def _both(truth):
     """The ``impact+slide`` case function of gripper truth ``truth`` (its module imported when a case is drawn:
     truth 4 stays unread until named)."""
     def case(effect, seed, folder, workers):
-        import diagnose_truth_impact
-        import diagnose_truth2_impact
-
-        if truth == "1":
-            draw, simulate = diagnose_truth_impact.draw_truth, diagnose_truth_impact.record_of
-        elif truth == "2":
-            draw, simulate = diagnose_truth2_impact.draw_truth, diagnose_truth2_impact.simulate
-        else:
-            module = __import__(f"diagnose_truth{truth}_impact")
-            draw, simulate = module.draw_truth, module.simulate
-        return diagnose_experiments_case(draw, simulate, int(truth))(effect, seed, folder, workers)
+        module = importlib.import_module("diagnose_truth_impact" if truth == "1" else f"diagnose_truth{truth}_impact")
+        simulate = module.record_of if truth == "1" else module.simulate  # truth 1's simulate takes parameters
+        return diagnose_experiments_case(module.draw_truth, simulate, int(truth))(effect, seed, folder, workers)
     return case
 
 
