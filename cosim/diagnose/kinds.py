@@ -41,11 +41,15 @@ class ExperimentKind:
         The master can re-run it with the measured inputs (a frequency response is not a time series).
     parts : tuple of Part
         For records of several experiments (:class:`Several`), each record's experiment; else empty.
+    held_levels : bool
+        The input is held at levels, so the output against the held input (rising and falling branches) is worth
+        a plot of its own (``curve.png``).
     """
 
     name: str = ""
     time_series: bool = True
     parts: tuple = ()
+    held_levels: bool = False
 
     def load(self, job, model, path=None):
         """The record at ``path`` (default: the job's first) aligned with ``model``: an Experiment (mask: every
@@ -114,6 +118,7 @@ class Staircase(ExperimentKind):
     estimated inside those steady windows."""
 
     name: str = "staircase"
+    held_levels: bool = True
 
     def cost_mask(self, job, records, present):
         """The settled end (``experiment.steady_s``) of each hold of every record."""

@@ -20,7 +20,8 @@ def plot_diagnosis(diagnosis, folder):
     file names."""
     d, tr = diagnosis, diagnosis.traces
     folder = Path(folder)
-    if d.kind in KINDS and not KINDS[d.kind].time_series:  # records of several experiments are time series
+    kind = KINDS.get(d.kind)  # records of several experiments ("several") are time series without held levels
+    if kind is not None and not kind.time_series:
         return _plot_frequency(diagnosis, folder)
     names = []
     n = tr.measured.shape[0]
@@ -53,7 +54,7 @@ def plot_diagnosis(diagnosis, folder):
     fig.savefig(folder / "fit.png", dpi=110)
     plt.close(fig)
     names.append("fit.png")
-    if d.kind == "staircase" and tr.inputs.shape[1] >= 1 and any(seg.kind in ("up", "down") for seg in d.segments):
+    if kind is not None and kind.held_levels and tr.inputs.shape[1] >= 1 and any(seg.kind in ("up", "down") for seg in d.segments):
         fig, ax = plt.subplots(figsize=(7, 5))
         m = tr.mask
         ax.plot(tr.inputs[m, 0], tr.measured[0, m], ".", ms=3, color="0.5", label="measured")
