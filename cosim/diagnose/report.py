@@ -54,7 +54,8 @@ def plot_diagnosis(diagnosis, folder):
     fig.savefig(folder / "fit.png", dpi=110)
     plt.close(fig)
     names.append("fit.png")
-    if kind is not None and kind.held_levels and tr.inputs.shape[1] >= 1 and any(seg.kind in ("up", "down") for seg in d.segments):
+    ramps = any(seg.kind in ("up", "down") for seg in d.segments)
+    if kind is not None and kind.held_levels and tr.inputs.shape[1] >= 1 and ramps:
         fig, ax = plt.subplots(figsize=(7, 5))
         m = tr.mask
         ax.plot(tr.inputs[m, 0], tr.measured[0, m], ".", ms=3, color="0.5", label="measured")
