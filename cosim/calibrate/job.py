@@ -163,7 +163,7 @@ def run_job(path, out="out/calibration", overrides=(), progress=True, force=Fals
     job = load_job(path, overrides)
     held = SignalsHeld(out)  # a Ctrl-C while the fit is written waits for the files
     with interrupt_on_signals(), held, output_folder(out, "calibrate", force=force) as staging:
-        result = fit_multistart(job, progress=progress)
+        best, runs = fit_multistart(job, progress=progress)
         held.start()
-        summary = write_results(job, result, staging)
+        summary = write_results(job, best, runs, staging)
     return summary

@@ -2,6 +2,7 @@
 one by default, an existing scheduler when the job names its address), with a progress bar."""
 
 import functools
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -10,7 +11,37 @@ from cosim.experiment import align_experiment
 from cosim.fitting import starts
 from cosim.parallel import map_here, map_on_dask
 
-__all__ = ["fit_multistart", "start_points"]
+__all__ = ["fit_multistart", "start_points", "StartFit"]
+
+
+@dataclass(frozen=True)
+class StartFit:
+    """One start's fit, as the report needs it (built in a worker: plain values and arrays, no CasADi objects).
+
+    ``parameters``, ``std_errors`` and ``start`` map the free parameters' names to values; ``predicted`` and
+    ``predicted_before`` are the fitted outputs (one row a signal) at the fitted and the start values, on ``time``
+    beside ``measured``; ``mask`` marks the samples in the cost; ``units`` maps each output to its unit."""
+
+    start: dict
+    parameters: dict
+    std_errors: dict
+    correlation: list
+    cost_before: float
+    cost_after: float
+    iterations: int
+    success: bool
+    return_status: str
+    predicted: np.ndarray
+    predicted_before: np.ndarray
+    time: np.ndarray
+    measured: np.ndarray
+    mask: np.ndarray
+    units: dict
+
+    def summary(self):
+        """What calibration.json lists of each start."""
+        return {"start": self.start, "parameters": self.parameters, "cost_after": self.cost_after,
+                "iterations": self.iterations, "success": self.success}
 
 
 def start_points(free, count, seed):
@@ -48,23 +79,13 @@ def _fit_one(job, start, report=None):
     outputs = [o for o, _, _ in job.signals]
     fit = Calibrator(model, outputs, job.free, fixed=job.fixed, substeps=job.substeps, method=job.method,
                      max_iter=job.max_iter, progress=report).fit(experiment, start=start)
-    return {
-        "start": dict(zip(job.free, map(float, start))),
-        "parameters": fit.parameters_,
-        "std_errors": fit.std_errors_,
-        "correlation": fit.correlation_.tolist(),
-        "cost_before": fit.cost_before_,
-        "cost_after": fit.cost_after_,
-        "iterations": fit.iterations_,
-        "success": fit.success_,
-        "return_status": fit.return_status_,
-        "predicted": fit.predicted_,
-        "predicted_before": fit.predict(experiment, dict(zip(job.free, start))),
-        "time": experiment.time,
-        "measured": experiment.measured.T,
-        "mask": experiment.mask,
-        "units": {o.name: o.unit for o in model.outputs},
-    }
+    return StartFit(
+        start=dict(zip(job.free, map(float, start))), parameters=fit.parameters_, std_errors=fit.std_errors_,
+        correlation=fit.correlation_.tolist(), cost_before=fit.cost_before_, cost_after=fit.cost_after_,
+        iterations=fit.iterations_, success=fit.success_, return_status=fit.return_status_,
+        predicted=fit.predicted_, predicted_before=fit.predict(experiment, dict(zip(job.free, start))),
+        time=experiment.time, measured=experiment.measured.T, mask=experiment.mask,
+        units={o.name: o.unit for o in model.outputs})
 
 
 def _fit_one_fmu(job, start):
@@ -79,35 +100,26 @@ def _fit_one_fmu(job, start):
     free = {n: p.at(s) for (n, p), s in zip(job.free.items(), start)}
     fit = FmuCalibrator(job.fmu, inputs, fitted, free, fixed=job.fixed, substeps=job.substeps).fit(experiment)
     names = list(job.free)
-    return {
-        "start": dict(zip(names, map(float, start))),
-        "parameters": fit.parameters_,
-        "std_errors": fit.std_errors_,
-        "correlation": fit.correlation_.tolist(),
-        "cost_before": fit.cost_before_,
-        "cost_after": fit.cost_after_,
-        "iterations": fit.evaluations_,
-        "success": fit.success_,
-        "return_status": "finite differences through the FMU (no CasADi form of the model)",
-        "predicted": simulate_fmu_experiment(job.fmu, experiment, inputs, fitted,
-                                             {**job.fixed, **fit.parameters_}, job.substeps),
-        "predicted_before": simulate_fmu_experiment(job.fmu, experiment, inputs, fitted,
-                                                    {**job.fixed, **fit.start_}, job.substeps),
-        "time": experiment.time,
-        "measured": experiment.measured.T,
-        "mask": experiment.mask,
-        "units": {o: info.variables[o].unit for o in outputs},
-    }
+    return StartFit(
+        start=dict(zip(names, map(float, start))), parameters=fit.parameters_, std_errors=fit.std_errors_,
+        correlation=fit.correlation_.tolist(), cost_before=fit.cost_before_, cost_after=fit.cost_after_,
+        iterations=fit.evaluations_, success=fit.success_,
+        return_status="finite differences through the FMU (no CasADi form of the model)",
+        predicted=simulate_fmu_experiment(job.fmu, experiment, inputs, fitted, {**job.fixed, **fit.parameters_},
+                                          job.substeps),
+        predicted_before=simulate_fmu_experiment(job.fmu, experiment, inputs, fitted, {**job.fixed, **fit.start_},
+                                                 job.substeps),
+        time=experiment.time, measured=experiment.measured.T, mask=experiment.mask,
+        units={o: info.variables[o].unit for o in outputs})
 
 
 def fit_multistart(job, progress=True):
-    """Fit ``job`` from ``job.starts`` starting points; returns the best fit's dict plus ``runs`` (all of them)."""
+    """Fit ``job`` from ``job.starts`` starting points; returns the best :class:`StartFit` (a successful one
+    first, then the lowest cost) and every start's, in the order of :func:`start_points`."""
     points = start_points(job.free, job.starts, job.seed)
     if len(points) == 1 and not job.scheduler:
         runs = map_here(functools.partial(_fit_one, job), points, desc="fit", progress=progress, report=True)
     else:
         runs = map_on_dask(functools.partial(_fit_one, job), points, job.scheduler, desc="multi-start fits",
                            progress=progress, report=True)
-    best = min(runs, key=lambda r: (not r["success"], r["cost_after"]))
-    return dict(best, runs=[{k: r[k] for k in ("start", "parameters", "cost_after", "iterations", "success")}
-                            for r in runs])
+    return min(runs, key=lambda r: (not r.success, r.cost_after)), list(runs)
