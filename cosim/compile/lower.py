@@ -254,25 +254,11 @@ def _pick_state_to_demote(constraint, states, demoted):
     return min(candidates, key=lambda k: (_DEMOTE_ORDER.get(states[k].state_select.lower(), 2), -k))
 
 
-def lower_system(system):
-    """Lower a :class:`~cosim.compile.translate.DaeSystem` to a :class:`LoweredModel`.
-
-    Raises
-    ------
-    StructureError
-        The equations cannot be made explicit: over- or under-determined, structurally singular, or a
-        constraint between states that involves an input (it would need the input's derivative).
-    """
-    params = _Parameters(system)
-    notes = list(params.notes)
-    states = system.by_role("state")
-    algebraics = [v for v in system.variables if v.role in ("algebraic", "output")]
-    inputs = system.by_role("input")
-    equations = [(params.substitute(e.residual), e.location) for e in system.equations]
-    M, equations = _hybrid_memory(system, equations)
-    input_names = {u.name for u in inputs}
-    ders = [system.derivatives[s.name] for s in states]
-    demoted, extra = [], []
+def _reduce_index(system, equations, states, ders, algebraics, input_names):
+    """Causalise ``equations`` for the state derivatives and algebraics; for each constraint between states, demote
+    one of its states to an algebraic and add the constraint's time derivative (index reduction). Returns the
+    blocks, the demoted states' indices and a note for each."""
+    demoted, extra, reduction_notes = [], [], []
     for _ in range(len(states) + 1):
         unknowns = ders + [z.sym for z in algebraics] + [states[k].sym for k in demoted]
         active_names = {s.name for k, s in enumerate(states) if k not in demoted}
@@ -293,12 +279,35 @@ def lower_system(system):
             dg = ca.mtimes(ca.jacobian(g, ca.vertcat(*[s.sym for s in states])), ca.vertcat(*ders))
             dg += ca.jacobian(g, system.time)
             extra.append((dg, loc))
-            notes.append(f"{loc}: constraint 0 = {g} ties states together; {states[k].name} is computed from it "
-                         f"(index reduction)")
+            reduction_notes.append(f"{loc}: constraint 0 = {g} ties states together; {states[k].name} is computed "
+                                   f"from it (index reduction)")
         if not progressed:
             g, loc = blocks.constraints[0]
             raise StructureError(f"the constraint 0 = {g} between states has no state left to compute from it: the "
                                  "equations over-determine the states", *_file_line(loc))
+    return blocks, demoted, reduction_notes
+
+
+def lower_system(system):
+    """Lower a :class:`~cosim.compile.translate.DaeSystem` to a :class:`LoweredModel`.
+
+    Raises
+    ------
+    StructureError
+        The equations cannot be made explicit: over- or under-determined, structurally singular, or a
+        constraint between states that involves an input (it would need the input's derivative).
+    """
+    params = _Parameters(system)
+    notes = list(params.notes)
+    states = system.by_role("state")
+    algebraics = [v for v in system.variables if v.role in ("algebraic", "output")]
+    inputs = system.by_role("input")
+    equations = [(params.substitute(e.residual), e.location) for e in system.equations]
+    M, equations = _hybrid_memory(system, equations)
+    input_names = {u.name for u in inputs}
+    ders = [system.derivatives[s.name] for s in states]
+    blocks, demoted, reduction_notes = _reduce_index(system, equations, states, ders, algebraics, input_names)
+    notes += reduction_notes
     active = [s for k, s in enumerate(states) if k not in demoted]
     solved = blocks.solved
 
