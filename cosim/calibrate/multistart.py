@@ -79,13 +79,9 @@ def _fit_one(job, start, report=None):
     outputs = [o for o, _, _ in job.signals]
     fit = Calibrator(model, outputs, job.free, fixed=job.fixed, substeps=job.substeps, method=job.method,
                      max_iter=job.max_iter, progress=report).fit(experiment, start=start)
-    return StartFit(
-        start=dict(zip(job.free, map(float, start))), parameters=fit.parameters_, std_errors=fit.std_errors_,
-        correlation=fit.correlation_.tolist(), cost_before=fit.cost_before_, cost_after=fit.cost_after_,
-        iterations=fit.iterations_, success=fit.success_, return_status=fit.return_status_,
-        predicted=fit.predicted_, predicted_before=fit.predict(experiment, dict(zip(job.free, start))),
-        time=experiment.time, measured=experiment.measured.T, mask=experiment.mask,
-        units={o.name: o.unit for o in model.outputs})
+    return _start_fit(job, start, fit, experiment, iterations=fit.iterations_, return_status=fit.return_status_,
+                      predicted=fit.predicted_, predicted_before=fit.predict(experiment, dict(zip(job.free, start))),
+                      units={o.name: o.unit for o in model.outputs})
 
 
 def _fit_one_fmu(job, start):
@@ -99,18 +95,24 @@ def _fit_one_fmu(job, start):
     fitted = [o for o, _, _ in job.signals]
     free = {n: p.at(s) for (n, p), s in zip(job.free.items(), start)}
     fit = FmuCalibrator(job.fmu, inputs, fitted, free, fixed=job.fixed, substeps=job.substeps).fit(experiment)
-    names = list(job.free)
-    return StartFit(
-        start=dict(zip(names, map(float, start))), parameters=fit.parameters_, std_errors=fit.std_errors_,
-        correlation=fit.correlation_.tolist(), cost_before=fit.cost_before_, cost_after=fit.cost_after_,
-        iterations=fit.evaluations_, success=fit.success_,
+    return _start_fit(
+        job, start, fit, experiment, iterations=fit.evaluations_,
         return_status="finite differences through the FMU (no CasADi form of the model)",
         predicted=simulate_fmu_experiment(job.fmu, experiment, inputs, fitted, {**job.fixed, **fit.parameters_},
                                           job.substeps),
         predicted_before=simulate_fmu_experiment(job.fmu, experiment, inputs, fitted, {**job.fixed, **fit.start_},
                                                  job.substeps),
-        time=experiment.time, measured=experiment.measured.T, mask=experiment.mask,
         units={o: info.variables[o].unit for o in outputs})
+
+
+def _start_fit(job, start, fit, experiment, **path_specific):
+    """A :class:`StartFit` from a fitted estimator (``fit``, attributes ending in ``_``) and its experiment;
+    ``path_specific``: iterations, return_status, predicted, predicted_before and units, which the CasADi and the
+    FMU paths get differently."""
+    return StartFit(start=dict(zip(job.free, map(float, start))), parameters=fit.parameters_,
+                    std_errors=fit.std_errors_, correlation=fit.correlation_.tolist(), cost_before=fit.cost_before_,
+                    cost_after=fit.cost_after_, success=fit.success_, time=experiment.time,
+                    measured=experiment.measured.T, mask=experiment.mask, **path_specific)
 
 
 def fit_multistart(job, progress=True):
