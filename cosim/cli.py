@@ -100,9 +100,11 @@ def _add_run(sub):
     p = sub.add_parser(
         "run",
         help="co-simulate the FMUs and controllers of a TOML config",
-        description="Run a co-simulation config; writes OUT/results.parquet, OUT/summary.json and a PNG plot.",
+        description=("Run a co-simulation config; writes OUT/results.parquet, OUT/summary.json and a PNG plot. "
+                     "CONFIG may be an SSP archive (.ssp): its FMUs, connections, parameter values and default "
+                     "experiment are run, every FMU output recorded at its step (docs/guide/ssp.md)."),
     )
-    p.add_argument("config", help="run config (.toml)")
+    p.add_argument("config", help="run config (.toml) or SSP archive (.ssp)")
     p.add_argument("--out", help="output folder (default out/<config stem>)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override any config key, e.g. --set fmus.plant.parameters.eta_g=0.7 (repeatable)")
@@ -267,8 +269,32 @@ def _add_sensitivity(sub):
     p.set_defaults(func=_cmd_sensitivity)
 
 
+def _cmd_export_ssp(args):
+    from cosim.ssp.write import export_ssp
+
+    print(f"wrote {export_ssp(args.config, args.out, overrides=args.set)}")
+    return 0
+
+
+def _add_export_ssp(sub):
+    p = sub.add_parser(
+        "export-ssp",
+        help="write a run config's FMUs, connections and parameter values as an SSP archive",
+        description=("Write the FMUs of a run config, their connections and parameter values as an SSP 1.0 "
+                     "archive (SystemStructure.ssd, the FMUs and one .ssv per FMU) that other tools open. The "
+                     "Python controllers are components of type application/x-cosim-controller, described by a "
+                     "TOML resource: another tool needs an implementation of them (docs/guide/ssp.md)."),
+    )
+    p.add_argument("config", help="run config (.toml)")
+    p.add_argument("--out", required=True, help="the SSP archive written (.ssp), replaced when it exists")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override any config key before writing, e.g. --set run.stop=1 (repeatable)")
+    p.set_defaults(func=_cmd_export_ssp)
+
+
 # Each command adds its parser here; keep one function per command.
-_COMMANDS = [_add_build, _add_haptic, _add_run, _add_calibrate, _add_diagnose, _add_campaign, _add_sensitivity]
+_COMMANDS = [_add_build, _add_haptic, _add_run, _add_export_ssp, _add_calibrate, _add_diagnose, _add_campaign,
+             _add_sensitivity]
 
 
 def make_parser():

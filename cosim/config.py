@@ -16,6 +16,7 @@ The schema (see docs/config.md for the full reference)::
     [record]      rate, signals = ["inst.var", ...]
     [plot]        file, panels = [["sig", ...], ...]
     [summary]     kind (none, or a summary the controller provides), controller, the summary's signals
+    [system]      ssp = "system.ssp": the FMUs, connections and parameter values of an SSP (cosim.ssp.read)
 """
 
 import math
@@ -27,6 +28,7 @@ from pathlib import Path
 from cosim.errors import ParameterError, ScaleWarning
 from cosim.fmi.instance import value_dtype
 from cosim.paramfile import parameters_file_key
+from cosim.ssp.read import ssp_document, with_system
 from cosim.tomldoc import did_you_mean as _close
 from cosim.tomldoc import Problems, format_key, parse_overrides, read_toml
 
@@ -281,7 +283,7 @@ class Config:
 # ----------------------------------------------------------------------------------------------
 # schema helpers
 # ----------------------------------------------------------------------------------------------
-_TOP = ("run", "solver", "fmus", "controllers", "connections", "record", "plot", "summary")
+_TOP = ("run", "solver", "fmus", "controllers", "connections", "record", "plot", "summary", "system")
 _FMU = ("path", "kind", "parameters_file", "parameters", "start")
 _CTRL = ("class", "rate", "jit", "parameters")
 _CONN = ("from", "to", "gain", "offset", "round")
@@ -942,7 +944,8 @@ def load_config(path, overrides=()):
     Parameters
     ----------
     path : path-like
-        The TOML file; relative FMU paths and controller files are resolved against its folder.
+        The TOML file (relative FMU paths and controller files are resolved against its folder), or an SSP archive
+        (``.ssp``, read by :func:`cosim.ssp.read.ssp_document`).
     overrides : sequence of str, optional
         ``"key.path=value"`` items (values in TOML syntax; bare words are strings).
 
@@ -957,7 +960,10 @@ def load_config(path, overrides=()):
         problem with ``file:line`` (or ``--set key``) and the key path.
     """
     path = Path(path)
-    data, problems = read_toml(path, overrides, what="config")
+    if path.suffix == ".ssp":  # an SSP archive run as it is
+        data, problems = ssp_document(path, overrides)
+    else:
+        data, problems = read_toml(path, overrides, what="config")
     return _validated(data, problems, path, tuple(overrides or ()))
 
 
@@ -1001,6 +1007,7 @@ def _plain(value):
 def _validated(data, problems, path, overrides):
     """The Config of ``data`` (a config file's tables) or a ConfigError listing every problem."""
     base_dir = path.parent
+    data = with_system(data, base_dir, problems)  # [system] ssp = "file.ssp": the SSP's tables under the config's
     _unknown(data, _TOP, problems, ())
     run = _run(data, problems)
     solver = _solver(data, problems)

@@ -7,6 +7,7 @@ __all__ = [
     "StructureError",
     "BuildError",
     "ConfigError",
+    "SspError",
     "ParameterError",
     "FmiCallError",
     "FmuFileError",
@@ -63,6 +64,11 @@ class BuildError(CosimError, RuntimeError):
 
 class ConfigError(CosimError, ValueError):
     """A run config or job file is invalid; the message names the file, line and key."""
+
+
+class SspError(ConfigError):
+    """An SSP archive cannot be run or written: a missing FMU, a connection to an unknown connector, a unit
+    mismatch, an element cosim does not support. The message names the archive, the SSD line and the element."""
 
 
 class ParameterError(CosimError, ValueError):

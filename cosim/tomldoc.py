@@ -16,7 +16,7 @@ from cosim.errors import ConfigError
 from cosim.fitting import FreeParameter
 
 __all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables",
-           "Problems", "Locator", "parse_overrides", "apply_override", "format_key", "toml_text", "toml_value",
+           "Problems", "Locator", "parse_overrides", "apply_override", "apply_overrides", "format_key", "toml_text", "toml_value",
            "key_paths", "did_you_mean"]
 
 
@@ -338,11 +338,17 @@ def read_toml(path, overrides=(), what="config", origins=None):
         msg = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(err))
         raise ConfigError(f"{where}: malformed TOML: {msg}") from err
     keys = {format_key(k) for k in key_paths(data)}  # the file's own keys, before the overrides add theirs
+    return data, Problems(str(path), Locator(text), apply_overrides(data, overrides), keys, origins)
+
+
+def apply_overrides(data, overrides):
+    """Apply ``--set`` items (``"key.path=value"``) to the document ``data``; returns the keys they set (dotted)
+    -> the key as given, what :class:`Problems` locates their problems with."""
     set_keys = {}
     for (p, v), item in zip(parse_overrides(overrides), overrides or ()):
         apply_override(data, p, v)
         set_keys[format_key(p)] = item.partition("=")[0].strip()
-    return data, Problems(str(path), Locator(text), set_keys, keys, origins)
+    return set_keys
 
 
 def number(problems, table, key, where, default=None, positive=False, integer=False):
