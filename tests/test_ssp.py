@@ -217,3 +217,19 @@ def test_a_bad_ssp_is_an_ssp_error_naming_the_element(third_party_fmu, tmp_path,
     ssp = _hand_ssp(tmp_path, third_party_fmu, **spoil)
     with pytest.raises(SspError, match=expected):
         load_config(ssp)
+
+
+@pytest.mark.slow
+def test_an_exported_ssp_with_a_controller_runs_in_cosim_like_its_config(body_fmu, tmp_path):
+    """examples/ssp/held.toml: the Python controller, an external component of the SSD described by its TOML
+    resource (and its file shipped beside it), runs again in ``cosim run`` of the SSP: the same numbers."""
+    config = tmp_path / "held.toml"
+    text = (ROOT / "examples" / "ssp" / "held.toml").read_text().replace("fmus/Body.fmu", str(body_fmu))
+    config.write_text(text)
+    (tmp_path / "hold.py").write_text((ROOT / "examples" / "ssp" / "hold.py").read_text())
+    ours = run_config(config, out=tmp_path / "out")[0].data
+    ssp = export_ssp(config, tmp_path / "held.ssp")
+    again = run_config(ssp, out=tmp_path / "again")[0].data
+    assert abs(ours["a.x"][-1] - 0.05) < 0.03  # held near x_set against the coupling spring
+    for name in ("a.x", "b.x", "hold.F"):
+        np.testing.assert_array_equal(again[name], ours[name], err_msg=name)

@@ -57,7 +57,7 @@ class SspSystem:
     connections : list of dict
         ``[[connections]]`` tables.
     outputs : list of str
-        ``"component.connector"`` of the FMU components' output connectors (what ``cosim run system.ssp`` records).
+        ``"component.connector"`` of the components' output connectors (what ``cosim run system.ssp`` records).
     """
 
     path: Path
@@ -195,6 +195,7 @@ def read_ssp(path):
             infos[element.name] = _fmu_component(element, tree, folder, path.parent, system, report)
         elif element.type == CONTROLLER_TYPE:
             system.controllers[element.name] = _controller_component(element, folder, report, where)
+            system.outputs += [f"{element.name}.{c.name}" for c in element.connectors if c.kind == "output"]
         else:
             report.add(where, f"component {element.name!r} is of type {element.type!r}; cosim runs FMUs "
                               f"({FMU_TYPE}) and its controllers ({CONTROLLER_TYPE})")
