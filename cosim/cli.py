@@ -102,7 +102,7 @@ def _add_run(sub):
         help="co-simulate the FMUs and controllers of a TOML config",
         description=("Run a co-simulation config; writes OUT/results.parquet, OUT/summary.json and a PNG plot. "
                      "CONFIG may be an SSP archive (.ssp): its FMUs, connections, parameter values and default "
-                     "experiment are run, every FMU output recorded at its step (docs/guide/ssp.md)."),
+                     "experiment are run, every output connector recorded at its step (docs/guide/ssp.md)."),
     )
     p.add_argument("config", help="run config (.toml) or SSP archive (.ssp)")
     p.add_argument("--out", help="output folder (default out/<config stem>)")

@@ -52,6 +52,8 @@ def test_the_guides_fast_examples_print_what_the_guides_show():
     # The guides' commands run in the checkout after the README's set-up, which includes `cosim build` (a fresh
     # clone has no fmus/; the build writes each FMU atomically and skips the up-to-date ones).
     assert main(["build"]) == 0
+    assert main(["build", "examples/ssp/Oscillators.mo", "--model", "Oscillators.Body", "--fmi-version", "2",
+                 "--out", "examples/ssp/fmus"]) == 0  # docs/guide/ssp.md's first step
     # the slow ones (diagnose, calibrate, campaign, haptic margins): python docs/guide/make_outputs.py --check
     assert make_outputs.main(["--check", "--fast"]) == 0
 

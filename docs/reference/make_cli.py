@@ -23,6 +23,7 @@ COMMANDS = (
     (),
     ("build",),
     ("run",),
+    ("export-ssp",),
     ("calibrate",),
     ("diagnose",),
     ("campaign",),
@@ -34,7 +35,7 @@ COMMANDS = (
     ("haptic", "arm"),
 )
 GUIDES = {"build": "build.md", "run": "run.md", "calibrate": "calibrate.md", "diagnose": "diagnose.md",
-          "haptic": "haptic.md", "sensitivity": "sensitivity.md"}
+          "haptic": "haptic.md", "sensitivity": "sensitivity.md", "export-ssp": "ssp.md"}
 
 
 def help_text(command):
