@@ -121,7 +121,8 @@ SSD = """<?xml version="1.0" encoding="UTF-8"?>
 """
 
 SSV = """<?xml version="1.0" encoding="UTF-8"?>
-<ssv:ParameterSet version="{version}" name="ball" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues">
+<ssv:ParameterSet version="{version}" name="ball"
+    xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues">
   <ssv:Parameters>
     <ssv:Parameter name="e"><ssv:Real value="0.5"/></ssv:Parameter>
     <ssv:Parameter name="g"><ssv:Real value="9.81" unit="m/s2"/></ssv:Parameter>

@@ -111,7 +111,8 @@ def _fmpy_ssd(path, version):
 
     validate = version.startswith("1.")
     read_ssv = fmpy_ssd.read_ssv
-    if not validate:  # read_ssd reads each referenced .ssv with read_ssv(validate=True): here without validating
+    if not validate:  # read_ssd reads each referenced .ssv with read_ssv(validate=True), no argument to turn it off:
+        # for the time of the call the module's read_ssv does not validate (not thread-safe; runs read no SSP at once)
         fmpy_ssd.read_ssv = functools.partial(read_ssv, validate=False)
     try:
         return fmpy_ssd.read_ssd(str(path), validate=validate)
@@ -288,8 +289,7 @@ def _bind(binding, prefix, name, info, table, report, where):
             where_p = f"component {name!r}: parameter set {pset.name!r}: {p.name}"
             var = info.variables.get(vname)
             if var is None:
-                if not prefix:  # a system binding names other components' variables too
-                    report.add(where, f"{where_p}: {info.path.name} has no variable {vname!r}")
+                report.add(where, f"{where_p}: {info.path.name} has no variable {vname!r}")
                 continue
             if p.unit and var.unit and p.unit != var.unit:
                 report.add(where, f"{where_p}: unit {p.unit!r}, but {info.path.name} declares {vname} in "
@@ -414,7 +414,10 @@ def with_system(data, base_dir, problems):
         problems.add(("system",), "must be a table with one key, ssp = \"file.ssp\" (relative to the config)")
         return data
     ssp = Path(t["ssp"]) if Path(t["ssp"]).is_absolute() else base_dir / t["ssp"]
-    system = read_ssp(ssp)
+    try:
+        system = read_ssp(ssp)
+    except SspError as err:
+        raise SspError(f"{problems.where(('system', 'ssp'))}: system.ssp: {err}") from err
     merged = dict(data)
     merged["run"] = {**{k: v for k, v in (("start", system.start), ("stop", system.stop)) if v is not None},
                      **data.get("run", {})}

@@ -26,8 +26,9 @@ _NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
        "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
        "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
        "osp": OSP}
-_TYPES = {"Real": "Real", "Float64": "Real", "Float32": "Real", "Integer": "Integer", "Int32": "Integer",
-          "Boolean": "Boolean"}
+_TYPES = {"Real": "Real", "Float64": "Real", "Float32": "Real", "Boolean": "Boolean",
+          **{t: "Integer" for t in ("Integer", "Enumeration", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32",
+                                    "Int64", "UInt64")}}  # FMI 2.0 and 3.0 types -> SSP 1.0's
 _IMPLEMENTATION = {"ME": "ModelExchange", "CS": "CoSimulation"}
 _BASE_UNITS = ("kg", "m", "s", "A", "K", "mol", "cd", "rad", "factor", "offset")
 for _prefix, _uri in _NS.items():
