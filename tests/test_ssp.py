@@ -220,10 +220,38 @@ def test_a_bad_ssp_is_an_ssp_error_naming_the_element(third_party_fmu, tmp_path,
         load_config(ssp)
 
 
+ATTACHED = """
+[system]
+ssp = "two_bodies.ssp"
+
+[controllers.hold]
+class = "hold.py:Hold"
+rate = 1000
+parameters = { x_set = 0.05 }
+
+[[connections]]
+from = "a.x"
+to = "hold.x"
+
+[[connections]]
+from = "a.v"
+to = "hold.v"
+
+[[connections]]
+from = "hold.F"
+to = "a.F"
+
+[record]
+rate = 1000
+signals = ["a.x", "b.x", "hold.F"]
+"""
+
+
 @pytest.mark.slow
 def test_an_exported_ssp_with_a_controller_runs_in_cosim_like_its_config(body_fmu, tmp_path):
     """examples/ssp/held.toml: the Python controller, an external component of the SSD described by its TOML
-    resource (and its file shipped beside it), runs again in ``cosim run`` of the SSP: the same numbers."""
+    resource (and its file shipped beside it), runs again in ``cosim run`` of the SSP; and attached by the
+    connectors' names in a config naming the SSP of the bodies alone: the same numbers both ways."""
     config = tmp_path / "held.toml"
     text = (ROOT / "examples" / "ssp" / "held.toml").read_text().replace("fmus/Body.fmu", str(body_fmu))
     config.write_text(text)
@@ -234,3 +262,13 @@ def test_an_exported_ssp_with_a_controller_runs_in_cosim_like_its_config(body_fm
     assert abs(ours["a.x"][-1] - 0.05) < 0.03  # held near x_set against the coupling spring
     for name in ("a.x", "b.x", "hold.F"):
         np.testing.assert_array_equal(again[name], ours[name], err_msg=name)
+    # the same controller attached by the connectors' names to the SSP of the two bodies alone, in a config naming it
+    plain = tmp_path / "two_bodies.toml"
+    plain.write_text(TWO_BODIES.format(stop=2.0, fmu=body_fmu, rate=1000))
+    export_ssp(plain, tmp_path / "two_bodies.ssp")
+    attached = tmp_path / "attached.toml"
+    attached.write_text(ATTACHED)
+    assert len(load_config(attached).connections) == 5  # the SSP's two, then the config's three
+    third = run_config(attached, out=tmp_path / "attached")[0].data
+    for name in ("a.x", "b.x", "hold.F"):
+        np.testing.assert_array_equal(third[name], ours[name], err_msg=name)
