@@ -125,13 +125,18 @@ def _fmpy_ssd(path, version):
 class _Tree:
     """The SSD's elements FMPy does not read (see the module docstring), with their lines for the messages."""
 
-    def __init__(self, folder):
+    def __init__(self, folder, path):
         from lxml import etree
         from fmpy.ssp.ssd import ns
 
         self.ns = ns
-        self.root = etree.parse(str(folder / SSD)).getroot()
+        try:
+            self.root = etree.parse(str(folder / SSD)).getroot()
+        except etree.XMLSyntaxError as err:
+            raise SspError(f"{path}:{SSD}:{err.lineno}: malformed XML: {err.msg}") from err
         system = self.root.find("ssd:System", ns)
+        if system is None:
+            raise SspError(f"{path}:{SSD}: no ssd:System element in the SSP 1.0 namespace ({ns['ssd']})")
         self.system = system
         self.components = {c.get("name"): c for c in system.findall("ssd:Elements/ssd:Component", ns)}
         self.connections = system.findall("ssd:Connections/ssd:Connection", ns)
@@ -182,7 +187,7 @@ def read_ssp(path):
     """
     path = Path(path)
     folder = _unpacked(path)
-    tree = _Tree(folder)
+    tree = _Tree(folder, path)
     ssd = _fmpy_ssd(path, tree.root.get("version", ""))
     report = _Report(path)
     system = SspSystem(path, *tree.experiment())
