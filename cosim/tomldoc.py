@@ -16,8 +16,8 @@ from cosim.errors import ConfigError
 from cosim.fitting import FreeParameter
 
 __all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables",
-           "Problems", "Locator", "parse_overrides", "apply_override", "apply_overrides", "format_key", "toml_text", "toml_value",
-           "key_paths", "did_you_mean"]
+           "Problems", "Locator", "parse_overrides", "apply_override", "apply_overrides", "format_key", "toml_text",
+           "toml_value", "key_paths", "did_you_mean"]
 
 
 # ----------------------------------------------------------------------------------------------
