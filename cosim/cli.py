@@ -12,24 +12,13 @@ __all__ = ["main"]
 
 
 def _cmd_build(args):
-    from cosim.compile import build_all, build_fmu
-    from cosim.compile.library import library_path
+    from cosim.api import build
 
-    if args.file is None and args.model is None:
-        for line in build_all(models_toml=args.models, out_dir=args.out, force=args.force,
-                              fmi_version=args.fmi_version, source=args.source or None,
-                              modelica_path=args.modelica_path):
-            print(line)
-        return 0
-    if args.model is None:
+    if args.file is not None and args.model is None:
         raise CosimError(f"{args.file}: name the model to build with --model Pkg.Model")
-    from cosim.compile.build import mark_fmu_folder
-
-    path = build_fmu(args.file, args.model, out_dir=mark_fmu_folder(args.out or "fmus", check_only=True),
-                     fmi_version=args.fmi_version or 3, source=args.source,
-                     modelica_path=library_path(args.modelica_path))
-    mark_fmu_folder(path.parent)
-    print(f"built {path}")
+    build(args.models if args.model is None else args.file, args.model, out=args.out,
+          modelica_path=args.modelica_path, fmi_version=args.fmi_version, force=args.force,
+          c_sources=args.source or None, report=print)
     return 0
 
 
@@ -70,18 +59,19 @@ def _add_haptic(sub):
 
 
 def _cmd_run(args):
+    from cosim.api import run
     from cosim.errors import RunStopped
-    from cosim.master import run_config
 
+    out = args.out or Path("out") / Path(args.config).stem
     try:
-        result, summary, files = run_config(args.config, out=args.out, overrides=args.set, csv=args.csv,
-                                            progress=False if args.no_progress else None, force=args.force)
+        result = run(args.config, set=args.set, out=out, csv=args.csv, force=args.force,
+                     progress=False if args.no_progress else None)
     except RunStopped as stop:
         for f in stop.files:
             print(f"wrote {f}")
         print(f"cosim run: {stop}; kept what was recorded before (summary.json \"stopped\")", file=sys.stderr)
         return 3
-    for f in files:
+    for f in result.files:
         print(f"wrote {f}")
     compiled = f"; kernels compiled or loaded in {result.compile_s:.2g} s" if result.engine == "compiled" else ""
     note = f"; {result.engine_note}" if result.engine_note else ""

@@ -19,6 +19,7 @@ The schema (see docs/config.md for the full reference)::
     [system]      ssp = "system.ssp": the FMUs, connections and parameter values of an SSP (cosim.ssp.read)
 """
 
+import copy
 import math
 import re
 import warnings
@@ -30,7 +31,8 @@ from cosim.fmi.instance import value_dtype
 from cosim.paramfile import parameters_file_key
 from cosim.ssp.read import ssp_document, with_system
 from cosim.tomldoc import did_you_mean as _close
-from cosim.tomldoc import Problems, format_key, parse_overrides, read_toml
+from cosim.tomldoc import (Problems, apply_overrides, format_key, key_paths, parse_overrides, read_toml,
+                           toml_value)
 
 __all__ = [
     "load_config",
@@ -244,6 +246,10 @@ class SummarySpec:
 class Config:
     """A validated run config (frozen), one field per TOML section.
 
+    Made by :meth:`load` (a TOML file), :meth:`from_data` (the same tables built in code) or :meth:`with_set` (a
+    config with some keys changed): each checks every key as ``cosim run`` does and raises one
+    :class:`~cosim.errors.ConfigError` listing every problem.
+
     Attributes
     ----------
     path : pathlib.Path
@@ -278,6 +284,89 @@ class Config:
     def name(self):
         """The config file's stem (default output folder name)."""
         return self.path.stem
+
+    @classmethod
+    def load(cls, path, set=None):
+        """Read and validate a TOML run config (:func:`load_config`).
+
+        Parameters
+        ----------
+        path : path-like
+            The TOML file; relative FMU paths and controller files are resolved against its folder.
+        set : dict or sequence of str, optional
+            Keys to change before the config is checked: ``{"run.stop": 0.5}``, or ``["run.stop=0.5"]`` as
+            ``cosim run --set`` takes them.
+
+        Returns
+        -------
+        Config
+
+        Raises
+        ------
+        ConfigError
+            The file is missing or malformed, or any key is unknown or invalid (each problem with its
+            ``file:line`` or ``--set`` key).
+        """
+        return load_config(path, _set_items(set))
+
+    @classmethod
+    def from_data(cls, data, path="config.toml"):
+        """A config from the tables a TOML run config holds, built in code (:func:`config_from_data`).
+
+        Parameters
+        ----------
+        data : dict
+            ``{"run": {"stop": 1.0}, "fmus": {"plant": {"path": ...}}, "controllers": {...}, "connections": [...],
+            "record": {...}, ...}``, the keys of docs/config.md.
+        path : path-like, default "config.toml"
+            Where the config would be: relative FMU paths and controller files are resolved against its folder
+            (the file need not exist).
+
+        Returns
+        -------
+        Config
+
+        Raises
+        ------
+        ConfigError
+            Any key is unknown or invalid; the message lists every problem with its key path.
+        """
+        return config_from_data(data, path)
+
+    def with_set(self, set):
+        """This config with some keys changed, checked again as a whole (the config itself is not changed).
+
+        Parameters
+        ----------
+        set : dict or sequence of str
+            ``{"fmus.plant.path": "../fmus2/GripperPlant.fmu", "run.stop": 0.5}``, or ``["run.stop=0.5"]``.
+
+        Returns
+        -------
+        Config
+            Its ``overrides`` are this config's followed by the new ones.
+
+        Raises
+        ------
+        ConfigError
+            A changed key is unknown or invalid, or makes another key invalid.
+        """
+        items = _set_items(set)
+        data = copy.deepcopy(self.raw)
+        keys = {format_key(k) for k in key_paths(data)}  # the config's own keys, before the new ones
+        set_keys = apply_overrides(data, items)
+        return _validated(data, Problems(str(self.path), None, set_keys, keys), self.path, self.overrides + items)
+
+
+def _set_items(set):
+    """``set`` (a dict of keys to values, or ``key=value`` strings) as ``--set`` items."""
+    if set is None:
+        return ()
+    if isinstance(set, str):
+        return (set,)
+    if isinstance(set, dict):
+        return tuple(f"{key}={toml_value(_plain(value))}" for key, value in set.items())
+    return tuple(set)
 
 
 # ----------------------------------------------------------------------------------------------

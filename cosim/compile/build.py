@@ -16,7 +16,7 @@ from cosim.compile.lower import lower_system
 from cosim.compile.translate import translate
 from cosim.errors import BuildError, ConfigError, StructureError
 
-__all__ = ["lower", "build_fmu", "build_all", "mark_fmu_folder", "read_model_list"]
+__all__ = ["lower", "build_fmu", "build_all", "build_listed", "mark_fmu_folder", "read_model_list"]
 
 _STATE_FILE = ".build-state.json"
 _ENTRY_KEYS = {"name", "model", "source", "description", "fmi_version", "c_sources", "cs_step", "cs_method"}
@@ -265,6 +265,24 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi
     modelica_path : sequence of Path, default ()
         Library folders looked in before the list's ``libraries`` and ``MODELICAPATH``.
     """
+    for _, line in build_listed(models_toml, out_dir, force, fmi_version, source, modelica_path):
+        yield line
+
+
+def build_listed(models_toml="modelica/models.toml", out_dir=None, force=False, fmi_version=None, source=None,
+                 modelica_path=()):
+    """:func:`build_all`, yielding each model's FMU with its line of report.
+
+    Parameters
+    ----------
+    models_toml, out_dir, force, fmi_version, source, modelica_path
+        As :func:`build_all`'s.
+
+    Yields
+    ------
+    (pathlib.Path, str)
+        The FMU (built, or up to date) and the line ``cosim build`` prints for it.
+    """
     models_toml = Path(models_toml)
     out_dir = mark_fmu_folder(out_dir if out_dir else models_toml.resolve().parent.parent / "fmus", check_only=True)
     state_path = out_dir / _STATE_FILE
@@ -281,7 +299,7 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi
         digest = _source_hash(entry["source"], entry["model"], f"fmi{version} sources={with_source} {solver}",
                               fingerprints[roots])
         if not force and fmu.is_file() and state.get(entry["name"]) == digest:
-            yield f"{entry['name']}: up to date ({fmu})"
+            yield fmu, f"{entry['name']}: up to date ({fmu})"
             continue
         build_fmu(entry["source"], entry["model"], out_dir=out_dir, name=entry["name"],
                   description=entry.get("description", ""), fmi_version=version, source=with_source,
@@ -289,4 +307,4 @@ def build_all(models_toml="modelica/models.toml", out_dir=None, force=False, fmi
         state[entry["name"]] = digest
         mark_fmu_folder(out_dir)
         state_path.write_text(json.dumps(state, indent=1, sort_keys=True))
-        yield f"{entry['name']}: built {fmu}"
+        yield fmu, f"{entry['name']}: built {fmu}"

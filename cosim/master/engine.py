@@ -77,6 +77,14 @@ class RunResult:
         (``by`` "user", ``time`` the last row's). ``data`` holds what was recorded until then. None otherwise.
     fault : Exception or None
         The exception that stopped the run (cause "error" or "non-finite").
+    config : cosim.config.Config or None
+        The config that ran (set by :func:`cosim.run`).
+    summary : dict or None
+        What summary.json holds (set by :func:`cosim.run`).
+    out : pathlib.Path or None
+        The folder the results were written to; None when nothing was written.
+    files : list of pathlib.Path
+        The files written.
     """
 
     data: np.ndarray
@@ -93,10 +101,64 @@ class RunResult:
     events: list = field(default_factory=list)
     stopped: dict = None
     fault: Exception = None
+    config: object = field(default=None, repr=False, compare=False)
+    summary: dict = field(default=None, repr=False, compare=False)
+    out: object = None
+    files: list = field(default_factory=list)
 
     def column(self, name):
         """The recorded column ``name`` as a float array."""
         return self.data[name]
+
+    def frame(self, instance=None):
+        """The recorded columns as a pandas DataFrame indexed by time (s), with their units.
+
+        Parameters
+        ----------
+        instance : str, optional
+            An FMU or controller instance of the config (``"plant"``, ``"foc"``): its columns only, named by
+            their variable (``F_g``, ``v_q``). Default: every column, named as in results.parquet.
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``frame.attrs["units"]``: column name -> unit ("" for none).
+
+        Raises
+        ------
+        KeyError
+            No recorded column belongs to ``instance``.
+        """
+        import pandas as pd
+
+        columns = {name: name for name in self.signals}
+        if instance is not None:
+            columns = {name: var for name, (inst, var) in self.signals.items() if inst == instance}
+            if not columns:
+                owners = ", ".join(dict.fromkeys(inst for inst, _ in self.signals.values()))
+                raise KeyError(f"no recorded column of instance {instance!r}; the recorded instances: {owners}")
+        frame = pd.DataFrame({label: self.data[name] for name, label in columns.items()},
+                             index=pd.Index(self.data["time"], name="time"))
+        frame.attrs["units"] = {label: self.units.get(name, "") for name, label in columns.items()}
+        return frame
+
+    def plot(self, panels=None):
+        """The run's figure, as ``cosim run`` draws its PNG (:func:`~cosim.master.plot.run_figure`).
+
+        Parameters
+        ----------
+        panels : sequence of sequence of str, optional
+            Column names per panel (default: the config's ``[plot] panels``, else one panel per column).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from cosim.master.plot import run_figure
+
+        if panels is None:
+            panels = self.config.plot.panels if self.config is not None else ()
+        return run_figure(self, panels=panels, config=self.config, summary=self.summary)
 
 
 class Engine:

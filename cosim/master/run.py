@@ -1,4 +1,5 @@
-"""``run``: config -> results in memory; ``run_config``: the whole ``cosim run`` job (load, run, write)."""
+"""``run``: config -> results in memory; ``run_config``: the whole ``cosim run`` job (load, run, write);
+``write_run``: run and write a config already loaded."""
 
 import contextlib
 import signal
@@ -12,7 +13,7 @@ from cosim.master.output import write_results
 from cosim.master.summary import summarize
 from cosim.outputs import output_folder
 
-__all__ = ["run", "run_config", "interrupt_on_signals", "SignalsHeld"]
+__all__ = ["run", "run_config", "write_run", "interrupt_on_signals", "SignalsHeld"]
 
 
 def run(config, progress=None):
@@ -70,7 +71,37 @@ def run_config(path, out=None, overrides=(), csv=False, progress=None, force=Fal
     from cosim.config import load_config
 
     config = load_config(path, overrides)
-    out = Path(out) if out is not None else Path("out") / config.name
+    return write_run(config, out if out is not None else Path("out") / config.name, csv=csv, progress=progress,
+                     force=force)
+
+
+def write_run(config, out, csv=False, progress=None, force=False):
+    """Run a validated config and write results, summary and plot to ``out``, as :func:`run_config` does.
+
+    Parameters
+    ----------
+    config : cosim.config.Config
+    out : path-like
+        Output folder: new, empty, or a previous cosim output (with ``force``).
+    csv : bool
+        Also write ``results.csv``.
+    progress : bool or None
+    force : bool, default False
+        Replace a previous cosim output at ``out``.
+
+    Returns
+    -------
+    (RunResult, dict, list of pathlib.Path)
+        The result, the summary and the files written.
+
+    Raises
+    ------
+    cosim.errors.RunStopped
+        The run stopped on a fault; what was recorded was written first.
+    cosim.master.engine.Interrupt
+        A signal came while the results were written: they were written in full first.
+    """
+    out = Path(out)
     held = SignalsHeld(out)
     with interrupt_on_signals(), held, output_folder(out, "run", force=force) as staging:
         result = engine_for(config).run(progress=progress, faults="keep", loop_end=held.start)
