@@ -1,17 +1,35 @@
-"""The public API's contract: numpydoc docstrings that document every parameter, and unknown keywords rejected.
+"""The public API's contract: numpydoc docstrings that document every parameter, and unknown keywords rejected;
+and the calls of ``cosim.__all__`` (issue 53 item 1): ``cosim.run`` gives the records ``cosim run`` writes, writes
+nothing without ``out``, and a config built in code is checked as a file is.
 
 The public API is what the modules below list in ``__all__``; the list is written out here, so a module that
 drops out of it fails this test instead of leaving the contract quietly.
+
+References: the damped oscillator's closed-form free response (a run's frame), ``cosim run``'s results.parquet read
+back with pyarrow (the API's records), the FMU's model description read by fmpy (the units), ``load_config`` on
+the same tables written as TOML (a config built in code).
 """
 
 import dataclasses
 import importlib
 import inspect
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
 
+import numpy as np
 import pytest
 from numpydoc.docscrape import ClassDoc, FunctionDoc
+from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
+
+from cosim.config import load_config
+from cosim.errors import ConfigError, CosimError
+from cosim.tomldoc import toml_text
 
 PUBLIC_MODULES = [
+    "cosim",
+    "cosim.api",
     "cosim.compile",
     "cosim.fmi",
     "cosim.experiment",
@@ -102,3 +120,129 @@ def test_every_public_callable_taking_any_keyword_is_checked_here():
 def test_an_unknown_keyword_is_a_type_error_naming_it(name):
     with pytest.raises(TypeError, match="not_a_parameter"):
         UNKNOWN_KEYWORD_CALLS[name]()
+
+
+# ----------------------------------------------------------------------------------------------
+# the calls
+# ----------------------------------------------------------------------------------------------
+def _tree(folder):
+    """Every path under ``folder`` with its size and modification time: what a call may not change (numba's cache
+    of the compiled controller kernels, ``__pycache__`` beside a controller's file, aside)."""
+    return {p: (p.stat().st_size, p.stat().st_mtime_ns) for p in Path(folder).rglob("*")
+            if "__pycache__" not in p.parts}
+
+
+def test_a_run_without_out_writes_nothing_and_its_frame_is_the_closed_form(master_dir, tmp_path, monkeypatch):  # noqa: F811
+    import cosim
+
+    monkeypatch.chdir(tmp_path)
+    config = osc_config(master_dir, stop=1.0)
+    before = _tree(master_dir)
+    result = cosim.run(config, set={"controllers.src.parameters.amp": 0.0})
+    assert list(tmp_path.iterdir()) == [] and result.out is None and result.files == []
+    assert _tree(master_dir) == before
+    # x'' + c x' + k x = 0, x(0) = 1, x'(0) = 0 (k = 9 from the config, c = 0.5 the model's); y = 2 x
+    k, c = 9.0, 0.5
+    wd = np.sqrt(k - c * c / 4)
+    plant = result.frame("plant")
+    t = plant.index.to_numpy()
+    x = np.exp(-c * t / 2) * (np.cos(wd * t) + c / (2 * wd) * np.sin(wd * t))
+    assert list(plant.columns) == ["y", "v_out"] and t[0] == 0.0 and t[-1] == pytest.approx(1.0)
+    assert np.max(np.abs(plant.y.to_numpy() - 2 * x)) < 1e-6
+    assert plant.attrs["units"] == {"y": "m", "v_out": "m/s"}
+    assert result.summary["stop_s"] == 1.0 and result.config.overrides == ("controllers.src.parameters.amp=0.0",)
+    with pytest.raises(KeyError, match="'plnt'.*plant, src"):
+        result.frame("plnt")
+
+
+@pytest.mark.slow
+def test_cosim_run_gives_the_records_cosim_run_writes(gripper_dir, tmp_path, monkeypatch):  # noqa: F811
+    import fmpy
+    import pyarrow.parquet as pq
+
+    import cosim
+    from cosim.cli import main
+
+    config = EXAMPLES / "gripper_impact.toml"
+    sets = gripper_overrides(gripper_dir) + ["run.stop=0.45"]
+    assert main(["run", str(config), "--out", str(tmp_path / "cli"), "--no-progress",
+                 *[a for s in sets for a in ("--set", s)]]) == 0
+    written = pq.read_table(tmp_path / "cli" / "results.parquet")
+    monkeypatch.chdir(tmp_path / "cli")
+    before = _tree(tmp_path)
+    result = cosim.run(str(config), set=sets)
+    assert _tree(tmp_path) == before  # nothing written beside the CLI's output, nor into it
+    plant = result.frame("plant")
+    assert np.array_equal(plant.F_g.to_numpy(), written.column("F_g").to_numpy())
+    assert np.array_equal(plant.index.to_numpy(), written.column("time").to_numpy())
+    assert np.array_equal(result.frame("outer")["mode"].to_numpy(), written.column("outer.mode").to_numpy())
+    units = {v.name: v.unit for v in fmpy.read_model_description(gripper_dir / "GripperPlant.fmu").modelVariables}
+    assert plant.attrs["units"] == {name: units[name] for name in plant.columns}
+    assert result.summary["peak_force_N"] == pytest.approx(plant.F_g.max())
+    figure = result.plot()
+    assert len(figure.axes) >= 5  # the config's five panels (and the zoom around the impact)
+
+
+def test_a_config_built_in_code_gives_the_loaders_errors(master_dir):  # noqa: F811
+    import cosim
+
+    data = tomllib.loads(osc_config(master_dir, stop=1.0).read_text())
+    data["run"]["stop"] = -1.0
+    data["controllers"]["src"]["rate"] = "fast"
+    data["connections"][0]["to"] = "plant.uu"
+    path = master_dir / "api_invalid.toml"  # beside the FMU and ctl.py, which the tables name relatively
+    path.write_text(toml_text(data))
+
+    def problems(make):
+        with pytest.raises(ConfigError) as err:
+            make()
+        return {line.split(": ", 1)[1] for line in err.value.problems}  # the place (file:line or file) aside
+
+    from_file = problems(lambda: load_config(path))
+    assert len(from_file) == 3 and any("no input 'uu'" in p for p in from_file)
+    assert problems(lambda: cosim.Config.from_data(data, path)) == from_file
+    assert problems(lambda: cosim.Config.load(path)) == from_file
+
+
+def test_with_set_checks_the_changed_config_and_leaves_the_config_alone(master_dir):  # noqa: F811
+    import cosim
+
+    config = cosim.Config.load(osc_config(master_dir, stop=1.0))
+    shorter = config.with_set({"run.stop": 0.5, "fmus.plant.parameters.k": 4})
+    assert shorter.run.stop == 0.5 and shorter.fmus["plant"].parameters == {"k": 4}
+    assert shorter.overrides == ("run.stop=0.5", "fmus.plant.parameters.k=4")
+    assert config.run.stop == 1.0 and config.fmus["plant"].parameters == {"k": 9.0}
+    assert shorter == load_config(config.path, ["run.stop=0.5", "fmus.plant.parameters.k=4"])
+    with pytest.raises(ConfigError, match=r"osc\.toml: run\.stop: must be > run\.start \(2\.0\); got 1\.0"):
+        config.with_set(["run.start=2.0"])
+    with pytest.raises(ConfigError, match="did you mean --set fmus.plant.parameters.k="):
+        config.with_set({"plant.k": 1.0})
+
+
+def test_build_returns_the_fmus_of_a_model_and_of_a_model_list(tmp_path):
+    import fmpy
+
+    import cosim
+
+    source = tmp_path / "Lag.mo"
+    source.write_text("model Lag \"first-order lag\"\n  parameter Real tau = 0.1;\n  input Real u;\n"
+                      "  output Real y(start = 0, fixed = true);\nequation\n  tau * der(y) = u - y;\nend Lag;\n")
+    one = cosim.build(source, "Lag", out=tmp_path / "fmus")
+    assert one == [tmp_path / "fmus" / "Lag.fmu"] and fmpy.read_model_description(one[0]).fmiVersion == "3.0"
+    models = tmp_path / "models.toml"
+    models.write_text('[[model]]\nname = "Lag2"\nsource = "Lag.mo"\nmodel = "Lag"\nfmi_version = 2\n')
+    lines = []
+    listed = cosim.build(models, out=tmp_path / "fmus", report=lines.append)
+    assert listed == [tmp_path / "fmus" / "Lag2.fmu"] and lines == [f"Lag2: built {listed[0]}"]
+    assert fmpy.read_model_description(listed[0]).fmiVersion == "2.0"
+    assert cosim.build(models, out=tmp_path / "fmus", report=lines.append) == listed
+    assert lines[-1] == f"Lag2: up to date ({listed[0]})"
+    with pytest.raises(CosimError, match="name the model to build"):
+        cosim.build(source)
+
+
+def test_import_cosim_imports_none_of_the_api():
+    done = subprocess.run([sys.executable, "-c", "import sys, cosim; print(sorted(m for m in sys.modules "
+                                                 "if m.startswith(('cosim.', 'numpy', 'pandas'))))"],
+                          capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "[]"
