@@ -12,6 +12,7 @@ from cosim.cli import main
 from test_master_support import ROOT
 
 MAKE_CLI = ROOT / "docs" / "reference" / "make_cli.py"
+MAKE_PYTHON = ROOT / "docs" / "reference" / "make_python.py"
 
 
 def _module(path):
@@ -69,6 +70,14 @@ def test_make_cli_help_prints_help_and_writes_nothing():
 @pytest.mark.slow
 def test_cli_reference_is_what_the_commands_print():
     assert subprocess.run([sys.executable, str(MAKE_CLI), "--check"]).returncode == 0
+
+
+def test_python_reference_is_what_the_docstrings_say():
+    page = ROOT / "docs" / "reference" / "python.md"
+    before = page.read_bytes()
+    done = subprocess.run([sys.executable, str(MAKE_PYTHON), "--check"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert page.read_bytes() == before and "## `cosim.run(config, *, set=None" in before.decode()
 
 
 def test_haptic_help_describes_its_four_subcommands(capsys):
