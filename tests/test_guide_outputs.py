@@ -23,6 +23,7 @@ def _module(path):
 
 
 make_outputs = _module(ROOT / "docs" / "guide" / "make_outputs.py")
+run_python = _module(ROOT / "docs" / "guide" / "run_python.py")
 
 
 def test_a_drifted_output_fails_the_check_and_is_rewritten(tmp_path):
@@ -57,6 +58,21 @@ def test_the_guides_fast_examples_print_what_the_guides_show():
                  "--out", "examples/ssp/fmus"]) == 0  # docs/guide/ssp.md's first step
     # the slow ones (diagnose, calibrate, campaign, haptic margins): python docs/guide/make_outputs.py --check
     assert make_outputs.main(["--check", "--fast"]) == 0
+
+
+def test_a_python_block_that_fails_or_prints_otherwise_fails_the_check(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text("```python\nx = 6 * 7\nprint(x)\n```\n\n```output\n41\n```\n\n```python\nprint(x / 0)\n```\n"
+                    "\n```python\nprint('not run')\n```\n")
+    problems = run_python.run_page(page, log=lambda line: None)
+    assert len(problems) == 2 and problems[0].startswith("page.md:10: the block raised")
+    assert "ZeroDivisionError" in problems[0] and problems[1] == "page.md:1: printed\n42\nnot what the page shows\n41"
+
+
+@pytest.mark.slow
+def test_the_python_guide_runs_as_written():
+    # builds the GripperPlant twice (FMI 3 and 2) into a temporary folder and runs the impact six times
+    assert run_python.run_page(log=lambda line: None) == []
 
 
 def test_make_cli_help_prints_help_and_writes_nothing():
