@@ -287,31 +287,25 @@ class Config:
 
     @classmethod
     def load(cls, path, set=None):
-        """Read and validate a TOML run config (:func:`load_config`).
+        """Read and check a TOML run config: :func:`load_config`, ``set`` changing keys first.
 
         Parameters
         ----------
         path : path-like
-            The TOML file; relative FMU paths and controller files are resolved against its folder.
+            The TOML file (FMU paths and controller files relative to its folder).
         set : dict or sequence of str, optional
-            Keys to change before the config is checked: ``{"run.stop": 0.5}``, or ``["run.stop=0.5"]`` as
-            ``cosim run --set`` takes them.
+            ``{"run.stop": 0.5}``, or ``["run.stop=0.5"]`` as ``cosim run --set`` takes them.
 
         Returns
         -------
         Config
-
-        Raises
-        ------
-        ConfigError
-            The file is missing or malformed, or any key is unknown or invalid (each problem with its
-            ``file:line`` or ``--set`` key).
+            Or a :class:`~cosim.errors.ConfigError` naming each problem's ``file:line`` or ``--set`` key.
         """
         return load_config(path, _set_items(set))
 
     @classmethod
     def from_data(cls, data, path="config.toml"):
-        """A config from the tables a TOML run config holds, built in code (:func:`config_from_data`).
+        """Check the tables of a run config built in code: :func:`config_from_data`.
 
         Parameters
         ----------
@@ -319,17 +313,13 @@ class Config:
             ``{"run": {"stop": 1.0}, "fmus": {"plant": {"path": ...}}, "controllers": {...}, "connections": [...],
             "record": {...}, ...}``, the keys of docs/config.md.
         path : path-like, default "config.toml"
-            Where the config would be: relative FMU paths and controller files are resolved against its folder
-            (the file need not exist).
+            The file the config would be (it need not exist): FMU paths and controller files are relative to
+            its folder.
 
         Returns
         -------
         Config
-
-        Raises
-        ------
-        ConfigError
-            Any key is unknown or invalid; the message lists every problem with its key path.
+            Or a :class:`~cosim.errors.ConfigError` naming each problem's key.
         """
         return config_from_data(data, path)
 

@@ -33,40 +33,24 @@ def run(config, progress=None):
 
 
 def run_config(path, out=None, overrides=(), csv=False, progress=None, force=False):
-    """Load ``path`` with ``overrides``, run it and write results, summary and plot to ``out``.
-
-    Nothing is written when the config is invalid, ``out`` cannot be used (see
-    :func:`cosim.outputs.output_folder`) or the FMUs cannot be loaded (the exception propagates, before the run).
-    When the run stops early (Ctrl-C, SIGTERM, an exception in the loop, a NaN), what was recorded is written and
-    ``summary.json`` says why (``stopped``). Results go to a folder beside ``out``, moved into place at the end;
-    a Ctrl-C (or SIGTERM) while they are written waits for the files and the move (:class:`SignalsHeld`), and a
-    plot that cannot be drawn is a warning.
+    """Load ``path`` with ``overrides``, run it and write results, summary and plot to ``out``: the whole
+    ``cosim run`` job (:func:`write_run` after :func:`cosim.config.load_config`).
 
     Parameters
     ----------
     path : path-like
         The TOML config.
     out : path-like, optional
-        Output folder (default ``out/<config stem>``): new, empty, or a previous cosim output (with ``force``).
+        Output folder (default ``out/<config stem>``).
     overrides : sequence of str
         ``key=value`` items, as ``--set``.
-    csv : bool
-        Also write ``results.csv``.
-    progress : bool or None
-    force : bool, default False
-        Replace a previous cosim output at ``out``.
+    csv, progress, force
+        As :func:`write_run`'s.
 
     Returns
     -------
     (RunResult, dict, list of pathlib.Path)
-        The result, the summary and the files written.
-
-    Raises
-    ------
-    cosim.errors.RunStopped
-        The run stopped on a fault (an exception, a non-finite value); what was recorded was written first.
-    cosim.master.engine.Interrupt
-        A signal came while the results were written: they were written in full first.
+        As :func:`write_run`, which raises what it raises.
     """
     from cosim.config import load_config
 
@@ -76,7 +60,14 @@ def run_config(path, out=None, overrides=(), csv=False, progress=None, force=Fal
 
 
 def write_run(config, out, csv=False, progress=None, force=False):
-    """Run a validated config and write results, summary and plot to ``out``, as :func:`run_config` does.
+    """Run a validated config and write results, summary and plot to ``out``.
+
+    Nothing is written when ``out`` cannot be used (see :func:`cosim.outputs.output_folder`) or the FMUs cannot
+    be loaded (the exception propagates, before the run).
+    When the run stops early (Ctrl-C, SIGTERM, an exception in the loop, a NaN), what was recorded is written and
+    ``summary.json`` says why (``stopped``). Results go to a folder beside ``out``, moved into place at the end;
+    a Ctrl-C (or SIGTERM) while they are written waits for the files and the move (:class:`SignalsHeld`), and a
+    plot that cannot be drawn is a warning.
 
     Parameters
     ----------

@@ -15,7 +15,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-__all__ = ["COMMANDS", "help_text", "page_text", "main"]
+__all__ = ["COMMANDS", "help_text", "page_text", "write_or_check", "main"]
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGE = ROOT / "docs" / "reference" / "cli.md"
@@ -64,21 +64,27 @@ def page_text():
     return "\n".join(parts)
 
 
+def write_or_check(argv, page, make_text, source, script):
+    """The command line of a page generator: write ``page`` with ``make_text()``, or with ``--check`` compare it
+    (``source`` names what it is made from, ``script`` the generator); returns the exit status."""
+    parser = argparse.ArgumentParser(description=f"Write {page.relative_to(ROOT)} from {source}.")
+    parser.add_argument("--check", action="store_true",
+                        help=f"write nothing; exit 1 when the page differs from {source}")
+    args = parser.parse_args(argv)
+    text = make_text()
+    if args.check:
+        same = page.is_file() and page.read_text(encoding="utf-8") == text
+        print(f"{page.relative_to(ROOT)}: " + ("up to date" if same else f"differs from {source}; run python {script}"))
+        return 0 if same else 1
+    page.write_text(text, encoding="utf-8")
+    print(f"wrote {page.relative_to(ROOT)}")
+    return 0
+
+
 def main(argv=None):
     """Write the page (or, with ``--check``, compare it); returns the exit status."""
-    parser = argparse.ArgumentParser(description="Write docs/reference/cli.md from every cosim command's --help.")
-    parser.add_argument("--check", action="store_true",
-                        help="write nothing; exit 1 when the page differs from what the commands print")
-    args = parser.parse_args(argv)
-    text = page_text()
-    if args.check:
-        same = PAGE.read_text(encoding="utf-8") == text
-        print(f"{PAGE.relative_to(ROOT)}: " + ("up to date" if same else "differs from the commands' --help; "
-                                                "run python docs/reference/make_cli.py"))
-        return 0 if same else 1
-    PAGE.write_text(text, encoding="utf-8")
-    print(f"wrote {PAGE.relative_to(ROOT)}")
-    return 0
+    return write_or_check(argv, PAGE, page_text, "what the commands print (their --help)",
+                          "docs/reference/make_cli.py")
 
 
 if __name__ == "__main__":
