@@ -70,6 +70,9 @@ def plot_results(result, path, panels=(), title="", config=None, summary=None):
     -------
     pathlib.Path
     """
+    import matplotlib
+
+    matplotlib.use("Agg")  # a file is drawn: no window, whatever the display
     import matplotlib.pyplot as plt
 
     fig = run_figure(result, panels=panels, title=title, config=config, summary=summary)
@@ -96,10 +99,8 @@ def run_figure(result, panels=(), title="", config=None, summary=None):
     Returns
     -------
     matplotlib.figure.Figure
+        Drawn with the backend in use (a notebook's shows it; :func:`plot_results` draws with Agg).
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     names = [n for n in result.data.dtype.names if n != "time"]
