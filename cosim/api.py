@@ -27,8 +27,8 @@ def build(source_or_models="modelica/models.toml", model=None, *, out=None, mode
     Parameters
     ----------
     source_or_models : path-like or None, default "modelica/models.toml"
-        A Modelica source (``.mo``) holding ``model``; a model list (``.toml``, see docs/guide/build.md) when
-        ``model`` is None; None for a model of a library on ``modelica_path``.
+        A Modelica source (``.mo``) holding ``model``; without ``model``, a model list (``models.toml``, see
+        docs/guide/build.md); None for a model of a library on ``modelica_path``.
     model : str, optional
         The full name of the model to build, e.g. ``"Gripper.GripperPlant"``.
     out : path-like, optional
@@ -61,7 +61,7 @@ def build(source_or_models="modelica/models.toml", model=None, *, out=None, mode
     from cosim.compile.library import library_path
 
     if model is None:
-        if source_or_models is None or Path(source_or_models).suffix != ".toml":
+        if source_or_models is None or Path(source_or_models).suffix == ".mo":
             raise CosimError(f"{source_or_models}: name the model to build (model=\"Pkg.Model\"), or give a model "
                              "list (.toml)")
         paths = []
