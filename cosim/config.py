@@ -299,7 +299,8 @@ class Config:
         Returns
         -------
         Config
-            Or a :class:`~cosim.errors.ConfigError` naming each problem's ``file:line`` or ``--set`` key.
+            Checked: an invalid one raises a :class:`~cosim.errors.ConfigError` listing every problem at its
+            ``file:line`` or ``--set`` key.
         """
         return load_config(path, _set_items(set))
 
@@ -319,7 +320,7 @@ class Config:
         Returns
         -------
         Config
-            Or a :class:`~cosim.errors.ConfigError` naming each problem's key.
+            Checked: invalid tables raise a :class:`~cosim.errors.ConfigError` listing every problem at its key.
         """
         return config_from_data(data, path)
 
