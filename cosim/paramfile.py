@@ -16,7 +16,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from cosim.errors import ConfigError
-from cosim.tomldoc import read_text, toml_value
+from cosim.tomldoc import read_text, toml_key, toml_value
 
 __all__ = ["ParametersFile", "read_parameters_file", "parameters_file_key", "write_parameters_file", "provenance",
            "file_sha256"]
@@ -98,6 +98,11 @@ def read_parameters_file(path, key=None):
     values = doc.get("parameters")
     if not isinstance(values, dict):
         raise error(f"{path}: needs a [parameters] table of name = value (as cosim calibrate writes)")
+    pairs = _flat(values)
+    values = dict(pairs)
+    twice = sorted({n for n, _ in pairs if sum(m == n for m, _ in pairs) > 1})
+    if twice:
+        raise error(f"{path}: [parameters] names {', '.join(map(repr, twice))} twice (quoted and as a dotted key)")
     bad = [f"{n} = {v!r}" for n, v in values.items()
            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)]
     if bad:
@@ -105,6 +110,16 @@ def read_parameters_file(path, key=None):
     prov = doc.get("provenance", {})
     return ParametersFile(path, {n: float(v) for n, v in values.items()}, file_sha256(path),
                           prov if isinstance(prov, dict) else {})
+
+
+def _flat(table, prefix=""):
+    """``[parameters]`` as (name, value) pairs, its nested tables as dotted names: ``load.J = 2.0`` written bare
+    (by hand, or by cosim calibrate before it quoted keys) is TOML for ``{load = {J = 2.0}}`` and means the
+    parameter ``load.J``."""
+    out = []
+    for name, value in table.items():
+        out += _flat(value, f"{prefix}{name}.") if isinstance(value, dict) else [(prefix + name, value)]
+    return out
 
 
 def parameters_file_key(table, where, base, problems):
@@ -200,7 +215,7 @@ def write_parameters_file(path, values, notes, prov, header=()):
         Comment lines at the top.
     """
     lines = [f"# {h}" for h in header] + ["[parameters]"]
-    lines += [f"{n} = {float(v)!r}" + (f"  # {notes[n]}" if n in notes else "") for n, v in values.items()]
+    lines += [f"{toml_key(n)} = {float(v)!r}" + (f"  # {notes[n]}" if n in notes else "") for n, v in values.items()]
     lines += ["", "[provenance]"]
     lines += [f"{k} = {toml_value(v)}" for k, v in prov.items() if k != "upstream"]
     lines += [f"upstream = {toml_value(list(prov.get('upstream', ())))}"]

@@ -17,7 +17,7 @@ from cosim.fitting import FreeParameter
 
 __all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables",
            "Problems", "Locator", "parse_overrides", "apply_override", "apply_overrides", "format_key", "toml_text",
-           "toml_value", "key_paths", "did_you_mean"]
+           "toml_value", "toml_key", "key_paths", "did_you_mean"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -324,7 +324,8 @@ def read_toml(path, overrides=(), what="config", origins=None):
     Raises
     ------
     ConfigError
-        The file is missing, the TOML is malformed (with line and column), or an override is malformed.
+        The file is missing, the TOML is malformed (with line and column), an override is malformed, or a string
+        holds a NUL byte (with the line and key of each).
     """
     path = Path(path)
     if not path.is_file():
@@ -338,7 +339,9 @@ def read_toml(path, overrides=(), what="config", origins=None):
         msg = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(err))
         raise ConfigError(f"{where}: malformed TOML: {msg}") from err
     keys = {format_key(k) for k in key_paths(data)}  # the file's own keys, before the overrides add theirs
-    return data, Problems(str(path), Locator(text), apply_overrides(data, overrides), keys, origins)
+    problems = Problems(str(path), Locator(text), apply_overrides(data, overrides), keys, origins)
+    _refuse_nul(data, problems)
+    return data, problems
 
 
 def apply_overrides(data, overrides):
@@ -349,6 +352,18 @@ def apply_overrides(data, overrides):
         apply_override(data, p, v)
         set_keys[format_key(p)] = item.partition("=")[0].strip()
     return set_keys
+
+
+def _refuse_nul(data, problems):
+    """Raise the problems of every string of ``data`` holding a NUL byte: no file name (nor model, signal or
+    column name) can hold one, and the operating system refuses such a path with a ValueError of its own."""
+    for path in key_paths(data):
+        node = data
+        for p in path:
+            node = node[p]
+        if isinstance(node, str) and "\0" in node:
+            problems.add(path, f"holds a NUL byte (\\u0000): {node!r}; no file, model or signal name can hold one")
+    problems.raise_if_any()
 
 
 def number(problems, table, key, where, default=None, positive=False, integer=False):
@@ -500,9 +515,9 @@ def toml_text(data, comment=""):
 def _write_table(table, prefix, lines):
     """The body of ``table`` (its values, then its sub-tables and arrays of tables) appended to ``lines``."""
     nested = {k: v for k, v in table.items() if isinstance(v, dict) or _table_array(v)}
-    lines += [f"{_toml_key(k)} = {toml_value(v)}" for k, v in table.items() if k not in nested]
+    lines += [f"{toml_key(k)} = {toml_value(v)}" for k, v in table.items() if k not in nested]
     for key, value in nested.items():
-        path = ".".join(_toml_key(k) for k in (*prefix, key))
+        path = ".".join(toml_key(k) for k in (*prefix, key))
         for item in ([value] if isinstance(value, dict) else value):
             if not isinstance(value, dict):
                 lines += ["", f"[[{path}]]"]
@@ -515,7 +530,9 @@ def _table_array(value):
     return isinstance(value, (list, tuple)) and bool(value) and all(isinstance(v, dict) for v in value)
 
 
-def _toml_key(key):
+def toml_key(key):
+    """``key`` as a TOML key: bare when it can be, else quoted (``"load.J"``, ``"x[1]"``), so that it reads back as
+    one key, not a dotted path to a nested table or a syntax error."""
     return key if _BARE_KEY.match(key) else _toml_string(key)
 
 
@@ -539,7 +556,7 @@ def toml_value(value):
     if isinstance(value, str):
         return _toml_string(value)
     if isinstance(value, dict):
-        return "{ " + ", ".join(f"{_toml_key(k)} = {toml_value(v)}" for k, v in value.items()) + " }"
+        return "{ " + ", ".join(f"{toml_key(k)} = {toml_value(v)}" for k, v in value.items()) + " }"
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(toml_value(v) for v in value) + "]"
     if isinstance(value, Path):

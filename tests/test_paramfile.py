@@ -15,9 +15,13 @@ import pandas as pd
 import pytest
 from scipy.integrate import solve_ivp
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from cosim.cli import main
+from cosim.config import load_config
 from cosim.errors import ConfigError
-from cosim.paramfile import read_parameters_file
+from cosim.paramfile import read_parameters_file, write_parameters_file
 
 from conftest import COMPILER_MODELS
 
@@ -172,3 +176,57 @@ def test_a_missing_file_in_a_campaign_and_a_calibration_job(tmp_path):
     with pytest.raises(ConfigError) as err:
         load_job(cal)
     assert f"{cal}:4: model.parameters_file: {tmp_path / 'gone.toml'}: cannot read" in str(err.value)
+
+
+# ---------------------------------------------------------------------------------------------- names as FMUs spell them
+_PROV = {"job": "job.toml", "commit": "unknown", "upstream": []}
+_IDENT = st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,6}", fullmatch=True)
+_SUBSCRIPT = st.lists(st.integers(1, 12), min_size=1, max_size=3).map(lambda ix: f"[{','.join(map(str, ix))}]")
+_PART = st.tuples(_IDENT, st.one_of(st.just(""), _SUBSCRIPT)).map("".join)
+_NAMES = st.lists(_PART, min_size=1, max_size=4).map(".".join)  # load.J, x[1], a.b[2].c, A[1,2]
+
+
+def test_dotted_and_subscripted_names_read_back(tmp_path):
+    # issue 53 item 6: "load.J" written bare was a nested table, "x[1]" a TOML syntax error
+    values = {"k": 320.0, "load.J": 0.3, "x[1]": -1.5, "a.b[2].c": 2e-5, "A[1,2]": 7.0}
+    path = tmp_path / "parameters.toml"
+    write_parameters_file(path, values, {"load.J": "+- 0.01 (1 sd)"}, _PROV)
+    assert read_parameters_file(path).values == values
+    assert tomllib.loads(path.read_text())["parameters"] == values  # any TOML reader reads the names as written
+
+
+@settings(max_examples=200, deadline=None)
+@given(names=st.lists(_NAMES | st.text(min_size=1, max_size=8), min_size=1, max_size=6, unique=True),
+       value=st.floats(allow_nan=False, allow_infinity=False))
+def test_any_name_reads_back(tmp_path_factory, names, value):
+    path = tmp_path_factory.mktemp("names") / "parameters.toml"
+    values = {n: value + i for i, n in enumerate(names)}
+    write_parameters_file(path, values, {}, _PROV)
+    assert tomllib.loads(path.read_text(encoding="utf-8"))["parameters"] == values
+
+
+def test_a_dotted_name_written_bare_reads_as_that_name(tmp_path):
+    # what cosim calibrate wrote before it quoted names, or a user by hand: TOML's nested table {load = {J = 0.3}}
+    path = tmp_path / "p.toml"
+    path.write_text('[parameters]\nload.J = 0.3\nk = 1.0\n\n[parameters.gear]\nratio = 4.0\n')
+    assert read_parameters_file(path).values == {"load.J": 0.3, "k": 1.0, "gear.ratio": 4.0}
+    path.write_text('[parameters]\nload.J = 0.3\n"load.J" = 0.4\n')
+    with pytest.raises(ConfigError, match=r"\[parameters\] names 'load.J' twice"):
+        read_parameters_file(path)
+
+
+@pytest.mark.slow
+def test_a_run_config_reads_component_and_array_parameters_back(compiler_fmu, tmp_path):
+    """What cosim calibrate writes for an MSL-style model's parameters, a run config's parameters_file reads: each
+    name is checked against the FMU's own (a name it did not resolve would be "has no parameter")."""
+    from cosim.compile import build_fmu
+
+    arrays = build_fmu(COMPILER_MODELS.parent.parent / "arrays" / "Arrays.mo", "Arrays.LinearSystem", out_dir=tmp_path)
+    for fmu, values in ((compiler_fmu("Drive"), {"load.J": 0.45, "gear.ratio": 3.0}),
+                        (arrays, {"b[1]": 1.25, "A[2,3]": 0.75})):
+        path = tmp_path / f"{fmu.stem}.toml"
+        write_parameters_file(path, values, {}, _PROV)
+        config = tmp_path / "run.toml"
+        config.write_text(f'[run]\nstop = 0.1\n\n[fmus.plant]\npath = "{fmu}"\nparameters_file = "{path.name}"\n')
+        spec = load_config(config).fmus["plant"]
+        assert spec.parameters == values and spec.parameters_file.values == values

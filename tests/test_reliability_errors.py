@@ -52,6 +52,27 @@ def test_set_paths_through_values(tmp_path, capsys, item, expected):
     assert expected in err and "--set" in err
 
 
+# ---------------------------------------------------------------------------------------------- NUL bytes
+@pytest.mark.parametrize("command, text, line, key", [
+    ("run", '[run]\nstop = 1.0\n\n[fmus.plant]\npath = "\\u0000"\n', 5, "fmus.plant.path"),
+    ("calibrate", '[model]\nsource = "m.mo"\nparameters_file = "up/\\u0000.toml"\n', 3, "model.parameters_file"),
+    ("diagnose", '[model]\nsource = "m.mo"\n\n[data]\npath = "a\\u0000b.csv"\n', 5, "data.path"),
+    ("campaign", '[campaign]\nseed = 1\nparameters_file = "\\u0000"\n', 3, "campaign.parameters_file"),
+    ("sensitivity", '[sensitivity]\ncampaign = "c\\u0000.toml"\n', 2, "sensitivity.campaign"),
+])
+def test_a_nul_byte_in_a_path_is_a_config_error_at_its_line(tmp_path, capsys, command, text, line, key):
+    # found by the loader fuzz: the operating system's ValueError "embedded null byte" escaped from reading the file
+    path = tmp_path / "job.toml"
+    path.write_text(text)
+    err = cli_fails(capsys, [command, str(path), "--out", str(tmp_path / "o")])
+    assert f"{path}:{line}: {key}: holds a NUL byte (\\u0000)" in err
+
+
+def test_a_nul_byte_given_by_set_names_the_set_item(tmp_path, capsys):
+    err = cli_fails(capsys, ["calibrate", CALIBRATE, "--out", str(tmp_path / "o"), "--set", 'data.path="\\u0000"'])
+    assert "--set data.path: data.path: holds a NUL byte (\\u0000): '\\x00'" in err
+
+
 def test_debug_shows_the_traceback(tmp_path):
     with pytest.raises(ConfigError):
         main(["--debug", "run", STATIC, "--out", str(tmp_path), "--set", "..=1"])
