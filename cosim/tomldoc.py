@@ -39,7 +39,7 @@ class Locator:
     """Best-effort map from key paths to 1-based line numbers of the TOML text."""
 
     def __init__(self, text):
-        self.entries = []  # (path tuple, line, rest of line)
+        self.entries = []  # (path tuple, line)
         header = ()
         counts = {}
         for i, line in enumerate(text.splitlines(), start=1):
@@ -58,23 +58,19 @@ class Locator:
                         if tuple(parts[: j + 1]) in counts and j < len(parts) - 1:
                             fixed.append(counts[tuple(parts[: j + 1])])
                     header = tuple(fixed)
-                self.entries.append((header, i, ""))
+                self.entries.append((header, i))
                 continue
             m = _KEYLINE.match(line)
             if m:
-                self.entries.append((header + tuple(_split_dotted(m.group(1))), i, line[m.end():]))
+                self.entries.append((header + tuple(_split_dotted(m.group(1))), i))
 
     def line(self, path):
-        """Line of ``path`` (tuple of str/int), or of its closest located ancestor; None if unknown."""
+        """Line of ``path`` (tuple of str/int), or of its closest located ancestor (the line of a key whose value, an
+        inline table or a list, holds the rest of the path); None if unknown."""
         path = tuple(path)
         for n in range(len(path), 0, -1):
-            prefix = path[:n]
-            for p, i, rest in self.entries:
-                if p == prefix:
-                    if n < len(path) and isinstance(path[n], str):
-                        # an inline table on this line may hold the rest of the path
-                        if re.search(r"(^|[{,\s])" + re.escape(path[-1]) + r"\s*=", rest):
-                            return i
+            for p, i in self.entries:
+                if p == path[:n]:
                     return i
         return None
 

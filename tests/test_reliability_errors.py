@@ -59,6 +59,8 @@ def test_set_paths_through_values(tmp_path, capsys, item, expected):
     ("diagnose", '[model]\nsource = "m.mo"\n\n[data]\npath = "a\\u0000b.csv"\n', 5, "data.path"),
     ("campaign", '[campaign]\nseed = 1\nparameters_file = "\\u0000"\n', 3, "campaign.parameters_file"),
     ("sensitivity", '[sensitivity]\ncampaign = "c\\u0000.toml"\n', 2, "sensitivity.campaign"),
+    # in a list in an inline table (the fuzz's case): the line of the key that holds them
+    ("diagnose", '[model]\nsource = {plant = ["\\u0000"]}\n', 2, "model.source.plant[0]"),
 ])
 def test_a_nul_byte_in_a_path_is_a_config_error_at_its_line(tmp_path, capsys, command, text, line, key):
     # found by the loader fuzz: the operating system's ValueError "embedded null byte" escaped from reading the file
