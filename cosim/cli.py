@@ -282,9 +282,66 @@ def _add_export_ssp(sub):
     p.set_defaults(func=_cmd_export_ssp)
 
 
+def _cmd_info(args):
+    from cosim.single_fmu import describe_fmu
+
+    print(describe_fmu(args.fmu))
+    return 0
+
+
+def _add_info(sub):
+    p = sub.add_parser(
+        "info",
+        help="what an FMU declares: interfaces, default experiment, variables",
+        description="Print what an FMU (FMI 2.0 or 3.0, cosim's or another tool's) declares: FMI version, model, "
+                    "the tool that generated it, its interfaces (Model Exchange, Co-Simulation), default experiment, "
+                    "and a table of its variables (name, causality, variability, type, start, unit, description).",
+    )
+    p.add_argument("fmu", help="the FMU (.fmu)")
+    p.set_defaults(func=_cmd_info)
+
+
+def _cmd_simulate(args):
+    from cosim.single_fmu import report_lines, simulate_fmu
+
+    result, out, kind = simulate_fmu(args.fmu, out=args.out, start=args.start_time, stop=args.stop_time,
+                                     step=args.step, sets=args.set, kind=args.kind, force=args.force)
+    print("\n".join(report_lines(result, out, kind)))
+    return 128 + signal.Signals[result.stopped["cause"]].value if result.interrupted else 0
+
+
+def _add_simulate(sub):
+    p = sub.add_parser(
+        "simulate",
+        help="simulate one FMU from its default experiment and write a CSV, with no config",
+        description="Simulate one FMU (FMI 2.0 or 3.0, cosim's or another tool's) with no run config: from its "
+                    "default experiment (else from 0 to 1 s), by Co-Simulation when it has it (else Model Exchange, "
+                    "integrated by cosim's variable-step BDF at the experiment's tolerance, 1e-6 when it gives "
+                    "none), recording its outputs (its local variables when it has none) at every output step. "
+                    "The CSV has a header line of 'name [unit]' columns (the bare name when the variable declares "
+                    "no unit), time first in s, then one row an output step; Booleans are written 0/1.",
+    )
+    p.add_argument("fmu", help="the FMU (.fmu)")
+    p.add_argument("--start-time", type=float, metavar="T", help="start time in s (default: the default experiment's, "
+                                                                  "else 0)")
+    p.add_argument("--stop-time", type=float, metavar="T", help="stop time in s (default: the default experiment's, "
+                                                                 "else start + 1)")
+    p.add_argument("--step", type=float, metavar="H",
+                   help="output step in s, also the Co-Simulation communication step (default: the default "
+                        "experiment's stepSize, else 10^(round(log10(stop - start)) - 3), as FMPy)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="a parameter's value, or the start value of an input (held for the whole run) or of a state, "
+                        "set before initialisation, e.g. --set e=0.8 or --set load.J=0.3; the name as the FMU spells "
+                        "it (cosim info lists them), the value a number or true/false (repeatable)")
+    p.add_argument("--kind", choices=("CS", "ME"), help="the interface (default: CS when the FMU has it)")
+    p.add_argument("--out", help="the CSV file (default out/<FMU stem>.csv)")
+    p.add_argument("--force", action="store_true", help="replace the file at --out when it exists")
+    p.set_defaults(func=_cmd_simulate)
+
+
 # Each command adds its parser here; keep one function per command.
-_COMMANDS = [_add_build, _add_haptic, _add_run, _add_export_ssp, _add_calibrate, _add_diagnose, _add_campaign,
-             _add_sensitivity]
+_COMMANDS = [_add_build, _add_haptic, _add_info, _add_simulate, _add_run, _add_export_ssp, _add_calibrate,
+             _add_diagnose, _add_campaign, _add_sensitivity]
 
 
 def make_parser():

@@ -38,6 +38,7 @@ __all__ = [
     "load_config",
     "config_from_data",
     "check_parameter",
+    "check_start",
     "parse_overrides",
     "record_columns",
     "Config",
@@ -533,21 +534,30 @@ def check_parameter(info, file, name, value, problems, where):
         _in_range(file, var, value, problems, where)
 
 
+def check_start(info, file, name, value, problems, where):
+    """Add to ``problems`` what is wrong with giving a variable of an FMU a start value: no such variable (with
+    "did you mean"), one the FMU calculates (an output, a calculated parameter, a local without a start value, a
+    constant), or a value of the wrong type. A run config's ``fmus.NAME.start`` and ``cosim simulate --set`` are
+    checked with it; the parameters and ``where`` as :func:`check_parameter`'s."""
+    var = info.variables.get(name)
+    if var is None:
+        problems.add(where, f"{file.name} has no variable {name!r}{_close(name, info.variables)}")
+    elif var.causality in ("output", "independent", "calculatedParameter") or var.variability == "constant":
+        problems.add(where, f"{name!r} is {'an' if var.causality[0] in 'aeiou' else 'a'} {var.causality} (the FMU "
+                            "calculates it); its start value cannot be set")
+    elif var.causality == "local" and var.start is None:
+        problems.add(where, f"{name!r} is a local variable the FMU calculates (it has no start value); it cannot "
+                            "be set")
+    else:
+        _value_type(info, var, value, problems, where)
+
+
 def _fmu_values(info, file, params, starts, problems, p):
     """Check parameter and start values against the model description ``info`` of ``file``."""
     for pn, pv in params.items():
         check_parameter(info, file, pn, pv, problems, p + ("parameters", pn))
     for sn, sv in starts.items():
-        var = info.variables.get(sn)
-        if var is None:
-            problems.add(p + ("start", sn), f"{file.name} has no variable {sn!r}{_close(sn, info.variables)}")
-        elif var.causality in ("output", "independent", "calculatedParameter") or var.variability == "constant":
-            problems.add(p + ("start", sn), f"{sn!r} is a {var.causality}; its start value cannot be set")
-        elif var.causality == "local" and var.start is None:
-            problems.add(p + ("start", sn), f"{sn!r} is a local variable the FMU calculates (it has no start value); "
-                                            "it cannot be set")
-        else:
-            _value_type(info, var, sv, problems, p + ("start", sn))
+        check_start(info, file, sn, sv, problems, p + ("start", sn))
 
 
 def _fmu(name, t, base_dir, problems):

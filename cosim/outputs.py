@@ -17,7 +17,7 @@ from pathlib import Path
 
 from cosim.errors import ConfigError, OutputWarning
 
-__all__ = ["MARKER", "output_folder", "check_output", "mark_output", "is_output", "optional_file"]
+__all__ = ["MARKER", "output_folder", "output_file", "check_output", "mark_output", "is_output", "optional_file"]
 
 MARKER = ".cosim-output"
 
@@ -155,6 +155,45 @@ def output_folder(out, command, force=False):
             _commit(staging, out, replace)
         finally:
             shutil.rmtree(staging, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def output_file(out, force=False):
+    """A staging file for a command's one result file, moved into place at ``out`` when the block succeeds: a
+    file has no marker to tell it is a cosim output, so an existing one is replaced only on request.
+
+    Parameters
+    ----------
+    out : str or Path
+        The file the user asked for.
+    force : bool, default False
+        Replace an existing file at ``out``.
+
+    Yields
+    ------
+    Path
+        A new hidden file name beside ``out`` (same folder); write the result there.
+
+    Raises
+    ------
+    ConfigError
+        ``out`` is a folder, or exists and ``force`` is false; its folder is not writable; another cosim command
+        is writing it. All before the block runs.
+    """
+    out = Path(os.path.abspath(out))
+    _make_parent(out)
+    _writable(out.parent, out)
+    with _lock(out):
+        if out.is_dir():
+            raise ConfigError(f"--out {out}: is a folder; expected a file name, e.g. {out / 'results.csv'}")
+        if (out.exists() or out.is_symlink()) and not force:
+            raise ConfigError(f"--out {out}: the file exists; pass --force to replace it, or choose another --out")
+        staging = out.parent / f".{out.name}.{secrets.token_hex(4)}.partial"
+        try:
+            yield staging
+            os.replace(staging, out)  # atomic on one file system: the old file or the new one, never half
+        finally:
+            staging.unlink(missing_ok=True)
 
 
 def _commit(staging, out, replace):

@@ -178,7 +178,7 @@ def test_a_missing_file_in_a_campaign_and_a_calibration_job(tmp_path):
     assert f"{cal}:4: model.parameters_file: {tmp_path / 'gone.toml'}: cannot read" in str(err.value)
 
 
-# ---------------------------------------------------------------------------------------------- names as FMUs spell them
+# ------------------------------------------------------------------------------------- names as FMUs spell them
 _PROV = {"job": "job.toml", "commit": "unknown", "upstream": []}
 _IDENT = st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,6}", fullmatch=True)
 _SUBSCRIPT = st.lists(st.integers(1, 12), min_size=1, max_size=3).map(lambda ix: f"[{','.join(map(str, ix))}]")

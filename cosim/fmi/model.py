@@ -76,6 +76,13 @@ class ModelInfo:
     step : float or None
         The step the FMU declares for itself in s (the default of a cosim FMU's ``_cs_step``, set per model in
         modelica/models.toml, else the DefaultExperiment's ``stepSize``): the time scale its rates are told against.
+    version_text : str
+        ``fmiVersion`` as written ("3.0", "2.0").
+    generation_tool, description : str
+        What the model description says of the tool that wrote the FMU and of the model ('' when it does not).
+    default_experiment : dict
+        The DefaultExperiment: ``start``, ``stop``, ``step``, ``tolerance`` (s, s, s, relative), each a float or
+        None when not given.
     """
 
     path: Path
@@ -88,6 +95,10 @@ class ModelInfo:
     output_deps: dict = field(default_factory=dict, repr=False)
     needs_completed_step: bool = True
     step: float = None
+    version_text: str = ""
+    generation_tool: str = ""
+    description: str = ""
+    default_experiment: dict = field(default_factory=dict)
 
     def names(self, causality):
         """Names of the variables with the given causality, in declaration order."""
@@ -177,7 +188,24 @@ def read_model_info(path):
         output_deps=deps,
         needs_completed_step=needs,
         step=_declared_step(md, variables),
+        version_text=md.fmiVersion,
+        generation_tool=md.generationTool or "",
+        description=md.description or "",
+        default_experiment=_default_experiment(md.defaultExperiment),
     )
+
+
+def _default_experiment(experiment):
+    """The DefaultExperiment's attributes as floats (None when absent or not a finite number)."""
+    out = {}
+    for key, attribute in (("start", "startTime"), ("stop", "stopTime"), ("step", "stepSize"),
+                           ("tolerance", "tolerance")):
+        try:
+            value = float(getattr(experiment, attribute, None))
+        except (TypeError, ValueError):
+            value = None
+        out[key] = value if value is not None and math.isfinite(value) else None
+    return out
 
 
 def _declared_step(md, variables):

@@ -8,7 +8,7 @@ import numpy as np
 from cosim.master.plot import plot_results
 from cosim.outputs import optional_file
 
-__all__ = ["write_results", "plot_results", "read_results"]
+__all__ = ["write_results", "write_csv", "plot_results", "read_results"]
 
 
 def write_results(result, config, out_dir, csv=False, summary=None):
@@ -60,13 +60,7 @@ def write_results(result, config, out_dir, csv=False, summary=None):
     pq.write_table(table, p)
     files.append(p)
     if csv:
-        p = out / "results.csv"
-        header = ",".join(f"{n} [{result.units.get(n, '')}]" if result.units.get(n) else n for n in names)
-        arr = (np.column_stack([result.data[n].astype(np.float64) for n in names]) if len(result.data)
-               else np.zeros((0, len(names))))
-        fmt = ["%.10g" if result.data.dtype[n].kind == "f" else "%d" for n in names]
-        np.savetxt(p, arr, delimiter=",", header=header, comments="", fmt=fmt)
-        files.append(p)
+        files.append(write_csv(result, out / "results.csv"))
     if summary is not None:
         p = out / "summary.json"
         p.write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n")
@@ -76,6 +70,29 @@ def write_results(result, config, out_dir, csv=False, summary=None):
                                                                              config=config, summary=summary))
         files += [plot] if plot is not None else []
     return files
+
+
+def write_csv(result, path):
+    """Write a run's recorded columns to ``path`` as CSV: one header line of ``name [unit]`` (the bare name when
+    the variable declares no unit), then one row an instant; reals with 10 significant digits, integers and
+    Booleans (0/1) exact.
+
+    Parameters
+    ----------
+    result : cosim.master.engine.RunResult
+    path : path-like
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    names = result.data.dtype.names
+    header = ",".join(f"{n} [{result.units.get(n, '')}]" if result.units.get(n) else n for n in names)
+    arr = (np.column_stack([result.data[n].astype(np.float64) for n in names]) if len(result.data)
+           else np.zeros((0, len(names))))
+    fmt = ["%.10g" if result.data.dtype[n].kind == "f" else "%d" for n in names]
+    np.savetxt(path, arr, delimiter=",", header=header, comments="", fmt=fmt)
+    return Path(path)
 
 
 def _arrow_column(pa, atype, column):

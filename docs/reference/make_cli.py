@@ -22,6 +22,8 @@ PAGE = ROOT / "docs" / "reference" / "cli.md"
 COMMANDS = (
     (),
     ("build",),
+    ("info",),
+    ("simulate",),
     ("run",),
     ("export-ssp",),
     ("calibrate",),
@@ -34,8 +36,8 @@ COMMANDS = (
     ("haptic", "identify"),
     ("haptic", "arm"),
 )
-GUIDES = {"build": "build.md", "run": "run.md", "calibrate": "calibrate.md", "diagnose": "diagnose.md",
-          "haptic": "haptic.md", "sensitivity": "sensitivity.md", "export-ssp": "ssp.md"}
+GUIDES = {"build": "build.md", "info": "fmu.md", "simulate": "fmu.md", "run": "run.md", "export-ssp": "ssp.md",
+          "calibrate": "calibrate.md", "diagnose": "diagnose.md", "haptic": "haptic.md", "sensitivity": "sensitivity.md"}
 
 
 def help_text(command):
