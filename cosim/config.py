@@ -538,7 +538,23 @@ def check_start(info, file, name, value, problems, where):
     """Add to ``problems`` what is wrong with giving a variable of an FMU a start value: no such variable (with
     "did you mean"), one the FMU calculates (an output, a calculated parameter, a local without a start value, a
     constant), or a value of the wrong type. A run config's ``fmus.NAME.start`` and ``cosim simulate --set`` are
-    checked with it; the parameters and ``where`` as :func:`check_parameter`'s."""
+    checked with it.
+
+    Parameters
+    ----------
+    info : cosim.fmi.ModelInfo
+        What the FMU declares.
+    file : pathlib.Path
+        The FMU file, named in the messages.
+    name : str
+        The variable given a start value.
+    value : object
+        Its start value: a number, or true/false for a Boolean.
+    problems : cosim.tomldoc.Problems
+        The collector the problems are added to.
+    where : tuple of str
+        The key path of the start value (the messages say its file:line or ``--set`` item).
+    """
     var = info.variables.get(name)
     if var is None:
         problems.add(where, f"{file.name} has no variable {name!r}{_close(name, info.variables)}")
