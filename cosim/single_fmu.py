@@ -9,6 +9,7 @@ and time events located as in any run.
 """
 
 import math
+import re
 import tomllib
 from pathlib import Path
 
@@ -20,7 +21,6 @@ __all__ = ["describe_fmu", "simulate_fmu", "simulation_window", "parse_sets", "r
 
 KINDS = {"ME": "Model Exchange", "CS": "Co-Simulation"}
 MAX_ROWS = 10_000_000  # output instants of one simulate: a step typed a thousand times too small is refused
-_INSTANCE = "model"  # the FMU's instance name in the run config simulate builds (not shown: one FMU's columns are bare)
 
 
 def describe_fmu(path):
@@ -206,10 +206,11 @@ def simulate_fmu(path, out=None, start=None, stop=None, step=None, sets=(), kind
     parameters, starts = parse_sets(info, sets)
     t0, t1, h, tolerance = simulation_window(info, start, stop, step)
     solver = {"method": "bdf", "rtol": tolerance or 1e-6} if kind == "ME" else {}
+    # the instance is named after the file where it can be (the FMU's messages name it); one FMU's columns are bare
+    name = path.stem if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", path.stem) else "model"
     data = {"run": {"start": t0, "stop": t1}, "solver": solver,
-            "fmus": {_INSTANCE: {"path": str(path.resolve()), "kind": kind, "parameters": parameters,
-                                "start": starts}},
-            "record": {"rate": 1.0 / h, "signals": [f"{_INSTANCE}.{n}" for n in recorded_variables(info)]}}
+            "fmus": {name: {"path": str(path.resolve()), "kind": kind, "parameters": parameters, "start": starts}},
+            "record": {"rate": 1.0 / h, "signals": [f"{name}.{n}" for n in recorded_variables(info)]}}
     config = config_from_data(data, path)
     out = Path(out) if out is not None else Path("out") / f"{path.stem}.csv"
     with interrupt_on_signals(), output_file(out, force=force) as staging:
@@ -227,6 +228,7 @@ def report_lines(result, out, kind):
              "engine)"]
     s = result.stopped
     if s is not None:
-        lines.append(f"stopped at t={s['time']:.9g} s: {s['by'] if s['cause'] == 'terminate' else s['cause']}"
-                     f"{': ' + s['reason'] if s['reason'] else ''}; the file holds what was recorded until then")
+        why = "the FMU asked to terminate" if s["cause"] == "terminate" else f"interrupted ({s['cause']})"
+        lines.append(f"stopped at t={s['time']:.9g} s: {why}{': ' + s['reason'] if s['reason'] else ''}; the file "
+                     "holds what was recorded until then")
     return lines

@@ -199,3 +199,11 @@ def test_an_existing_file_is_replaced_only_with_force(third_party_fmu, tmp_path,
     assert len(data) == 11
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.csv"]  # no staging file, lock or other left
     assert "is a folder" in cli_fails(capsys, ["simulate", str(fmu), "--out", str(tmp_path)])
+
+
+def test_an_fmu_that_asks_to_terminate_keeps_what_was_recorded(third_party_fmu, tmp_path, capsys):
+    # tests/fmus/Stopper: x = time, asks to terminate at t_stop = 0.6 s (its default experiment: to 1 s by 0.01 s)
+    printed, data = _simulate(capsys, third_party_fmu("Stopper", 3), tmp_path / "stop.csv")
+    assert "stopped at t=0.6 s: the FMU asked to terminate; the file holds what was recorded until then" in printed
+    np.testing.assert_allclose(data["time [s]"], np.arange(60) * 0.01, atol=1e-12)
+    np.testing.assert_allclose(data["x [s]"], data["time [s]"], atol=1e-12)
