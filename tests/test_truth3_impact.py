@@ -216,6 +216,24 @@ def test_gear_play_shows_in_the_encoder_at_a_reversal(play_deg):
     check_play_seen_at_reversal(simulate, DRAWS[0], play_deg)
 
 
+def test_cogging_spectrum_is_the_drawn_detent_and_eccentricity():
+    """Over one revolution the cogging torque's spectrum holds only harmonics 24, 48, 72 (amplitudes in the drawn
+    ratios) and their +-1 sidebands from the eccentricity (``eps/2`` of each); its peak is the drawn ``T_cog``."""
+    truth = truth3.draw_truth("cogging", np.random.default_rng(SEED))
+    cog = truth3.cogging_coefficients(truth)
+    angle = np.linspace(0.0, 2 * np.pi, 24 * 256, endpoint=False)
+    torque = np.array([truth3._cogging(a, cog) for a in angle])
+    assert abs(np.abs(torque).max() - truth["T_cog"]) < 1e-12
+    spectrum = np.abs(np.fft.rfft(torque)) * 2 / len(angle)
+    ratios = {24: 1.0, 48: truth["ratio_cog2"], 72: truth["ratio_cog3"]}
+    for harmonic, ratio in ratios.items():
+        np.testing.assert_allclose(spectrum[harmonic], cog[0] * ratio, rtol=1e-9)
+        np.testing.assert_allclose(spectrum[[harmonic - 1, harmonic + 1]], cog[0] * ratio * truth["eps_cog"] / 2,
+                                   rtol=1e-9)
+    others = np.delete(spectrum, [h + s for h in ratios for s in (-1, 0, 1)])
+    assert others.max() < 1e-12 * cog[0]
+
+
 def test_a_seed_gives_the_same_case_and_the_other_truths_baseline():
     """One seed: the same records twice, and the same ``eta_g``, ``T_c0`` and play as the first and second
     truths' cases (``draw_baseline`` first)."""
