@@ -118,6 +118,22 @@ def test_a_variant_takes_several_effects_each_in_its_slot(tmp_path):
     np.testing.assert_allclose(neutral, baseline, rtol=2e-5, atol=1e-6)
 
 
+def test_a_parameter_freed_twice_is_a_job_error(tmp_path):
+    """A job that frees the play and offers gear_play, which frees it too, is refused at load with the key and the
+    parameter; offered every effect that applies (no candidates.effects), it is offered the others."""
+    path = _job_with(tmp_path, ["gear_play", "loadcell_filter"], [])
+    text = path.read_text(encoding="utf-8").replace("play = 0.0, ", "")
+    path.write_text(text + "[parameters.play]\nstart = 0.01\nmin = 0.0\nmax = 0.05\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=re.escape("candidates.effects: 'gear_play' frees play, which the job frees "
+                                                    "already ([parameters.play])")):
+        load_diagnose_job(path)
+    path.write_text(path.read_text(encoding="utf-8").replace('effects = ["gear_play", "loadcell_filter"]\n', ""),
+                    encoding="utf-8")
+    job = load_diagnose_job(path)
+    assert "gear_play" not in job.effects and "loadcell_filter" in job.effects, job.effects
+    assert "play" in job.free
+
+
 def test_two_candidates_in_one_slot_are_refused(tmp_path):
     with pytest.raises(EffectSlotError, match="both fill slot drive.contact"):
         write_variant(SOURCE, "Gripper.GripperCurrentDriven",

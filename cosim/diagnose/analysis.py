@@ -9,7 +9,7 @@ from scipy import stats
 from cosim.experiment import constant_runs
 
 __all__ = ["Segment", "in_segment", "noise_level", "hold_segments", "impact_phases", "frequency_bands",
-           "segment_table", "band_shape", "whiteness", "cross_correlation", "branch_shapes"]
+           "segment_table", "gap_shown", "band_shape", "whiteness", "cross_correlation", "branch_shapes"]
 
 
 @dataclass(frozen=True)
@@ -186,6 +186,13 @@ def segment_table(time, residual, predicted, measured, mask, segments, noise, th
                 if row["significant"] else "within noise"
             rows.append(row)
     return rows
+
+
+def gap_shown(significant, mean_square, chance):
+    """The rule by which a residual shows a gap, the baseline's and the one a finding leaves: a segment above the
+    noise (``significant``: each segment's flag) *and* a whole residual beyond chance (``mean_square``, in noise
+    levels squared, above ``chance``: a lone segment at 3 sigma is also what noise gives over many segments)."""
+    return any(significant) and bool(mean_square > chance)
 
 
 def _shape(r_all, r_steady, pred, meas, sigma):

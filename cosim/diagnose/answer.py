@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cosim.diagnose.analysis import gap_shown
 from cosim.diagnose.effects import EFFECTS
 
 __all__ = ["verdict", "answer", "why_plausible", "finding_words", "shown_words"]
@@ -33,10 +34,9 @@ def verdict(job, decision, segments=(), ms_after=0.0, shown_by=()):
     d = decision
     if d.winner is not None:
         named = _finding(d.winner) + shown_words(shown_by)
-        left = _left_after(segments)
-        if not left or ms_after <= d.chance:
+        if not gap_shown([r.significant_after for r in segments], ms_after, d.chance):
             return named
-        top = left[0]
+        top = _left_after(segments)[0]
         return (f"{named}; after it, a gap of {np.sqrt(ms_after):.1f} noise levels remains that no effect in the "
                 f"library explains (largest in {top.segment}, {job.kind.span(top.t0, top.t1)}: "
                 f"{_levels_after(top):.1f} noise levels): it explains part of the gap, the rest needs another effect "

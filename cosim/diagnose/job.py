@@ -221,8 +221,8 @@ def load_diagnose_job(path, overrides=()):
         if "min_hold_s" in e else max(steady_s or 0.0, 0.05)
     rtol = number(problems, t["compare"], "rtol", ("compare",), default=1e-6, positive=True)
     max_nfev = number(problems, t["compare"], "max_nfev", ("compare",), default=40, positive=True, integer=True)
-    effects = _candidates(t["candidates"], "effects", source_text, model, problems)
-    effects += _candidates(t["candidates"], "forms", source_text, model, problems)
+    effects = _candidates(t["candidates"], "effects", source_text, model, problems, free)
+    effects += _candidates(t["candidates"], "forms", source_text, model, problems, free)
     dec = t["decision"]
     min_gap = number(problems, dec, "min_gap_removed", ("decision",), default=0.5, positive=True)
     min_bic = number(problems, dec, "min_delta_bic", ("decision",), default=10.0, positive=True)
@@ -245,19 +245,21 @@ def load_diagnose_job(path, overrides=()):
         input=experiment_input, sample_rate=sample_rate, bands_per_decade=per_decade, rounds=rounds)
 
 
-def _candidates(table, key, source_text, model, problems):
-    """The candidates of ``candidates.effects`` (default: every effect that applies) or ``candidates.forms``
-    (default: none), each checked to be of that sort and to fit the model."""
+def _candidates(table, key, source_text, model, problems, free):
+    """The candidates of ``candidates.effects`` (default: every effect that applies and frees no parameter the job
+    frees) or ``candidates.forms`` (default: none), each checked to be of that sort, to fit the model and not to
+    free a parameter of ``free`` (the job's) a second time."""
     forms = key == "forms"
     names = table.get(key)
     if names is None:
         if forms:
             return []
         try:
-            return applicable(source_text, model) if source_text else []
+            found = applicable(source_text, model) if source_text else []
         except ConfigError as err:  # no such model, or a slot that does not take its effect's block
             problems.add(("candidates", key), str(err))
             return []
+        return [n for n in found if not _freed_twice(n, free)]
     if not isinstance(names, list) or not all(isinstance(x, str) for x in names):
         problems.add(("candidates", key), f"must be a list of {'form' if forms else 'effect'} identifiers")
         return []
@@ -268,12 +270,22 @@ def _candidates(table, key, source_text, model, problems):
         elif EFFECTS[n].is_form != forms:
             problems.add(("candidates", key), f"{n!r} is {'an effect' if forms else 'a form'}: list it under "
                                               f"candidates.{'effects' if forms else 'forms'}")
+        elif twice := _freed_twice(n, free):
+            problems.add(("candidates", key), f"{n!r} frees {', '.join(twice)}, which the job frees already "
+                                              f"({', '.join(f'[parameters.{p}]' for p in twice)}): a parameter is "
+                                              f"freed once; drop {n} or the [parameters] table")
         elif source_text and model:
             try:
                 variant_text(source_text, model, EFFECTS[n])
             except ConfigError as err:
                 problems.add(("candidates", key), str(err))
     return list(names)
+
+
+def _freed_twice(name, free):
+    """The baseline parameters the effect ``name`` frees that the job frees already (``free``), sorted: freed by
+    both, its fit would take the effect's bounds and the BIC would count a parameter the fit does not add."""
+    return sorted({n for n, _, _ in EFFECTS[name].frees} & set(free))
 
 
 def _refuse_free(problems, where, fixed, free, what):

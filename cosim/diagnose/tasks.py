@@ -10,10 +10,11 @@ import numpy as np
 
 from cosim.diagnose.effects import EFFECTS, Effect, write_variant
 from cosim.diagnose.fitting import LinearisedFit, SampleFit, Screen, Trials
+from cosim.fitting import FreeParameter
 from cosim.parallel import map_here, map_on_dask
 
 __all__ = ["FitTask", "task_of", "variant_of", "fit_task", "screen_task", "run_tasks", "fit_free", "free_at",
-           "added_parameters"]
+           "added_parameters", "bic_penalty", "effect_free"]
 
 
 @dataclass(frozen=True)
@@ -75,10 +76,27 @@ def _effect(name):
     return Effect("baseline", "", ()) if name == "baseline" else EFFECTS[name]
 
 
+def _bounds(effect):
+    """(name, lower, upper) of each parameter ``effect`` adds: those it declares, then the baseline's it frees."""
+    return [(p.name, p.lower, p.upper) for p in effect.parameters] + list(effect.frees)
+
+
 def added_parameters(name):
     """The parameters the effect ``name`` declares, then the baseline's parameters it frees."""
-    effect = EFFECTS[name]
-    return [p.name for p in effect.parameters] + [n for n, _, _ in effect.frees]
+    return [n for n, _, _ in _bounds(EFFECTS[name])]
+
+
+def bic_penalty(name, n_fit):
+    """The BIC's price of the candidate ``name`` on ``n_fit`` fitted values: ln(n_fit) per parameter it adds. A job
+    never frees a parameter an offered effect frees (:func:`~cosim.diagnose.job.load_diagnose_job` refuses it, a
+    later round does not offer it), so each one adds a parameter to the fit."""
+    return len(added_parameters(name)) * np.log(n_fit)
+
+
+def effect_free(effect, values):
+    """The parameters ``effect`` adds (name -> FreeParameter) within the effect's bounds, each starting at its value
+    in ``values`` clipped into them: a candidate's start, or in a later round a finding's fitted value."""
+    return {n: FreeParameter(lower, lower, upper).clipped(values[n]) for n, lower, upper in _bounds(effect)}
 
 
 def free_at(job, fit):
@@ -92,7 +110,6 @@ def _candidate(task):
     starts."""
     from cosim.compile import lower
     from cosim.diagnose.job import load_records
-    from cosim.fitting import FreeParameter
 
     job = task.job
     effect = _effect(task.effect)
@@ -100,12 +117,11 @@ def _candidate(task):
     records = load_records(job, model)
     defaults = dict(zip([p.name for p in model.parameters], model.parameter_values))
     free = dict(task.baseline)
-    for p in effect.parameters:
-        start = p.start if isinstance(p.start, (int, float)) else \
-            free[p.start].start if p.start in free else job.fixed.get(p.start, defaults[p.start])
-        free[p.name] = FreeParameter(p.lower, p.lower, p.upper).clipped(start)
-    for name, lo, hi in effect.frees:
-        free[name] = FreeParameter(lo, lo, hi).clipped(job.fixed.get(name, defaults[name]))
+    starts = {p.name: p.start if isinstance(p.start, (int, float)) else
+              free[p.start].start if p.start in free else job.fixed.get(p.start, defaults[p.start])
+              for p in effect.parameters}
+    starts.update({name: job.fixed.get(name, defaults[name]) for name, _, _ in effect.frees})
+    free.update(effect_free(effect, starts))
     trials = [free] + [{**free, p.name: free[p.name].clipped(v)} for p in effect.parameters for v in p.starts]
     return model, records, trials
 

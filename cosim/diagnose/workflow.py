@@ -50,7 +50,7 @@ import numpy as np
 from scipy import stats
 
 from cosim.diagnose.advice import MAX_ADVISED, change_here, change_on, gap_locations, plausible
-from cosim.diagnose.analysis import branch_shapes, in_segment, rmse_per_signal, segment_table, whiteness
+from cosim.diagnose.analysis import branch_shapes, gap_shown, in_segment, rmse_per_signal, segment_table, whiteness
 from cosim.diagnose.answer import answer, verdict, why_plausible
 from cosim.diagnose.effects import EFFECTS
 from cosim.diagnose.fitting import weighted
@@ -58,7 +58,8 @@ from cosim.diagnose.kinds import record_slices
 from cosim.diagnose.result import Candidate, Diagnosis, ExperimentGap, RecordSummary, SegmentRow, Traces
 from cosim.diagnose.show import show
 from cosim.diagnose.stages import Decision, Samples, Scores, Split
-from cosim.diagnose.tasks import added_parameters, fit_free, free_at, run_tasks, screen_task, task_of, variant_of
+from cosim.diagnose.tasks import (added_parameters, bic_penalty, fit_free, free_at, run_tasks, screen_task, task_of,
+                                  variant_of)
 from cosim.experiment import Experiment
 from cosim.parallel import map_here
 
@@ -177,8 +178,7 @@ def _screen(job, samples, weights, base, folder, progress):
     tasks = [task_of(job, name, weights, samples.mask, *variant_of(job, name, folder / name),
                    baseline=free_at(job, base), columns={n: base.columns[n] for n in job.free})
              for name in job.effects]
-    screen = {r.effect: replace(r, delta_bic=base.chi2 - r.chi2_predicted
-                                - len(added_parameters(r.effect)) * np.log(samples.n_fit))
+    screen = {r.effect: replace(r, delta_bic=base.chi2 - r.chi2_predicted - bic_penalty(r.effect, samples.n_fit))
               for r in run_tasks(job, tasks, progress, screen_task, "screening candidates")}
     ranked = sorted(tasks, key=lambda task: -screen[task.effect].delta_bic)
     return screen, [replace(task, start=screen[task.effect].start) for task in ranked]
@@ -232,13 +232,13 @@ def _score(job, samples, weights, folds, fits):
                             for fit, (_, test) in zip(pair, folds)])
         return r, sum(fit.chi2 for fit in pair)
 
-    k_base = len(job.free)
     r_b, chi2_b = pooled(fits["baseline"])
     ms_b_test = float(np.mean(r_b ** 2))
     candidates = []
     for name in [n for n in job.effects if n in fits]:
         pair = fits[name]
-        k = len(pair[0].free)
+        added = added_parameters(name)
+        k = len(job.free) + len(added)
         r_c, chi2_c = pooled(pair)
         ms_c = float(np.mean(r_c ** 2))
         removed = (ms_b_test - ms_c) / max(ms_b_test - 1.0, 1e-12) if ms_b_test > 1.0 else 0.0
@@ -248,10 +248,9 @@ def _score(job, samples, weights, folds, fits):
             effect=name, score=float(removed),
             rmse_after=float(np.sqrt(np.mean(heldout ** 2))), max_error_after=float(np.max(np.abs(heldout))),
             parameters=dict(pair[0].parameters), parameters_other_fold=dict(pair[1].parameters),
-            added_parameters=added_parameters(name),
-            heldout_ms_sigma2=ms_c, aic=chi2_c + 2 * k, bic=chi2_c + k * np.log(n_fit),
-            delta_aic=float(delta - 2 * (k - k_base)), delta_bic=float(delta - (k - k_base) * np.log(n_fit)),
-            p_value=float(stats.chi2.sf(max(delta, 0.0), max(k - k_base, 1))), free=pair[0].free))
+            added_parameters=added, heldout_ms_sigma2=ms_c, aic=chi2_c + 2 * k, bic=chi2_c + k * np.log(n_fit),
+            delta_aic=float(delta - 2 * len(added)), delta_bic=float(delta - bic_penalty(name, n_fit)),
+            p_value=float(stats.chi2.sf(max(delta, 0.0), max(len(added), 1))), free=pair[0].free))
     return tuple(candidates)
 
 
@@ -299,11 +298,10 @@ def decide(job, samples, noise, split, scores):
     residual = before - y
     rows = segment_table(t, residual, before, y, mask, split.segments, sigma, job.gap_sigmas, split.shape)
     cross = job.kind.cross_correlation(residual[0, mask], s.experiment, mask)
-    # a gap is a segment above gap_sigmas noise levels *and* a baseline whose whole residual is more than noise:
-    # its mean square (in noise units) must exceed 1 by more than gap_sigmas times the sqrt(2/n) a mean of n
-    # squared unit noises scatters by (a lone segment at 3 sigma is also what noise gives over many segments)
+    # chance: the mean square (noise units) must exceed 1 by more than gap_sigmas times the sqrt(2/n) a mean of n
+    # squared unit noises scatters by (gap_shown: the rule, also for the gap a finding leaves)
     ms_baseline, chance = _ms(before, y, noise.weights, mask), 1.0 + job.gap_sigmas * np.sqrt(2.0 / s.n_fit)
-    gap_found = any(r["significant"] for r in rows) and bool(ms_baseline > chance)
+    gap_found = gap_shown([r["significant"] for r in rows], ms_baseline, chance)
     qualified = [c for c in scores.candidates if gap_found and c.score >= job.min_gap_removed
                  and c.delta_bic >= job.min_delta_bic]
     winner = max(qualified, key=lambda c: (c.score, c.delta_bic)) if qualified else None
