@@ -19,17 +19,15 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
+from cosim.diagnose.analysis import gap_shown
 from cosim.diagnose.answer import finding_words, shown_words
 from cosim.diagnose.effects import EFFECTS, write_variant
 from cosim.diagnose.result import Round
-from cosim.diagnose.tasks import added_parameters, run_tasks, task_of
+from cosim.diagnose.tasks import added_parameters, bic_penalty, effect_free, run_tasks, task_of
 from cosim.diagnose.workflow import run_round
-from cosim.fitting import FreeParameter
 from cosim.parallel import keep_local_cluster
 
-__all__ = ["run_diagnosis", "gap_left", "job_with", "least_needed", "round_of", "combine"]
+__all__ = ["run_diagnosis", "gap_left", "fitted_values", "job_with", "least_needed", "round_of", "combine"]
 
 
 def run_diagnosis(job, progress=True, build=True, out=None):
@@ -66,32 +64,42 @@ def run_diagnosis(job, progress=True, build=True, out=None):
             done.append((round_job, run_round(round_job, progress, build, out and Path(out) / f"round{k}",
                                               scratch / f"round{k}")))
 
+        exhausted = False  # a gap was left and no candidate was left to offer
         while len(done) < job.rounds and gap_left(done[-1][1]):
             last_job, last = done[-1]
-            following = job_with(job, (*last_job.adopted, last.effect), last.after_parameters,
+            following = job_with(job, (*last_job.adopted, last.effect), fitted_values(last),
                                  scratch / f"round{len(done) + 1}" / "baseline")
-            if not following.effects:
+            exhausted = not following.effects
+            if exhausted:
                 break
             another(following)
         findings = _findings(*done[-1])
         dropped = least_needed(job, findings, done[-1][1], scratch / "check", progress) if len(findings) > 1 else None
         if dropped is not None:  # the last finding's round again, on a baseline without the one not needed
             kept = [f for f in findings if f != dropped]
-            confirming = job_with(job, tuple(kept[:-1]), done[-1][1].after_parameters,
+            confirming = job_with(job, tuple(kept[:-1]), fitted_values(done[-1][1]),
                                   scratch / f"round{len(done) + 1}" / "baseline", leave_out=(dropped,))
             another(confirming)
             if done[-1][1].effect != kept[-1]:  # not confirmed: the findings stand as the rounds named them
                 done.pop()
-        return combine([d for _, d in done], _findings(*done[-1]))
+        return combine([d for _, d in done], _findings(*done[-1]), exhausted)
 
 
 def gap_left(diagnosis):
     """Whether a round named a candidate and a gap is left after it: a segment still above the noise *and* a
-    whole residual beyond chance (the baseline's gap rule, applied to the candidate's fit)."""
+    whole residual beyond chance (:func:`~cosim.diagnose.analysis.gap_shown`, the baseline's gap rule, applied to
+    the candidate's fit)."""
     d = diagnosis
-    remaining = d.gap["remaining_noise_levels"] ** 2
-    return (d.outcome == "named" and remaining > d.decision["mean_square_chance"]
-            and any(r.significant_after for r in d.segments))
+    return d.outcome == "named" and gap_shown([r.significant_after for r in d.segments],
+                                              d.gap["remaining_noise_levels"] ** 2, d.decision["mean_square_chance"])
+
+
+def fitted_values(diagnosis):
+    """The fitted values of the model a round ends with: its winner's refit on every cost sample, or, when it
+    names nothing, its baseline's fit (a later round's baseline holds the earlier findings, their parameters
+    free, so this is the last fit of them)."""
+    d = diagnosis
+    return d.after_parameters if d.outcome == "named" else d.baseline_parameters
 
 
 def _findings(round_job, diagnosis):
@@ -105,11 +113,8 @@ def job_with(job, findings, values, folder, leave_out=()):
     findings = tuple(findings)
     path, name = write_variant(job.source, job.model, [EFFECTS[n] for n in findings], folder)
     free = {n: p.at(values[n]) for n, p in job.free.items()}
-    for named in (EFFECTS[n] for n in findings):
-        for p in named.parameters:
-            free[p.name] = FreeParameter(p.lower, p.lower, p.upper).clipped(values[p.name])
-        for n, lower, upper in named.frees:
-            free[n] = FreeParameter(lower, lower, upper).clipped(values[n])
+    for named in findings:
+        free.update(effect_free(EFFECTS[named], values))
     filled = {EFFECTS[n].slot for n in findings} - {""}
     offered = tuple(n for n in job.effects if n not in findings and n not in leave_out
                     and EFFECTS[n].slot not in filled and not any(f in free for f, _, _ in EFFECTS[n].frees))
@@ -119,16 +124,17 @@ def job_with(job, findings, values, folder, leave_out=()):
 
 def least_needed(job, findings, final, folder, progress):
     """The finding the others do not need, or None: the model with every finding and the model without each are
-    fitted on every cost sample (from ``final``'s values, in parallel); the finding whose removal costs the least
-    BIC is returned when that is below ``job.min_delta_bic``."""
+    fitted on every cost sample (from the values ``final``, the last round, ends with: :func:`fitted_values`, in
+    parallel); the finding whose removal costs the least BIC is returned when that is below ``job.min_delta_bic``."""
     weights = final.noise.weights
     mask = final.traces.mask
-    jobs = [job_with(job, [f for f in findings if f != left], final.after_parameters, folder / (left or "all"))
+    values = fitted_values(final)
+    jobs = [job_with(job, [f for f in findings if f != left], values, folder / (left or "all"))
             for left in (None, *findings)]
     tasks = [task_of(j, "baseline", weights, mask, baseline=j.free) for j in jobs]
     fits = run_tasks(job, tasks, progress, desc="checking each finding against the others")
     n_fit = int(mask.sum()) * len(final.signals)
-    cost = {left: fit.chi2 - fits[0].chi2 - len(added_parameters(left)) * np.log(n_fit)
+    cost = {left: fit.chi2 - fits[0].chi2 - bic_penalty(left, n_fit)
             for left, fit in zip(findings, fits[1:])}
     weakest = min(cost, key=cost.get)
     return weakest if cost[weakest] < job.min_delta_bic else None
@@ -145,11 +151,12 @@ def round_of(number, diagnosis):
                  shown_by=d.shown_by)
 
 
-def combine(diagnoses, findings):
+def combine(diagnoses, findings, exhausted=False):
     """One Diagnosis of the rounds' (a single round's as it is, with its round): the last named round's, with the
     first of the ``findings`` (the candidates in the final model, in order) as ``effect``, the user's baseline's
     gap before, the gap removed from it, and the verdict, evidence and next step of the rounds; a round whose
-    candidate the final model does not hold is marked dropped."""
+    candidate the final model does not hold is marked dropped. ``exhausted``: the rounds stopped with a gap left
+    because no candidate was left to offer (else a gap left means ``decision.rounds`` were run)."""
     rounds = tuple(round_of(k, d) for k, d in enumerate(diagnoses, 1))
     if len(diagnoses) == 1:
         return replace(diagnoses[0], rounds=rounds)
@@ -160,7 +167,7 @@ def combine(diagnoses, findings):
     ms_before, ms_after = first.baseline_mean_square, final.gap["remaining_noise_levels"] ** 2
     return replace(
         final, effect=findings[0] if findings else "none", model=first.model,
-        verdict=_verdict(rounds, findings, last), rounds=rounds, baseline_mean_square=ms_before,
+        verdict=_verdict(rounds, findings, last, exhausted), rounds=rounds, baseline_mean_square=ms_before,
         rmse_before_per_signal=first.rmse_before_per_signal, max_error_before=first.max_error_before,
         baseline_parameters=first.baseline_parameters, baseline_free=first.baseline_free,
         gap_removed=float(1 - (ms_after - 1) / (ms_before - 1)) if ms_before > 1 else 0.0,
@@ -185,15 +192,18 @@ def _shown(rounds):
     return {r.effect: r.shown_by for r in rounds}
 
 
-def _verdict(rounds, findings, last):
-    """Every finding in order, the ones dropped, then what is left after the last one."""
+def _verdict(rounds, findings, last, exhausted):
+    """Every finding in order, the ones dropped, then what is left after the last one (and, a gap left after it,
+    why no round followed: ``exhausted``, no candidate left to offer, else the job's rounds all run)."""
     values = {n: v for r in rounds for n, v in r.parameters.items()}
     shown = _shown(rounds)
     found = [finding_words(f, {n: values[n] for n in added_parameters(f) if n in values}) + shown_words(shown[f])
              for f in findings]
     left = rounds[-1].gap_after
     if last.outcome == "named" and gap_left(last):
-        tail = f"a gap of {left:.1f} noise levels remains after {len(rounds)} rounds (the job's decision.rounds)"
+        tail = f"a gap of {left:.1f} noise levels remains after {len(rounds)} rounds " + (
+            "and no candidate is left to offer (each fills a slot, or frees a parameter, a finding has)" if exhausted
+            else "(the job's decision.rounds)")
     elif last.outcome in ("named", "within noise"):
         tail = f"what remains is within the noise ({left:.1f} noise levels RMS)"
     else:
