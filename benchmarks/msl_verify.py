@@ -10,7 +10,6 @@ and 1e-8: at 1e-6 the simulation's own error after a step (PID_Controller, 2.2e-
 1e-9 it is 3e-4.
 """
 
-import re
 import tempfile
 import time
 from dataclasses import asdict, dataclass, field
@@ -62,37 +61,12 @@ def read_reference(folder):
     return columns[time_column], columns, names
 
 
-def _class_text(msl, model):
-    """The text of class ``model`` in the library's files (for its experiment annotation), or ''."""
-    parts = model.split(".")
-    here = Path(msl)
-    for k, part in enumerate(parts):
-        if (here / part).is_dir():
-            here = here / part
-            continue
-        files = [here / f"{part}.mo"] if (here / f"{part}.mo").is_file() else [here / "package.mo"]
-        name = parts[-1]
-        for mo in files:
-            if not mo.is_file():
-                continue
-            text = mo.read_text(encoding="utf-8", errors="replace")
-            start = re.search(rf"\b(?:model|block|class)\s+{re.escape(name)}\b", text)
-            end = re.search(rf"\bend\s+{re.escape(name)}\s*;", text[start.end():]) if start else None
-            if start and end:
-                return text[start.start():start.end() + end.end()]
-        return ""
-    package = here / "package.mo"
-    return package.read_text(encoding="utf-8", errors="replace") if package.is_file() else ""
-
-
 def experiment(msl, model):
     """``(StartTime, StopTime, Tolerance)`` of ``model``'s experiment annotation (defaults 0, 1, 1e-6)."""
-    found = re.search(r"experiment\s*\((?P<body>[^)]*)\)", _class_text(msl, model))
-    values = []
-    for key, default in (("StartTime", 0.0), ("StopTime", 1.0), ("Tolerance", 1e-6)):
-        given = re.search(rf"\b{key}\s*=\s*(?P<v>[-+0-9.eE]+)", found.group("body")) if found else None
-        values.append(float(given.group("v")) if given else default)
-    return tuple(values)
+    from cosim.compile.annotation import model_experiment
+
+    given = model_experiment(None, model, [Path(msl)])
+    return given.get("StartTime", 0.0), given.get("StopTime", 1.0), given.get("Tolerance", 1e-6)
 
 
 def _event_times(t):

@@ -31,7 +31,8 @@ def fmus(tmp_path_factory):
     out = tmp_path_factory.mktemp("export_fmus")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return {name: build_fmu(MODELS, f"ExportTests.{name}", out_dir=out) for name in ("Linear", "Stateless")}
+        return {name: build_fmu(MODELS, f"ExportTests.{name}", out_dir=out)
+                for name in ("Linear", "Stateless", "Annotated")}
 
 
 def _simulate(fmu, solver, stop_time, step=1e-4, **kwargs):
@@ -140,6 +141,22 @@ def test_outputs_and_derivatives_follow_set_continuous_states(fmus):
 def test_stateless_fmu_simulates_with_euler(fmus):
     r = _simulate(fmus["Stateless"], "Euler", 1.0, step=0.01, output=["y"])
     assert np.allclose(r["y"], 3 * r["time"], atol=1e-12)
+
+
+@pytest.mark.parametrize("fmi_version", [3, 2])
+def test_experiment_annotation_is_the_default_experiment(fmus, tmp_path, fmi_version):
+    fmu = fmus["Annotated"] if fmi_version == 3 else build_fmu(MODELS, "ExportTests.Annotated", out_dir=tmp_path,
+                                                               fmi_version=2)
+    experiment = fmpy.read_model_description(str(fmu)).defaultExperiment
+    # The annotation's numbers, not the comment's (99) nor the documentation string's (7).
+    given = (experiment.startTime, experiment.stopTime, experiment.stepSize, experiment.tolerance)
+    assert tuple(float(v) for v in given) == (0.5, 2.5, 0.25, 1e-7)
+    assert fmpy.read_model_description(str(fmus["Linear"])).defaultExperiment is None  # no annotation, none
+    # fmpy, asked for no span nor tolerance, runs the FMU's: 0.5 to 2.5 s at 1e-7 (it takes stepSize as the
+    # output interval of Co-Simulation only, and only without a fixedInternalStepSize).
+    r = fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange")
+    assert (r["time"][0], r["time"][-1]) == (0.5, 2.5)
+    assert np.allclose(r["x"], np.exp(-(r["time"] - 0.5)), rtol=1e-5, atol=0)
 
 
 # ---- hybrid models from hand-written EventParts ---------------------------------------------------------------

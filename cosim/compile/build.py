@@ -1,12 +1,14 @@
 """Build FMUs: one model on request, or every model of ``modelica/models.toml``, skipping those whose sources
 and compiler are unchanged."""
 
+import dataclasses
 import hashlib
 import json
 import tomllib
 from pathlib import Path
 
 from cosim import __version__
+from cosim.compile.annotation import model_experiment
 from cosim.compile.balance import unbalanced_error
 from cosim.compile.divisions import check_divisions
 from cosim.compile.export import DEFAULT_CS_STEP, METHODS, export_fmu
@@ -74,14 +76,16 @@ def lower(path, model, modelica_path=()):
 
 
 def _lower_once(path, model, modelica_path):
-    """Load, translate and lower ``model``; an unbalanced one names what it has in excess (cosim.compile.balance)."""
+    """Load, translate and lower ``model``; an unbalanced one names what it has in excess (cosim.compile.balance).
+    The lowered model carries the model's experiment annotation (the FMU's DefaultExperiment)."""
     try:
         flat = load_flat_model(path, model, modelica_path)
     except StructureError as err:
         if getattr(err, "padded", None) is None:
             raise
         raise unbalanced_error(err, translate(err.padded)) from None
-    return lower_system(translate(flat))
+    return dataclasses.replace(lower_system(translate(flat)),
+                               experiment=model_experiment(path, model, modelica_path))
 
 
 def build_fmu(path, model, out_dir="fmus", name=None, description="", fmi_version=3, source=False,

@@ -415,10 +415,27 @@ def _model_description(model, layout, functions, identifier, token, description,
                   fixedInternalStepSize=repr(float(cs_step)))
     variables = _variables(root, model, layout, cs_step, cs_method)
     _unit_definitions(root, variables)
+    experiment = _default_experiment(model)
+    if experiment is not None:
+        root.insert(list(root).index(variables), experiment)
     _structure(root, model, layout, functions)
     tree = ET.ElementTree(root)
     ET.indent(tree, space="    ")
     return tree
+
+
+_EXPERIMENT_ATTRIBUTES = {"StartTime": "startTime", "StopTime": "stopTime", "Tolerance": "tolerance",
+                          "Interval": "stepSize"}
+
+
+def _default_experiment(model):
+    """The DefaultExperiment element (the same in FMI 2.0 and 3.0) of the model's experiment annotation, or
+    None when it has none: an importer (fmpy, ``cosim run``) runs the model as its author meant where the user
+    gives no other span, interval or tolerance."""
+    if not model.experiment:
+        return None
+    return ET.Element("DefaultExperiment", {_EXPERIMENT_ATTRIBUTES[key]: repr(float(value))
+                                            for key, value in model.experiment.items()})
 
 
 def _build_description(identifier):
@@ -560,6 +577,9 @@ def _model_description_2(model, layout, functions, names, settings, source):
     categories = ET.SubElement(root, "LogCategories")
     for name, text in (("logEvents", "events and terminate()"), ("logStatusError", "errors")):
         ET.SubElement(categories, "Category", name=name, description=text)
+    experiment = _default_experiment(model)
+    if experiment is not None:
+        root.append(experiment)
     root.append(variables)
     _structure_2(root, model, layout, functions, index)
     tree = ET.ElementTree(root)

@@ -142,6 +142,9 @@ class LoweredModel:
     events : EventPart or None
         ``None`` for a continuous model. For a hybrid model, ``ode``, ``out`` and ``observe`` take the event
         memory ``m`` as a fifth argument: ``ode(x, u, p, t, m)``.
+    experiment : dict
+        The model's ``experiment`` annotation (``StartTime``, ``StopTime``, ``Interval``, ``Tolerance``, those
+        it gives), the FMU's DefaultExperiment.
     """
 
     name: str
@@ -160,6 +163,7 @@ class LoweredModel:
     dependent: tuple = ()
     calculate: object = None
     constant_variables: tuple = ()
+    experiment: dict = field(default_factory=dict)
 
     @property
     def parameter_values(self):

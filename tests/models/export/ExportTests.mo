@@ -20,4 +20,12 @@ package ExportTests "Small models with closed-form solutions for the FMU exporte
   equation
     y = 2 * u + 3 * time;
   end Stateless;
+
+  model Annotated "A decay run as its experiment annotation says: x = exp(-(time - 0.5)) from StartTime 0.5"
+    Real x(start = 1, fixed = true) "Decaying state";
+  equation
+    der(x) = -x;  // not experiment(StopTime = 99): a comment is no annotation
+    annotation(experiment(StartTime = 0.5, StopTime = 2.5, Interval = 0.25, Tolerance = 1e-7),
+      Documentation(info = "<html>experiment(StopTime = 7)</html>"));
+  end Annotated;
 end ExportTests;
