@@ -9,11 +9,13 @@ Usage:
 --msl: the folder holding Modelica/ (MSL 4.1.0); --refs: the folder holding Modelica/<package>/Examples/<Model>/
 with <Model>.csv and comparisonSignals.txt. --only: models whose name contains one of the texts. --jobs: worker
 processes (each parses the library once). --rows: also write every row as JSON lines. --validation: write the
-table into docs/validation.md (section msl).
+table into docs/validation.md (section msl) and every model's stage into cosim/data/msl_validation.csv (what
+``cosim build`` says of an MSL example the front end refuses).
 """
 
 import argparse
 import collections
+import csv
 import json
 import os
 import re
@@ -166,7 +168,8 @@ def main(argv=None):
     parser.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--timeout", type=int, default=600, help="s a model may take (default 600)")
     parser.add_argument("--rows", help="also write every row to this file (JSON lines)")
-    parser.add_argument("--validation", action="store_true", help="write the table into docs/validation.md")
+    parser.add_argument("--validation", action="store_true",
+                        help="write the table into docs/validation.md and cosim/data/msl_validation.csv")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     parser.add_argument("models", nargs="*", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -203,6 +206,19 @@ def _write_validation(rows, table):
         "= C code; simulate = the FMU failed under fmpy's CVode; signals = comparison signals not in the FMU; "
         "compare = a signal off the reference; ran = built and ran to its StopTime (no reference results)."])
     write_section("msl-models", ["model", "stage", "worst signal", "error", "time [s]", "cause"], model_rows)
+    write_status(rows)
+
+
+STATUS_FILE = HERE.parent / "cosim" / "data" / "msl_validation.csv"
+
+
+def write_status(rows, path=STATUS_FILE):
+    """Every model's stage and cause as the package ships them (cosim.compile.refusal reads them): a user whose
+    MSL example the front end refuses is told whether this run saw it refused too."""
+    with open(path, "w", encoding="utf-8", newline="") as out:
+        table = csv.writer(out, lineterminator="\n")
+        table.writerow(["model", "stage", "cause"])
+        table.writerows([r.model, r.stage, r.cause[:200]] for r in sorted(rows, key=lambda r: r.model))
 
 
 if __name__ == "__main__":

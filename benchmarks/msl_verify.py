@@ -100,11 +100,13 @@ def compare(t_ref, y_ref, t_sim, y_sim, span):
 
 
 def _first_line(error, msl, model):
-    """The error's first line, without the library's folder and the model's name that every row would repeat."""
+    """The error's first line, without the library's folder and the model's name that every row would repeat, and
+    without what the front end's refusal says of the validation run (cosim.compile.refusal)."""
     text = str(error).strip().splitlines()
     line = (text[0] if text else "").replace(str(Path(msl)) + "/", "")
     for repeated in (f"Modelica/package.mo: {model}: ", f"{model} failed in ", f"{model}: "):
         line = line.replace(repeated, "")
+    line = line.split("; cosim's validation run")[0]  # what an earlier run saw is no cause of this run's row
     return f"{type(error).__name__}: {line}"[:400]
 
 

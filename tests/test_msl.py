@@ -124,3 +124,18 @@ RAN = [
 def test_msl_example_without_reference_builds_and_runs(model, tmp_path):
     row = verify(model, MSL, None, workdir=tmp_path)
     assert row.stage == "ran", f"{row.stage}: {row.cause}"
+
+
+@pytest.mark.slow
+def test_front_end_refusal_of_an_msl_example_names_its_file_and_the_validation_run(tmp_path):
+    # rumoca 0.10.2 counts CoupledClutches' friction state machines unbalanced (docs/dev/rumoca-upstream.md);
+    # the user is told it is the front end's known limit, at the example's own file, not Modelica/package.mo
+    from cosim.compile import build_fmu
+    from cosim.errors import StructureError
+
+    model = "Modelica.Mechanics.Rotational.Examples.CoupledClutches"
+    with pytest.raises(StructureError) as refused:
+        build_fmu(None, model, out_dir=tmp_path, modelica_path=[MSL])
+    assert refused.value.file == str(MSL / "Modelica" / "Mechanics" / "Rotational" / "Examples" / "CoupledClutches.mo")
+    assert "unbalanced model: 115 equations, 112 unknowns" in str(refused.value)
+    assert "saw rumoca refuse this model too" in str(refused.value) and not list(tmp_path.iterdir())

@@ -2,7 +2,11 @@
 ``cosim.cli.main`` as a user types them: a missing or damaged FMU without its follow-on problems, a made-up
 ``--set`` key with the keys it may have meant, "did you mean" for model names and controller classes."""
 
+import re
+from pathlib import Path
+
 import pytest
+import rumoca
 from test_master_support import EXAMPLES, cli_fails, gripper_dir, gripper_overrides  # noqa: F401
 
 from cosim.cli import main
@@ -92,6 +96,65 @@ def test_unbalanced_model_names_what_is_in_excess_with_its_line(tmp_path, capsys
     err = cli_fails(capsys, ["build", str(tmp_path / "M.mo"), "--model", "M", "--out", str(tmp_path / "f")])
     assert expected.replace("M.mo", f"{tmp_path}/M.mo") in err
     assert "b1c_definition" not in err and "rumoca" not in err  # before: rumoca's internal counts, no line
+
+
+def _library(root, model, body):
+    """A library folder ``root`` holding ``model`` (``Lib.Examples.Bad``) in a file of its own, with a
+    ``package.mo`` for every package above it, as the MSL lays out its classes; returns the model's file."""
+    *packages, name = model.split(".")
+    folder = root
+    for k, package in enumerate(packages):
+        folder = folder / package
+        folder.mkdir(parents=True, exist_ok=True)
+        within = f"within {'.'.join(packages[:k])};\n" if k else ""
+        (folder / "package.mo").write_text(f"{within}package {package}\nend {package};\n")
+    path = folder / f"{name}.mo"
+    path.write_text(f"within {'.'.join(packages)};\nmodel {name}\n{body}end {name};\n")
+    return path
+
+
+# Two equations for one algebraic unknown y beside the state: rumoca counts 3 equations, 2 unknowns.
+OVERDETERMINED = "  Real x(start = 1);\n  Real y;\nequation\n  der(x) = -x;\n  y = 2 * x;\n  y = 3 * x;\n"
+
+
+def test_front_end_refusal_names_rumoca_the_class_file_and_what_to_try(tmp_path, capsys):
+    path = _library(tmp_path / "lib", "Lib.Examples.Bad", OVERDETERMINED)
+    err = cli_fails(capsys, ["build", "--model", "Lib.Examples.Bad", "--modelica-path", str(tmp_path / "lib"),
+                             "--out", str(tmp_path / "f")])
+    # the class's own file and line (line 2: after "within"), not the library's top package.mo
+    assert (f"{path}:2: rumoca {rumoca.version()}, the Modelica front end, refused Lib.Examples.Bad: unbalanced "
+            "model: 3 equations, 2 unknowns (balance = 1)") in err
+    assert "if another Modelica tool (OpenModelica, Dymola) accepts the model" in err
+    assert "validation" not in err  # not an MSL example: the validation run says nothing of it
+
+
+@pytest.mark.parametrize("model, expected", [
+    # docs/validation.md, section msl-models: CoupledClutches stopped at "rumoca", First was verified
+    ("Modelica.Mechanics.Rotational.Examples.CoupledClutches",
+     "cosim's validation run on the MSL 4.1.0 examples (docs/validation.md) saw rumoca refuse this model too: a "
+     "limit of the front end, not a fault of the library"),
+    ("Modelica.Mechanics.Rotational.Examples.First",
+     "got this model further (stage verified); check that the library on --modelica-path is the MSL 4.1.0"),
+    ("Modelica.Mechanics.Rotational.Examples.NotAnExample", "examples did not try this model"),
+])
+def test_front_end_refusal_of_an_msl_example_says_what_the_validation_run_saw(tmp_path, capsys, model, expected):
+    # A stand-in library named Modelica whose example is unbalanced: the message comes from the table shipped in
+    # the package (cosim/data/msl_validation.csv), the MSL itself is not needed
+    _library(tmp_path / "lib", model, OVERDETERMINED)
+    err = cli_fails(capsys, ["build", "--model", model, "--modelica-path", str(tmp_path / "lib"),
+                             "--out", str(tmp_path / "f")])
+    assert expected in err and f"refused {model}: unbalanced model" in err
+
+
+def test_shipped_msl_validation_table_is_the_one_docs_validation_shows():
+    from cosim.compile.refusal import validation_status
+
+    text = (Path(__file__).resolve().parent.parent / "docs" / "validation.md").read_text(encoding="utf-8")
+    section = text[text.index("<!-- validation:msl-models -->"):text.index("<!-- /validation:msl-models -->")]
+    rows = re.findall(r"^\| (\S+) \| (\w+) \|", section, re.M)[1:]  # the header row left out
+    assert len(rows) == 102
+    for model, stage in rows:
+        assert validation_status(f"Modelica.{model}")[0] == stage, model
 
 
 @pytest.mark.parametrize("argv, expected", [

@@ -10,6 +10,7 @@ import rumoca
 
 from cosim.compile.der_expressions import rewrite_der_expressions
 from cosim.compile.library import describe_path, find_class_file, library_session
+from cosim.compile.refusal import refusal
 from cosim.compile.source_text import locate_rumoca_error
 from cosim.errors import ModelicaError, StructureError
 from cosim.modelica_text import check_redeclares, find_class, line_of, model_names
@@ -217,9 +218,8 @@ def _front_end_error(err, path, model, files, roots=()):
         names = [n for mo in files for n in model_names(mo.read_text(encoding="utf-8"))]
         return ModelicaError(f"no model named {model!r} in {path.parent}{did_you_mean(model, names)}", file=str(path))
     if "unbalanced" in text:
-        detail = text.split("unbalanced model:")[-1].strip()
-        return StructureError(f"model {model} is unbalanced: {detail} (counted by rumoca {rumoca.version()}, the "
-                              "Modelica front end)", file=str(path))
+        message, file, line = refusal(model, "unbalanced model: " + text.split("unbalanced model:")[-1].strip(),
+                                      path, roots)
+        return StructureError(message, file=file, line=line)
     said = text.splitlines()[0].removeprefix(f"{model} could not be compiled: ")
-    return locate_rumoca_error(text, files) or ModelicaError(
-        f"rumoca {rumoca.version()} (the Modelica front end) rejected {model}: {said}", file=str(path))
+    return locate_rumoca_error(text, files) or ModelicaError(*refusal(model, said, path, roots))

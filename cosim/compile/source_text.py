@@ -1,14 +1,16 @@
 """rumoca 0.10.2's errors without a line for constructs it does not carry (a ``while`` statement, a ``for`` loop
 over the elements of an array in a function, ``der()`` of an expression it could not take): find the construct
 in the Modelica text, lexically (comments and strings masked, nothing parsed), and name it with file and line.
+Also where a class is (:func:`class_source`): its file, line and text, in a user's file or in a library.
 """
 
 import re
+from pathlib import Path
 
 from cosim.errors import UnsupportedConstructError
-from cosim.modelica_text import line_of
+from cosim.modelica_text import find_class, line_of
 
-__all__ = ["masked", "locate_rumoca_error"]
+__all__ = ["masked", "locate_rumoca_error", "class_source"]
 
 _LEXICAL = re.compile(r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\])*"', re.S)
 
@@ -16,6 +18,39 @@ _LEXICAL = re.compile(r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\])*"', re.S)
 def masked(text):
     """``text`` with comments and string literals blanked (same length, same newlines)."""
     return _LEXICAL.sub(lambda m: re.sub(r"[^\n]", " ", m.group(0)), text)
+
+
+def class_source(path, model, roots=()):
+    """``(file, line, text)`` of class ``model``: in the file ``path``, or, when ``path`` is None, in the library
+    folders ``roots`` (its own file, ``Examples/PID_Controller.mo``, or its span in the ``package.mo`` that
+    declares it); ``(None, None, "")`` when it is not found."""
+    if path is not None:
+        source = Path(path).read_text(encoding="utf-8")
+        body = find_class(source, model)
+        return (str(path), line_of(source, source.index(body)), body) if body else (None, None, "")
+    parts = model.split(".")
+    for root in roots:
+        here = Path(root)
+        for k, part in enumerate(parts):
+            if (here / part).is_dir() and k < len(parts) - 1:
+                here = here / part
+                continue
+            mo = here / f"{part}.mo" if (here / f"{part}.mo").is_file() else here / "package.mo"
+            if mo.is_file():
+                return _span(mo, parts[-1])
+            break
+    return None, None, ""
+
+
+def _span(mo, name):
+    """``(file, line, text)`` from ``model|block|class name`` to ``end name;`` in the file ``mo``."""
+    text = mo.read_text(encoding="utf-8", errors="replace")
+    hidden = masked(text)
+    start = re.search(rf"\b(?:model|block|class)\s+{re.escape(name)}\b", hidden)
+    end = re.search(rf"\bend\s+{re.escape(name)}\s*;", hidden[start.end():]) if start else None
+    if end is None:
+        return None, None, ""
+    return str(mo), line_of(text, start.start()), text[start.start():start.end() + end.end()]
 
 
 def _function_span(text, name):
