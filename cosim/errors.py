@@ -15,6 +15,7 @@ __all__ = [
     "HapticDataError",
     "EngineFallbackWarning",
     "ScaleWarning",
+    "LoopWarning",
     "OutputWarning",
     "EffectSlotError",
     "EventError",
@@ -131,6 +132,12 @@ class EngineFallbackWarning(UserWarning):
 class ScaleWarning(UserWarning):
     """A config's rate or run length is far from the plant's time scale (a typo of a factor 1000 is likely); the
     run goes on, the message names the key, its value and the scale it was told against."""
+
+
+class LoopWarning(UserWarning):
+    """A nonlinear algebraic loop of a model has no solution the build finds at the model's start point; the FMU
+    is built, and reports an error wherever the loop's Newton iterations do not converge (the message names the
+    loop's unknowns and equations)."""
 
 
 class OutputWarning(UserWarning):

@@ -85,3 +85,48 @@ def test_a_loop_undefined_at_its_start_values_is_solved_from_nonzero_values(tmp_
 
     expected = [temperature(0.4 + 0.1 * t) for t in result["time"]]
     np.testing.assert_allclose(result["T"], expected, rtol=0, atol=1e-9)
+
+
+# z^2 = u: the root z = sqrt(u) (from z = 1) for u > 0, no real root for u < 0, where Newton's iterations
+# z <- (z + u/z)/2 never settle. x integrates z: x(t) = sqrt(u) t while u > 0.
+NO_REAL_ROOT = """
+  model M
+    input Real u(start = {u0});
+    Real z(start = 1);
+    Real x(start = 0, fixed = true);
+    output Real y = z;
+  equation
+    z*z = u;
+    der(x) = z;
+  end M;"""
+
+
+def test_a_loop_without_a_solution_at_run_time_is_an_error_naming_the_loop_not_a_number(tmp_path):
+    from fmpy.fmi1 import FMICallException
+
+    fmu = build_fmu(write_package(tmp_path, NO_REAL_ROOT.format(u0=4)), "T.M", out_dir=tmp_path / "out")
+    ran = fmpy.simulate_fmu(str(fmu), stop_time=1.0, output_interval=0.1, output=["x", "y"])
+    np.testing.assert_allclose(ran["y"], 2.0, rtol=1e-12)  # sqrt(4)
+    np.testing.assert_allclose(ran["x"], 2.0 * ran["time"], rtol=1e-9, atol=1e-12)
+    signal = np.array([(0.0, 4.0), (0.5, 4.0), (0.5, -1.0), (1.0, -1.0)], dtype=[("time", float), ("u", float)])
+    logged = []
+    for fmi_type in ("CoSimulation", "ModelExchange"):
+        with pytest.raises(FMICallException):
+            fmpy.simulate_fmu(str(fmu), fmi_type=fmi_type, stop_time=1.0, output_interval=0.1, input=signal,
+                              logger=lambda *args: logged.append(args[-1].decode()), output=["y"])
+        assert any("Newton's method did not converge on the nonlinear algebraic loop in z (equations at "
+                   f"{tmp_path / 'T.mo'}:8)" in message for message in logged), logged
+
+
+def test_a_loop_without_a_solution_at_the_start_point_warns_naming_the_loop(tmp_path):
+    from cosim.errors import LoopWarning
+
+    path = write_package(tmp_path, NO_REAL_ROOT.format(u0=-1))
+    named = r"nonlinear algebraic loop in z \(equations at .*T\.mo:8\) has no solution"
+    with pytest.warns(LoopWarning, match=named):
+        model = lower(path, "T.M")
+    # built all the same: where the loop has a root the model gives it
+    assert model.output_values([0.0], [9.0])[0] == pytest.approx(3.0, rel=1e-12)
+    assert np.isnan(model.output_values([0.0], [-1.0])[0])  # no root: not a number, and loops says which
+    converged = np.array(model.loops([0.0], [-1.0], model.parameter_values, 0.0), dtype=float).ravel()
+    assert list(converged) == [0.0]

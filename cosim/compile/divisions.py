@@ -30,6 +30,9 @@ def _walk(outputs):
             continue
         if e.is_op(ca.OP_DIV):
             denominators.append(e.dep(1))
+        if e.is_op(ca.OP_IF_ELSE_ZERO) and e.dep(1).is_constant() and np.isnan(float(e.dep(1))):
+            stack.append(e.dep(0))  # NaN as a branch's value: a loop that did not converge (lower._functions)
+            continue
         stack.extend(e.dep(i) for i in range(e.n_dep()))
     return denominators, infinite
 

@@ -165,8 +165,8 @@ def _c_functions(model):
     """The CasADi functions the C core calls, named cosim_ode, cosim_out, cosim_x0, cosim_indicators,
     cosim_update, cosim_terminal, cosim_initial, cosim_next_time (cosim_terminal: the update with terminal()
     true; one that changes nothing when the model does not use terminal()), then the derivatives
-    (:func:`_derivative_functions`), then cosim_observe (the local variables) and cosim_calculated (the
-    dependent parameters), both f(x, u, p, t, m)."""
+    (:func:`_derivative_functions`), then cosim_observe (the local variables), cosim_loops (which nonlinear
+    loops converged) and, last, cosim_calculated (the dependent parameters), all f(x, u, p, t, m)."""
     events = model.events
     memory = 0 if events is None else None  # a continuous model's functions get an empty memory argument
     ode, out = _named(model.ode, "cosim_ode", memory), _named(model.out, "cosim_out", memory)
@@ -178,7 +178,7 @@ def _c_functions(model):
                       _terminal_pass(events), _named(events.initial, "cosim_initial"),
                       _named(events.next_time, "cosim_next_time")]
     return functions + _derivative_functions(ode, out) + [_named(model.observe, "cosim_observe", memory),
-                                                         _calculated(model, memory)]
+                                                         _loops(model, memory), _calculated(model, memory)]
 
 
 def _calculated(model, memory):
@@ -186,6 +186,15 @@ def _calculated(model, memory):
     sym, args = _symbols(model.ode, memory)
     q = model.calculate.call([args[2]])[0] if model.dependent else sym(0, 1)
     return ca.Function("cosim_calculated", args, [ca.densify(q)])
+
+
+def _loops(model, memory):
+    """cosim_loops(x, u, p, t, m): 1 per nonlinear algebraic loop whose Newton iterations converged, 0 per loop
+    that did not (``model.loops``); none for a model without such loops."""
+    if model.loops is None:
+        sym, args = _symbols(model.ode, memory)
+        return ca.Function("cosim_loops", args, [sym(0, 1)])
+    return _named(model.loops, "cosim_loops", memory)
 
 
 def _terminal_pass(events):
@@ -218,7 +227,7 @@ def _data_header(model, layout, functions, identifier, token, cs_step, cs_method
         "MODEL_IDENTIFIER": _c_string(identifier), "INSTANTIATION_TOKEN": _c_string(token),
         "N_X": len(model.states), "N_U": len(model.inputs), "N_P": len(model.parameters),
         "N_Y": len(model.outputs), "N_M": n_memory, "N_D": len(discretes),
-        "N_Z": events.n_indicators if events else 0, "N_MSG": len(messages),
+        "N_Z": events.n_indicators if events else 0, "N_MSG": len(messages), "N_LOOPS": len(model.loop_names),
         "VR_P": layout.p, "VR_U": layout.u, "VR_X": layout.x, "VR_DX": layout.dx, "VR_Y": layout.y,
         "VR_D": layout.d, "VR_Z": layout.z, "VR_CS": layout.cs, "N_VR": layout.end,
         "N_OBS": len(model.observed), "N_V": len(layout.v_index), "N_Q": len(model.dependent),
@@ -241,6 +250,7 @@ def _data_header(model, layout, functions, identifier, token, cs_step, cs_method
         _c_array("K_VALUE", "double", [repr(float(c.start)) for c in model.constant_variables]),
         _c_array("K_KIND", "int", [str(_KINDS[c.kind][1]) for c in model.constant_variables]),
         _c_array("MESSAGES", "char *const", [_c_string(m) for m in messages]),
+        _c_array("LOOP_NAMES", "char *const", [_c_string(name) for name in model.loop_names]),
         "#endif", ""]
     return "\n".join(lines)
 

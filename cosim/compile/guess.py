@@ -17,6 +17,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from cosim.compile.newton import NEWTON_ITERATIONS
+from cosim.errors import LoopWarning
 
 __all__ = ["better_guess"]
 
@@ -31,7 +32,7 @@ def _converged(residual, solution):
                 and np.max(np.abs(value), initial=0.0) <= _TOLERANCE * scale)
 
 
-def better_guess(solver, unknowns, residual, context, context_value, guess):
+def better_guess(solver, unknowns, residual, context, context_value, guess, name):
     """The guess the generated Newton iterations should start from, and a note when it is not ``guess``.
 
     Parameters
@@ -44,6 +45,8 @@ def better_guess(solver, unknowns, residual, context, context_value, guess):
         The context at the model's start point.
     guess : numpy.ndarray
         The unknowns' start values.
+    name : str
+        The loop in words (its unknowns and equations' lines), for the warning.
 
     Returns
     -------
@@ -59,6 +62,10 @@ def better_guess(solver, unknowns, residual, context, context_value, guess):
         return guess, None, newton
     found = _least_squares(at_start, guess)
     if found is None:
+        warnings.warn(LoopWarning(
+            f"the {name} has no solution Newton's method or Levenberg-Marquardt finds at the model's start point "
+            "(initial states, default parameters, inputs at their start, t = 0): its iterations start from the start "
+            "values, and the FMU reports an error wherever they do not converge"), stacklevel=2)
         return guess, None, newton
     names = ", ".join(u.name() for u in ca.vertsplit(unknowns))
     return found, (f"Newton's method does not converge from the start values of {names} at the start point: "

@@ -13,7 +13,7 @@ from cosim.compile import events as hybrid
 from cosim.compile.guess import better_guess
 from cosim.compile.initial import initial_state
 from cosim.compile.model import LoweredModel, ModelVariable
-from cosim.compile.newton import NEWTON_ITERATIONS, newton
+from cosim.compile.newton import NEWTON_ITERATIONS, converged, newton
 from cosim.errors import StructureError, UnsupportedConstructError
 
 __all__ = ["lower_system"]
@@ -344,13 +344,13 @@ def lower_system(system):
     start_point = [x0_values, np.array([_start(u) for u in inputs]), np.array(p_defaults), np.zeros(1)]
     start_point += [] if M is None else [np.zeros(M.shape[0])]
     start_of = {v.name: _start_at_defaults(v, params, P, p_defaults) for v in system.variables}
-    ode, out, observe, guess_notes = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, start_of, M, start_point)
+    loop_names = tuple(f"nonlinear algebraic loop in {', '.join(u.name() for u in ca.vertsplit(vs))} (equations "
+                       f"at {', '.join(sorted(set(locs)))})" for vs, _, locs in blocks.nonlinear)
+    ode, out, observe, loops, guess_notes = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, start_of, M,
+                                                       start_point, loop_names)
     notes += guess_notes
-    if blocks.nonlinear:
-        for vs, _, locs in blocks.nonlinear:
-            notes.append(f"nonlinear algebraic loop in {', '.join(u.name() for u in ca.vertsplit(vs))} "
-                         f"(equations at {', '.join(sorted(set(locs)))}) solved by Newton's method "
-                         f"({NEWTON_ITERATIONS} iterations from the start values)")
+    notes += [f"{name} solved by Newton's method ({NEWTON_ITERATIONS} iterations from the start values)"
+              for name in loop_names]
     if system.events is not None:
         notes += [f"sample(start = {start:g} s, interval = {interval:g} s) is fixed at build time (rumoca evaluates "
                   "its arguments): a parameter in them does not follow its run-time value"
@@ -365,6 +365,7 @@ def lower_system(system):
         ode=ode, out=out, observe=observe,
         observed=tuple(ModelVariable(v.name, v.unit, v.description, _start(v)) for v in observed),
         x0=x0, constants=dict(params.constants), notes=tuple(notes), **_parameter_variables(params, P),
+        loops=loops, loop_names=loop_names,
         events=None if M is None else _event_part(system, params, active, outputs, observed, (X, U, P, T, M),
                                                   (ode, out, observe), (p_defaults, x0_values)),
     )
@@ -431,35 +432,41 @@ def _start(var):
     return float(ca.evalf(var.start))
 
 
-def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point):
+def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, loop_names):
     """CasADi functions of (x, u, p, t), and the event memory m for a hybrid model; nonlinear blocks are
     solved by a generated Newton iteration, from the start values (``start_of``: name -> value at the default
     parameters; a der() in a block has none and starts at 0) or, where it does not converge from them at
     ``start_point`` (numeric x, u, p, t[, m]), from the block's solution there (:mod:`cosim.compile.guess`).
-    Returns the three functions and notes."""
+    A block whose iterations do not converge gives NaN, and ``loops`` says which (1 converged, 0 not, in
+    ``loop_names`` order; None without blocks), so that the FMU reports an error, not a number.
+    Returns the three functions, ``loops`` and notes."""
     names = ["x", "u", "p", "t"] + ([] if M is None else ["m"])
     args = [X, U, P, T] + ([] if M is None else [M])
     if not nonlinear:
         return (ca.Function("ode", args, [xdot], names, ["xdot"]),
                 ca.Function("out", args, [y], names, ["y"]),
-                ca.Function("observe", args, [obs], names, ["v"]), [])
+                ca.Function("observe", args, [obs], names, ["v"]), None, [])
     block_syms = [vs for vs, _, _ in nonlinear]
     explicit = ca.Function("explicit", [*args, *block_syms], [xdot, y, obs])
     margs = [ca.MX.sym(n, s.shape[0]) for n, s in zip(names, args)]
-    solved, notes, context_value = [], [], np.concatenate([np.ravel(v) for v in start_point])
+    solved, flags, notes = [], [], []
+    context_value = np.concatenate([np.ravel(v) for v in start_point])
     for k, (vs, residual, _) in enumerate(nonlinear):
         context = ca.vertcat(*args, *block_syms[:k])
         solver = newton(k, vs, residual, context)
         guess = np.array([start_of.get(u.name(), 0.0) for u in ca.vertsplit(vs)], dtype=float)
-        guess, note, at_start = better_guess(solver, vs, residual, context, context_value, guess)
+        guess, note, at_start = better_guess(solver, vs, residual, context, context_value, guess, loop_names[k])
         notes += [note] if note else []
         context_value = np.concatenate([context_value, at_start])
         ctx_value = ca.vertcat(*margs, *solved)
-        solved.append(solver(ca.DM(guess), ca.repmat(ctx_value, 1, NEWTON_ITERATIONS)))
+        solution = solver(ca.DM(guess), ca.repmat(ctx_value, 1, NEWTON_ITERATIONS))
+        flags.append(converged(k, vs, residual, context)(solution, ctx_value))
+        solved.append(ca.if_else(flags[-1], solution, ca.DM.nan(vs.shape[0], 1)))
     xd, yy, oo = explicit(*margs, *solved)
     return (ca.Function("ode", margs, [xd], names, ["xdot"]),
             ca.Function("out", margs, [yy], names, ["y"]),
-            ca.Function("observe", margs, [oo], names, ["v"]), notes)
+            ca.Function("observe", margs, [oo], names, ["v"]),
+            ca.Function("loops", margs, [ca.vertcat(*flags)], names, ["converged"]), notes)
 
 
 def _start_at_defaults(var, params, P, p_defaults):

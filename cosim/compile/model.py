@@ -142,6 +142,12 @@ class LoweredModel:
     events : EventPart or None
         ``None`` for a continuous model. For a hybrid model, ``ode``, ``out`` and ``observe`` take the event
         memory ``m`` as a fifth argument: ``ode(x, u, p, t, m)``.
+    loops : casadi.Function or None
+        ``loops(x, u, p, t[, m])``: 1 per nonlinear algebraic loop whose Newton iterations converged there, 0
+        per loop that did not (``ode``, ``out`` and ``observe`` then give NaN where they depend on it); None
+        when the model has no such loop.
+    loop_names : tuple of str
+        The loops, in ``loops`` order: their unknowns and equations' lines.
     experiment : dict
         The model's ``experiment`` annotation (``StartTime``, ``StopTime``, ``Interval``, ``Tolerance``, those
         it gives), the FMU's DefaultExperiment.
@@ -163,6 +169,8 @@ class LoweredModel:
     dependent: tuple = ()
     calculate: object = None
     constant_variables: tuple = ()
+    loops: object = None
+    loop_names: tuple = ()
     experiment: dict = field(default_factory=dict)
 
     @property

@@ -1,12 +1,18 @@
 """Newton's method as CasADi expressions that C code can be generated for (CasADi cannot generate C for its own
-rootfinders): one SX step ``v - J(v)^-1 r(v)``, folded a fixed number of times (a loop in the C code)."""
+rootfinders): one SX step ``v - J(v)^-1 r(v)``, folded a fixed number of times (a loop in the C code), and the
+test that those iterations converged (:func:`converged`): a solve that did not is an error at run time, not a
+number."""
 
 import casadi as ca
 
-__all__ = ["NEWTON_ITERATIONS", "newton"]
+__all__ = ["NEWTON_ITERATIONS", "STEP_TOLERANCE", "newton", "converged"]
 
 # Newton iterations unrolled into the generated code.
 NEWTON_ITERATIONS = 30
+# Converged: one more Newton step would move the unknowns by at most this, relative to their size (1 + max |v|).
+# Scale-free in the residual's units; quadratic convergence ends near 1e-16, a double root's linear one after
+# NEWTON_ITERATIONS halvings near 1e-9; a loop without a real solution steps by about its unknowns' size.
+STEP_TOLERANCE = 1e-8
 # A damped step tries the full Newton step, then halves it up to this many times.
 HALVINGS = 8
 
@@ -44,3 +50,12 @@ def _damped(unknowns, residual, delta):
         candidate = unknowns - delta / 2**j
         new = ca.if_else(ca.sumsqr(ca.substitute(residual, unknowns, candidate)) < before, candidate, new)
     return new
+
+
+def converged(k, unknowns, residual, context):
+    """A CasADi function of (unknowns, context) that is 1 where ``unknowns`` solve ``0 = residual`` (one more
+    Newton step from them is within STEP_TOLERANCE of their size), 0 where not (a singular Jacobian or a
+    residual that is not a number included: NaN compares false)."""
+    delta = ca.solve(ca.jacobian(residual, unknowns), residual)
+    ok = ca.mmax(ca.fabs(delta)) <= STEP_TOLERANCE * (1 + ca.mmax(ca.fabs(unknowns)))
+    return ca.Function(f"newton_converged{k}", [unknowns, context], [ok])

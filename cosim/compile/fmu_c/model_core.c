@@ -64,23 +64,39 @@ void model_reset(Model *s) {
 /* Something the results depend on changed: recompute them when next asked. */
 void model_touch(Model *s) { s->fresh_xdot = s->fresh_y = s->fresh_z = s->fresh_v = s->fresh_q = 0; }
 
+/* A result of n values that is not a number where a nonlinear loop's Newton iterations did not converge (the
+ * lowering makes it NaN there): an error naming the first such loop. A NaN of another cause is left as it is. */
+static int loops_failed(Model *s, const double *result, int n) {
+    double converged[N_LOOPS + 1];
+    int i, k;
+    for (i = 0; i < n && isfinite(result[i]); i++) {}
+    if (!N_LOOPS || i == n || call(s, cosim_loops, s->m, converged, NULL, NULL)) return 0;
+    for (k = 0; k < N_LOOPS; k++)
+        if (converged[k] == 0.0) {
+            logf_(s, 1, "t = %.17g: Newton's method did not converge on the %s here; no value is returned for "
+                  "it (the loop may have no solution at these states, inputs and parameters)", s->t, LOOP_NAMES[k]);
+            return 1;
+        }
+    return 0;
+}
+
 /* The result of a model function at the current t, x, u, p, m: computed once, then kept until model_touch. */
-static const double *cached(Model *s, casadi_fn f, double *result, int *fresh) {
+static const double *cached(Model *s, casadi_fn f, double *result, int n, int *fresh) {
     if (!*fresh) {
-        if (call(s, f, s->m, result, NULL, NULL)) return NULL;
+        if (call(s, f, s->m, result, NULL, NULL) || loops_failed(s, result, n)) return NULL;
         *fresh = 1;
     }
     return result;
 }
 
-const double *model_derivatives(Model *s) { return cached(s, cosim_ode, s->xdot, &s->fresh_xdot); }
+const double *model_derivatives(Model *s) { return cached(s, cosim_ode, s->xdot, N_X, &s->fresh_xdot); }
 
-static const double *outputs(Model *s) { return cached(s, cosim_out, s->y, &s->fresh_y); }
+static const double *outputs(Model *s) { return cached(s, cosim_out, s->y, N_Y, &s->fresh_y); }
 
 /* The local variables: computed only when one is read (nothing in stepping reads them). */
-static const double *observed(Model *s) { return cached(s, cosim_observe, s->v, &s->fresh_v); }
+static const double *observed(Model *s) { return cached(s, cosim_observe, s->v, N_OBS, &s->fresh_v); }
 
-static const double *calculated(Model *s) { return cached(s, cosim_calculated, s->q, &s->fresh_q); }
+static const double *calculated(Model *s) { return cached(s, cosim_calculated, s->q, 0, &s->fresh_q); }
 
 /* An indicator exactly 0 is reported on the side it was on when continuous time began (as +-DBL_MIN): a
  * solver that locates a root exactly at 0 (CVode can) has then not yet crossed, and goes on to where the
