@@ -204,7 +204,8 @@ def _write_validation(rows, table):
         f"Verified: every comparison signal within {TOLERANCE:g} of its range, away from events "
         "(benchmarks/msl_verify.py). Stages: rumoca = the front end rejected it; lower = cosim's lowering; export "
         "= C code; simulate = the FMU failed under fmpy's CVode; signals = comparison signals not in the FMU; "
-        "compare = a signal off the reference; ran = built and ran to its StopTime (no reference results)."])
+        "compare = a signal off the reference; uncompared = a signal with every instant near an event (nothing to "
+        "compare); ran = built and ran to its StopTime (no reference results)."])
     write_section("msl-models", ["model", "stage", "worst signal", "error", "time [s]", "cause"], model_rows)
     write_status(rows)
 

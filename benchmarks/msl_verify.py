@@ -19,12 +19,14 @@ import numpy as np
 
 TOLERANCE = 2e-3
 """Largest error of a verified signal, relative to the reference's range."""
-STAGES = ("rumoca", "lower", "export", "simulate", "signals", "compare", "ran", "verified")
+STAGES = ("rumoca", "lower", "export", "simulate", "signals", "compare", "uncompared", "ran", "verified")
 """How far a model got: rumoca (parse, flatten) failed; cosim's lowering failed; the C export failed; the FMU
-failed at run time; comparison signals missing from the FMU; a signal off by more than TOLERANCE; built and ran
-(a model without reference results); verified."""
+failed at run time; comparison signals missing from the FMU; a signal off by more than TOLERANCE; a signal with
+no instant left to compare (every one near an event); built and ran (a model without reference results);
+verified."""
 
-__all__ = ["TOLERANCE", "STAGES", "Row", "reference_dir", "read_reference", "experiment", "verify", "compare"]
+__all__ = ["TOLERANCE", "STAGES", "Row", "reference_dir", "read_reference", "experiment", "verify", "compare",
+           "judge"]
 
 
 @dataclass
@@ -79,7 +81,8 @@ def compare(t_ref, y_ref, t_sim, y_sim, span):
     """The largest error of ``y_sim`` against ``y_ref`` relative to the reference's range, at the reference's
     instants that are not within a thousandth of the span of an event of either result. A jump of the reference
     between two of its rows by over a tenth of its range counts as an event too (a discontinuity the tool that
-    made it did not mark: ``noEvent``, a density's edge), unless the signal jumps at over 2 % of its rows."""
+    made it did not mark: ``noEvent``, a density's edge), unless the signal jumps at over 2 % of its rows.
+    None when no instant is left to compare: an empty comparison verifies nothing."""
     y_ref = np.asarray(y_ref, dtype=float)
     jumps = np.flatnonzero(np.abs(np.diff(y_ref)) > 0.1 * max(float(np.ptp(y_ref)), 1e-300))
     if len(jumps) > 0.02 * len(y_ref):  # a signal that jumps at most rows (sampled noise): compared everywhere
@@ -96,7 +99,7 @@ def compare(t_ref, y_ref, t_sim, y_sim, span):
     ref = y_ref[keep]
     tiny = max(1e-10, 1e-6 * float(np.max(np.abs(y_ref)))) if len(y_ref) else 1e-10
     scale = max(float(np.ptp(y_ref)), tiny)
-    return float(np.max(np.abs(y_at - ref)) / scale) if len(ref) else 0.0
+    return float(np.max(np.abs(y_at - ref)) / scale) if len(ref) else None
 
 
 def _first_line(error, msl, model):
@@ -155,7 +158,7 @@ def verify(model, msl, refs, fmi_type="ModelExchange", workdir=None):
     if not referenced:
         row.stage, row.cause = "ran", f"no reference results: built and ran to {t1:g} s"
         return _done(row, start)
-    return _done(_judge(row, t_ref, columns, names, result, t1 - t0), start)
+    return _done(judge(row, t_ref, columns, names, result, t1 - t0), start)
 
 
 def _output_interval(t_ref, t0, t1):
@@ -167,19 +170,28 @@ def _output_interval(t_ref, t0, t1):
     return min((t1 - t0) / 5000, float(np.median(steps[steps > 0])) / 4)
 
 
-def _judge(row, t_ref, columns, names, result, span):
-    errors = {n: compare(t_ref, columns[n], result["time"], result[n], span) for n in names if n not in row.missing}
+def judge(row, t_ref, columns, names, result, span):
+    """The row's stage from the comparison of every signal of ``names`` the FMU has (``result``: fmpy's) with the
+    reference: compare (a signal off, or not a number), signals (some missing), uncompared (a signal with no
+    instant away from events), else verified."""
+    compared = {n: compare(t_ref, columns[n], result["time"], result[n], span) for n in names if n not in row.missing}
+    errors = {n: e for n, e in compared.items() if e is not None}
+    uncompared = [n for n, e in compared.items() if e is None]
     if errors:
         row.worst_signal = max(errors, key=errors.get)
         row.worst_error = errors[row.worst_signal]
     missing = f"{len(row.missing)} of {len(names)} comparison signals not in the FMU: {', '.join(row.missing[:3])}"
-    if row.worst_error > TOLERANCE or not np.isfinite(row.worst_error):  # a wrong number outranks a missing one
+    if errors and (row.worst_error > TOLERANCE or not np.isfinite(row.worst_error)):  # a wrong number first
         row.stage = "compare"
         row.cause = f"{row.worst_signal} off by {row.worst_error:.3g} of its range" + (
             f"; {missing}" if row.missing else "")
     elif row.missing:
         row.stage = "signals"
         row.cause = missing
+    elif uncompared:
+        row.stage = "uncompared"
+        row.cause = (f"{len(uncompared)} of {len(names)} comparison signals not compared (every instant near an "
+                     f"event): {', '.join(uncompared[:3])}")
     else:
         row.stage = "verified"
     return row
