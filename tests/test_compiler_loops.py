@@ -130,3 +130,21 @@ def test_a_loop_without_a_solution_at_the_start_point_warns_naming_the_loop(tmp_
     assert np.isnan(model.output_values([0.0], [-1.0])[0])  # no root: not a number, and loops says which
     converged = np.array(model.loops([0.0], [-1.0], model.parameter_values, 0.0), dtype=float).ravel()
     assert list(converged) == [0.0]
+
+
+def test_a_loop_that_needs_more_than_the_first_iterations_is_solved_by_the_retry(tmp_path):
+    """exp(z) = u from z = 10 towards z = log(u) = -40: Newton's step z - 1 + u exp(-z) goes down by about 1 a
+    step, so the first 30 iterations end near z = -20 and the 70 more reach the root (log(u), closed form)."""
+    path = write_package(tmp_path, """
+  model M
+    input Real u(start = 22026.465794806718) "exp(10): z = 10 at the start values";
+    Real z(start = 10);
+    output Real y = z;
+  equation
+    exp(z) = u;
+  end M;""")
+    fmu = build_fmu(path, "T.M", out_dir=tmp_path / "out")
+    for u in (np.exp(10.0), np.exp(-40.0)):
+        result = fmpy.simulate_fmu(str(fmu), stop_time=0.1, output_interval=0.1, start_values={"u": u},
+                                   output=["y"])
+        np.testing.assert_allclose(result["y"], np.log(u), rtol=1e-12)

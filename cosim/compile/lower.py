@@ -13,7 +13,7 @@ from cosim.compile import events as hybrid
 from cosim.compile.guess import better_guess
 from cosim.compile.initial import initial_state
 from cosim.compile.model import LoweredModel, ModelVariable
-from cosim.compile.newton import NEWTON_ITERATIONS, converged, newton
+from cosim.compile.newton import NEWTON_ITERATIONS, RETRY_ITERATIONS, converged, newton
 from cosim.errors import StructureError, UnsupportedConstructError
 
 __all__ = ["lower_system"]
@@ -437,7 +437,8 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
     solved by a generated Newton iteration, from the start values (``start_of``: name -> value at the default
     parameters; a der() in a block has none and starts at 0) or, where it does not converge from them at
     ``start_point`` (numeric x, u, p, t[, m]), from the block's solution there (:mod:`cosim.compile.guess`).
-    A block whose iterations do not converge gives NaN, and ``loops`` says which (1 converged, 0 not, in
+    Where the iterations did not converge, RETRY_ITERATIONS more run from where they ended; a block that still
+    did not gives NaN, and ``loops`` says which (1 converged, 0 not, in
     ``loop_names`` order; None without blocks), so that the FMU reports an error, not a number.
     Returns the three functions, ``loops`` and notes."""
     names = ["x", "u", "p", "t"] + ([] if M is None else ["m"])
@@ -459,9 +460,15 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
         notes += [note] if note else []
         context_value = np.concatenate([context_value, at_start])
         ctx_value = ca.vertcat(*margs, *solved)
-        solution = solver(ca.DM(guess), ca.repmat(ctx_value, 1, NEWTON_ITERATIONS))
-        flags.append(converged(k, vs, residual, context)(solution, ctx_value))
-        solved.append(ca.if_else(flags[-1], solution, ca.DM.nan(vs.shape[0], 1)))
+        test = converged(k, vs, residual, context)
+        first = solver(ca.DM(guess), ca.repmat(ctx_value, 1, NEWTON_ITERATIONS))
+        retried = newton(f"{k}_retry", vs, residual, context, iterations=RETRY_ITERATIONS)(
+            first, ca.repmat(ctx_value, 1, RETRY_ITERATIONS))
+        # (solution, converged): the retry and its test evaluated only where the first iterations did not converge
+        outcome = ca.if_else(test(first, ctx_value), ca.vertcat(first, 1),
+                             ca.vertcat(retried, test(retried, ctx_value)), True)
+        flags.append(outcome[-1])
+        solved.append(ca.if_else(flags[-1], outcome[:-1], ca.DM.nan(vs.shape[0], 1)))
     xd, yy, oo = explicit(*margs, *solved)
     return (ca.Function("ode", margs, [xd], names, ["xdot"]),
             ca.Function("out", margs, [yy], names, ["y"]),

@@ -5,10 +5,13 @@ number."""
 
 import casadi as ca
 
-__all__ = ["NEWTON_ITERATIONS", "STEP_TOLERANCE", "newton", "converged"]
+__all__ = ["NEWTON_ITERATIONS", "RETRY_ITERATIONS", "STEP_TOLERANCE", "newton", "converged"]
 
 # Newton iterations unrolled into the generated code.
 NEWTON_ITERATIONS = 30
+# Iterations more, run only where the first NEWTON_ITERATIONS did not converge (an exponential's slow approach
+# from far: the Z-diodes of the MSL's OvervoltageProtection need more than 30 from their start values).
+RETRY_ITERATIONS = 70
 # Converged: one more Newton step would move the unknowns by at most this, relative to their size (1 + max |v|).
 # Scale-free in the residual's units; quadratic convergence ends near 1e-16, a double root's linear one after
 # NEWTON_ITERATIONS halvings near 1e-9; a loop without a real solution steps by about its unknowns' size.
@@ -17,9 +20,9 @@ STEP_TOLERANCE = 1e-8
 HALVINGS = 8
 
 
-def newton(k, unknowns, residual, context, damped=False):
+def newton(k, unknowns, residual, context, damped=False, iterations=NEWTON_ITERATIONS):
     """A solver for ``0 = residual(unknowns, context)``: a CasADi function of (guess, context repeated
-    NEWTON_ITERATIONS times as columns) returning the unknowns after NEWTON_ITERATIONS steps.
+    ``iterations`` times as columns) returning the unknowns after ``iterations`` steps.
 
     Parameters
     ----------
@@ -31,6 +34,7 @@ def newton(k, unknowns, residual, context, damped=False):
         Take the longest of the steps 1, 1/2, 1/4, ... that lowers the residual's norm (and stays where the
         residual is defined: ``sqrt`` of a negative overshoot is NaN, which compares false), for start values
         far from the root (an initialisation).
+    iterations : int, default NEWTON_ITERATIONS
 
     Returns
     -------
@@ -40,7 +44,7 @@ def newton(k, unknowns, residual, context, damped=False):
     delta = ca.solve(jac, residual)
     new = _damped(unknowns, residual, delta) if damped else unknowns - delta
     step = ca.Function(f"newton_step{k}", [unknowns, context], [new])
-    return step.fold(NEWTON_ITERATIONS)
+    return step.fold(iterations)
 
 
 def _damped(unknowns, residual, delta):
