@@ -438,8 +438,8 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
     parameters; a der() in a block has none and starts at 0) or, where it does not converge from them at
     ``start_point`` (numeric x, u, p, t[, m]), from the block's solution there (:mod:`cosim.compile.guess`).
     Where the iterations did not converge, RETRY_ITERATIONS more run from where they ended; a block that still
-    did not gives NaN, and ``loops`` says which (1 converged, 0 not, in
-    ``loop_names`` order; None without blocks), so that the FMU reports an error, not a number.
+    did not gives NaN, and ``loops`` says which (1 converged, 0 not, in ``loop_names`` order; None without
+    blocks), so that the FMU reports an error, not a number.
     Returns the three functions, ``loops`` and notes."""
     names = ["x", "u", "p", "t"] + ([] if M is None else ["m"])
     args = [X, U, P, T] + ([] if M is None else [M])
