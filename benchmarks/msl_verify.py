@@ -107,6 +107,7 @@ def _first_line(error, msl, model):
     without what the front end's refusal says of the validation run (cosim.compile.refusal)."""
     text = str(error).strip().splitlines()
     line = (text[0] if text else "").replace(str(Path(msl)) + "/", "")
+    line = line.replace(f"front end, refused {model}: ", "front end, refused it: ")
     for repeated in (f"Modelica/package.mo: {model}: ", f"{model} failed in ", f"{model}: "):
         line = line.replace(repeated, "")
     line = line.split("; cosim's validation run")[0]  # what an earlier run saw is no cause of this run's row
