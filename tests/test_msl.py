@@ -32,7 +32,9 @@ FAST = [
     "Modelica.Blocks.Examples.SlewRateLimiter",
 ]
 
-# Every other model benchmarks/msl.py verified (docs/validation.md, section msl-models).
+# Every other model benchmarks/msl.py verified (docs/validation.md, section msl-models), but CauerLowPassSC: its
+# reference has an event at 1200 of its 4801 instants (the switched capacitors' clock), every instant lies near
+# one, and its "verified" was an empty comparison (stage uncompared now).
 VERIFIED = [
     "Modelica.Blocks.Examples.BusUsage",
     "Modelica.Blocks.Examples.CompareSincExpSine",
@@ -46,7 +48,6 @@ VERIFIED = [
     "Modelica.Blocks.Examples.TotalHarmonicDistortion",
     "Modelica.Electrical.Analog.Examples.CauerLowPassAnalog",
     "Modelica.Electrical.Analog.Examples.CauerLowPassOPV",
-    "Modelica.Electrical.Analog.Examples.CauerLowPassSC",
     "Modelica.Electrical.Analog.Examples.CharacteristicIdealDiodes",
     "Modelica.Electrical.Analog.Examples.CharacteristicThyristors",
     "Modelica.Electrical.Analog.Examples.ControlledSwitchWithArc",
