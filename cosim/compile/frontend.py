@@ -145,7 +145,7 @@ def _padded(path, model, files, text):
         return None
     n = int(found.group(1))
     end = source.index(body) + len(body) - len(body.rsplit("\n", 1)[-1])  # the start of the "end Model;" line
-    pad = (f"equation\n" + "  0.0 = 0.0;\n" * -n if n < 0 else
+    pad = ("equation\n" + "  0.0 = 0.0;\n" * -n if n < 0 else
            "public\n" + "".join(f"  Real {PAD}{k};\n" for k in range(n)))
     with tempfile.TemporaryDirectory(prefix="cosim-balance-") as scratch:
         for mo in files:

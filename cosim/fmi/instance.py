@@ -215,7 +215,6 @@ class FmuInstance:
             raise FmiCallError("load", "failed", f"{self.info.path}: {err}") from err
         f = self._fmu._functions
         p = "fmi3" if self.version == 3 else "fmi2"
-        update = "fmi3UpdateDiscreteStates" if self.version == 3 else "fmi2NewDiscreteStates"
         self._f_set_time = f.get(f"{p}SetTime")
         self._f_set_states = f.get(f"{p}SetContinuousStates")
         self._f_get_states = f.get(f"{p}GetContinuousStates")
