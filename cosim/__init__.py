@@ -1,23 +1,54 @@
 """cosim: Modelica plants compiled to FMUs, co-simulated against Python controllers at their real rates.
 
-The public API is the names of ``__all__`` (docs/reference/python.md): :func:`build`, :func:`run`, :class:`Config`,
-:class:`RunResult`. They are imported on first use, so that ``import cosim`` stays instant.
+The public API is the names of ``__all__`` (docs/reference/python.md): :func:`build`, :func:`run`,
+:func:`calibrate`, :func:`diagnose`, :func:`campaign`, their results and :class:`Config`. They are imported on
+first use, so that ``import cosim`` stays instant.
+
+``cosim.calibrate``, ``cosim.diagnose`` and ``cosim.campaign`` are also the subpackages that hold those jobs'
+code, and importing a subpackage sets the attribute of its name on ``cosim``: a plain function of that name here
+would be replaced by the module as soon as any of its modules is imported. So each of the three subpackages is a
+module that can be called (:func:`_callable_package`): ``cosim.calibrate(job, ...)`` calls
+:func:`cosim.api.calibrate` whether or not ``cosim.calibrate.job`` was imported first, and ``cosim.calibrate.job``
+stays where it is.
 """
 
-__version__ = "0.1.0"
-__all__ = ["__version__", "build", "run", "Config", "RunResult"]
+import types
 
-_API = ("build", "run", "Config", "RunResult")
+__version__ = "0.1.0"
+__all__ = ["__version__", "build", "run", "calibrate", "diagnose", "campaign", "Config", "RunResult",
+           "CalibrationResult", "Diagnosis", "CampaignResult"]
+
+_API = {"build": "cosim.api", "run": "cosim.api", "Config": "cosim.api", "RunResult": "cosim.api",
+        "CalibrationResult": "cosim.calibrate.result", "Diagnosis": "cosim.diagnose.result",
+        "CampaignResult": "cosim.campaign.result"}
+_CALLABLE = ("calibrate", "diagnose", "campaign")
 
 
 def __getattr__(name):
-    """The API's names, from :mod:`cosim.api` on first use (it imports numpy and the master)."""
-    if name in _API:
-        from cosim import api
+    """The API's names, from their modules on first use (they import numpy and more)."""
+    import importlib
 
-        return getattr(api, name)
+    if name in _CALLABLE:  # the subpackage, which calls the API function of its name
+        return importlib.import_module(f"cosim.{name}")
+    if name in _API:
+        return getattr(importlib.import_module(_API[name]), name)
     raise AttributeError(f"module 'cosim' has no attribute {name!r}")
 
 
 def __dir__():
-    return sorted(set(globals()) | set(_API))
+    return sorted(set(globals()) | set(_API) | set(_CALLABLE))
+
+
+class _CallablePackage(types.ModuleType):
+    """A subpackage that is also the API function of its name (see the module docstring)."""
+
+    def __call__(self, *args, **kwargs):
+        from cosim import api
+
+        return getattr(api, self.__name__.rpartition(".")[2])(*args, **kwargs)
+
+
+def _callable_package(module):
+    """Make the subpackage ``module`` (``cosim.calibrate``, ...) callable as :mod:`cosim.api`'s function of its
+    name; its contents stay as they are."""
+    module.__class__ = _CallablePackage

@@ -105,16 +105,15 @@ def _add_run(sub):
 
 
 def _cmd_calibrate(args):
-    from cosim.calibrate.job import run_job
-
-    out = args.out or f"out/{Path(args.job).stem}"
-    summary = run_job(args.job, out=out, overrides=args.set, progress=not args.no_progress, force=args.force)
+    from cosim.api import calibrate
     from cosim.calibrate.report import standard_error
 
-    for name, p in summary["parameters"].items():
-        print(f"{name} = {p['value']:.6g} {standard_error(p['std_error'])}, start {p['start']:.6g}")
-    print(f"cost {summary['cost_before']:.6g} -> {summary['cost_after']:.6g} in {summary['iterations']} "
-          f"iterations ({summary['return_status']}); wrote {out}/calibration.json, parameters.toml, fit.png")
+    out = args.out or f"out/{Path(args.job).stem}"
+    result = calibrate(args.job, set=args.set, out=out, progress=not args.no_progress, force=args.force)
+    for name, p in result.parameters.items():
+        print(f"{name} = {p.value:.6g} {standard_error(p.std_error)}, start {p.start:.6g}")
+    print(f"cost {result.cost_before:.6g} -> {result.cost_after:.6g} in {result.iterations} "
+          f"iterations ({result.return_status}); wrote {out}/calibration.json, parameters.toml, fit.png")
     return 0
 
 
@@ -136,11 +135,11 @@ def _add_calibrate(sub):
 
 
 def _cmd_diagnose(args):
-    from cosim.diagnose import diagnose
+    from cosim.api import diagnose
 
     out = args.out or f"out/{Path(args.job).stem}"
-    result = diagnose(args.job, out=out, overrides=args.set, progress=not args.no_progress,
-                      build=not args.no_build, force=args.force)
+    result = diagnose(args.job, set=args.set, out=out, build=not args.no_build, force=args.force,
+                      progress=not args.no_progress)
     print(result.verdict)
     for label, text in (("evidence", result.evidence), ("next step", result.next_step)):
         if text:
@@ -176,7 +175,8 @@ def _add_diagnose(sub):
 
 
 def _cmd_campaign(args):
-    from cosim.campaign import run_campaign, run_one_trial
+    from cosim.api import campaign
+    from cosim.campaign import run_one_trial
 
     if args.trial is not None:
         row, command = run_one_trial(args.job, args.trial, overrides=args.set)
@@ -185,15 +185,15 @@ def _cmd_campaign(args):
         print(f"the same co-simulation alone (without the load cell's noise):\n{command}")
         return 0
     out = args.out or f"out/{Path(args.job).stem}"
-    summary = run_campaign(args.job, out=out, overrides=args.set, workers=args.workers, scheduler=args.scheduler,
-                           progress=not args.no_progress)
-    run = summary["run"]
-    if run["interrupted"]:
+    result = campaign(args.job, set=args.set, out=out, workers=args.workers, scheduler=args.scheduler,
+                      progress=not args.no_progress)
+    run = result.run
+    if result.interrupted:
         print(f"cosim campaign: interrupted; {run['resumed'] + run['ran']} of {run['trials']} trials kept in "
               f"{out}/parts; the same command resumes", file=sys.stderr)
         return 130
-    print(f"{summary['trials']} trials ({run['resumed']} resumed, {run['ran']} run in {run['wall_s']:.1f} s on "
-          f"{run['workers']} worker{'s' if run['workers'] != 1 else ''}); {summary['p3_iqr_below_bare']}")
+    print(f"{result.trials} trials ({run['resumed']} resumed, {run['ran']} run in {run['wall_s']:.1f} s on "
+          f"{run['workers']} worker{'s' if run['workers'] != 1 else ''}); {result.p3_iqr_below_bare}")
     print(f"wrote {out}/trials.parquet, table1.csv, table1.md, boxplots.png, summary.json")
     return 0
 

@@ -102,9 +102,9 @@ substeps = 10
 
 def test_job_writes_results_and_parameter_set(tmp_path):
     job = write_job(tmp_path)
-    summary = run_job(job, out=tmp_path / "out", progress=False)
+    result = run_job(job, out=tmp_path / "out", progress=False)
     written = json.loads((tmp_path / "out" / "calibration.json").read_text())
-    assert written == json.loads(json.dumps(summary))
+    assert written == json.loads(json.dumps(result.to_json()))
     assert set(written["parameters"]["k"]) == {"value", "std_error", "identifiable", "start"}
     assert abs(written["parameters"]["k"]["value"] - K_TRUE) < 2 * written["parameters"]["k"]["std_error"]
     assert written["cost_after"] < written["cost_before"]
@@ -116,11 +116,11 @@ def test_job_writes_results_and_parameter_set(tmp_path):
 @pytest.mark.slow
 def test_multistart_on_a_local_dask_cluster(tmp_path):
     job = write_job(tmp_path, extra="\n[multistart]\ncount = 3\nseed = 7\n")
-    summary = run_job(job, out=tmp_path / "out", progress=False)
-    assert len(summary["multistart"]) == 3
-    assert summary["multistart"][0]["start"] == {"k": 150.0, "d": 3.0}
-    best = min(r["cost_after"] for r in summary["multistart"] if r["success"])
-    assert summary["cost_after"] == pytest.approx(best)
+    result = run_job(job, out=tmp_path / "out", progress=False)
+    assert len(result.multistart) == 3
+    assert result.multistart[0]["start"] == {"k": 150.0, "d": 3.0}
+    best = min(r["cost_after"] for r in result.multistart if r["success"])
+    assert result.cost_after == pytest.approx(best)
 
 
 @pytest.mark.parametrize("case,edit,message", [
@@ -152,10 +152,10 @@ def test_fmu_only_model_falls_back_to_finite_differences(tmp_path, compiler_fmu)
     text = job.read_text().replace(f'source = "{COMPILER_MODELS}"\nname = "CompilerTests.MassSpringDamper"',
                                    f'fmu = "{compiler_fmu("MassSpringDamper")}"')
     job.write_text(text)
-    summary = run_job(job, out=tmp_path / "out", progress=False)
-    assert summary["derivatives"].startswith("finite differences through the FMU")
-    k = summary["parameters"]["k"]
-    assert abs(k["value"] - K_TRUE) < 2 * k["std_error"]
+    result = run_job(job, out=tmp_path / "out", progress=False)
+    assert result.derivatives.startswith("finite differences through the FMU")
+    k = result.parameters["k"]
+    assert abs(k.value - K_TRUE) < 2 * k.std_error
 
 
 def test_a_run_config_loads_the_calibrated_parameter_set(tmp_path, compiler_fmu):

@@ -149,21 +149,27 @@ def _is_time(t):
     return isinstance(t, (int, float)) and not isinstance(t, bool) and not math.isnan(t)
 
 
-def run_job(path, out="out/calibration", overrides=(), progress=True, force=False):
-    """Run a calibration job and write its results to ``out``; returns the result dict of calibration.json.
+def run_job(path, out=None, overrides=(), progress=True, force=False):
+    """Run a calibration job: :func:`cosim.api.calibrate` (the parameters are described there).
 
     ``out`` must be new, empty, or a previous cosim output (replaced only with ``force``); it is checked before
     the fit, the results are written beside it and moved into place at the end
-    (:func:`cosim.outputs.output_folder`)."""
+    (:func:`cosim.outputs.output_folder`). Without ``out`` nothing is written."""
+    from dataclasses import replace
+
     from cosim.calibrate.multistart import fit_multistart
     from cosim.calibrate.report import write_results
+    from cosim.calibrate.result import calibration_result
     from cosim.master.run import SignalsHeld, interrupt_on_signals
     from cosim.outputs import output_folder
 
     job = load_job(path, overrides)
+    if out is None:
+        return calibration_result(job, *fit_multistart(job, progress=progress))
     held = SignalsHeld(out)  # a Ctrl-C while the fit is written waits for the files
     with interrupt_on_signals(), held, output_folder(out, "calibrate", force=force) as staging:
         best, runs = fit_multistart(job, progress=progress)
         held.start()
-        summary = write_results(job, best, runs, staging)
-    return summary
+        result = calibration_result(job, best, runs)
+        write_results(result, job, best, staging)
+    return replace(result, out=Path(out))

@@ -8,17 +8,12 @@ import matplotlib
 import numpy as np
 
 from cosim.outputs import optional_file
-from cosim.paramfile import provenance, write_parameters_file
+from cosim.paramfile import write_parameters_file
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 __all__ = ["write_results", "standard_error"]
-
-
-def _finite(x):
-    """``x``, or None (JSON null) when it is inf or NaN (a parameter the data do not determine)."""
-    return x if math.isfinite(x) else None
 
 
 def standard_error(std):
@@ -38,41 +33,18 @@ def standard_error(std):
     return f"+- {std:.3g} (1 s.e.)"
 
 
-def write_results(job, result, runs, out):
-    """Write the results of a fit of ``job`` into the folder ``out``: ``result`` the best start's
-    :class:`~cosim.calibrate.multistart.StartFit`, ``runs`` every start's; returns the calibration.json content."""
-    names = list(job.free)
-    summary = {
-        "job": str(job.path),
-        "model": job.model,
-        "data": str(job.data_path),
-        "method": job.method,
-        "substeps": job.substeps,
-        "derivatives": ("finite differences through the FMU (the model has no CasADi form)" if job.fmu else
-                        "exact (CasADi automatic differentiation of the lowered Modelica equations)"),
-        "parameters": {n: {"value": result.parameters[n], "std_error": _finite(result.std_errors[n]),
-                           "identifiable": math.isfinite(result.std_errors[n]), "start": result.start[n]}
-                       for n in names},
-        "correlation": {"names": names, "matrix": [[_finite(c) for c in row] for row in result.correlation]},
-        "cost_before": result.cost_before,
-        "cost_after": result.cost_after,
-        "cost_definition": "0.5 * sum over fitted samples of ((simulated - measured) / noise)^2",
-        "iterations": result.iterations,
-        "success": result.success,
-        "return_status": result.return_status,
-        "samples": int(result.mask.sum()),
-        "multistart": [r.summary() for r in runs],
-    }
-    prov = provenance(job.path, [job.data_path], job.upstream)
-    summary["provenance"] = prov
-    (out / "calibration.json").write_text(json.dumps(summary, indent=2))
+def write_results(result, job, fit, out):
+    """Write the :class:`~cosim.calibrate.result.CalibrationResult` ``result`` of a fit of ``job`` into the folder
+    ``out``: calibration.json, parameters.toml and fit.png (of ``fit``, the best start's
+    :class:`~cosim.calibrate.multistart.StartFit`)."""
+    (out / "calibration.json").write_text(json.dumps(result.to_json(), indent=2))
     header = (f"Calibrated by `cosim calibrate {job.path.name}`, model {job.model}, cost {result.cost_after:.6g}",
               "Read by run configs ([fmus.plant] parameters_file = \"<this file>\"), campaign jobs ([campaign]) and",
               "calibration jobs ([model]); [provenance] says which job, data and code made it.")
-    write_parameters_file(out / "parameters.toml", {n: result.parameters[n] for n in names},
-                          {n: standard_error(result.std_errors[n]) for n in names}, prov, header)
-    optional_file(out / "fit.png", lambda p: _plot(job, result, p))
-    return summary
+    write_parameters_file(out / "parameters.toml", result.values,
+                          {n: standard_error(p.std_error) for n, p in result.parameters.items()}, result.provenance,
+                          header)
+    optional_file(out / "fit.png", lambda p: _plot(job, fit, p))
 
 
 def _plot(job, result, path):

@@ -5,57 +5,44 @@ Modules: ``job`` (the TOML job), ``draws`` (trials, seeds, drawn values), ``tria
 master's engine), ``execute`` (batches on Dask, parts on disk, resume), ``report`` (tables, plot, summary).
 """
 
+import sys
+import tempfile
+from dataclasses import replace
 from pathlib import Path
 
+from cosim import _callable_package
 from cosim.campaign.draws import trial_list
 from cosim.campaign.execute import command_line, read_parts, run_trials
 from cosim.campaign.job import load_campaign
-from cosim.campaign.report import table1, write_report
+from cosim.campaign.report import campaign_result, table1, write_report
 from cosim.campaign.trial import TrialRunner, run_command
 from cosim.errors import ConfigError
 
 __all__ = ["run_campaign", "run_one_trial", "load_campaign", "table1"]
 
+_callable_package(sys.modules[__name__])  # cosim.campaign(job, ...) is cosim.api.campaign
+
 
 def run_campaign(path, out=None, overrides=(), workers=None, scheduler="", progress=True):
-    """Run (or resume) a campaign job and write its files.
-
-    Parameters
-    ----------
-    path : path-like
-        The campaign job (.toml).
-    out : path-like, optional
-        Output folder (default ``out/<job stem>``); a folder holding the same job is resumed.
-    overrides : sequence of str
-        ``key=value`` items, as ``--set`` (e.g. ``campaign.trials=5``).
-    workers : int, optional
-        Workers of the local Dask cluster (default: one a core).
-    scheduler : str, default ""
-        Address of a running Dask scheduler to use instead of a local cluster.
-    progress : bool, default True
-        Progress bar with ETA on stderr.
-
-    Returns
-    -------
-    dict
-        The summary (summary.json); ``summary["run"]["interrupted"]`` is True after Ctrl-C (the finished
-        trials are kept in ``out/parts``; the same command resumes).
-
-    Raises
-    ------
-    cosim.errors.ConfigError
-        Invalid job; ``out`` not a cosim output or holding another job (the changed keys are named);
-        the scheduler does not answer.
-    """
+    """Run (or resume) a campaign job: :func:`cosim.api.campaign` (the parameters are described there); without
+    ``out`` the trials' parts go to a temporary folder, removed at the end."""
     if workers is not None and not (isinstance(workers, int) and workers >= 1):
         raise ConfigError(f"--workers: expected a whole number >= 1; got {workers!r}")
     job = load_campaign(path, overrides)
-    out = Path(out) if out is not None else Path("out") / Path(path).stem
-    info = run_trials(job, out, workers=workers, scheduler=scheduler, progress=progress,
-                      command=command_line(path, overrides))
-    if info["interrupted"]:
-        return {"run": info}
-    return write_report(read_parts(out), job, out, info)
+    if out is None:
+        with tempfile.TemporaryDirectory(prefix="cosim-campaign-") as folder:
+            result = _run(job, Path(folder), workers, scheduler, progress, command_line(path, overrides))
+        return result
+    result = _run(job, Path(out), workers, scheduler, progress, command_line(path, overrides))
+    if not result.interrupted:
+        write_report(result, job, Path(out))
+    return replace(result, out=Path(out))
+
+
+def _run(job, folder, workers, scheduler, progress, command):
+    """The campaign's trials run in ``folder`` (those it holds resumed), as a result."""
+    info = run_trials(job, folder, workers=workers, scheduler=scheduler, progress=progress, command=command)
+    return campaign_result(read_parts(folder), job, info)
 
 
 def run_one_trial(path, index, overrides=()):

@@ -12,7 +12,7 @@ import pandas as pd
 
 from cosim.campaign.execute import parameters_files
 
-__all__ = ["TABLE_COLUMNS", "table1", "paper_iqrs", "write_report"]
+__all__ = ["TABLE_COLUMNS", "table1", "paper_iqrs", "campaign_result", "write_report"]
 
 TABLE_COLUMNS = ("coating", "speed_rpm", "current_A", "n", "median_N", "q1_N", "q3_N", "iqr_N", "outlier_share")
 _CELL = ["coating", "speed_rpm", "current_A"]
@@ -146,8 +146,8 @@ def _boxplots(trials, job, path):
     plt.close(fig)
 
 
-def write_report(trials, job, out, run_info):
-    """Write trials.parquet, table1.csv, table1.md, boxplots.png and summary.json into ``out``.
+def campaign_result(trials, job, run_info):
+    """The :class:`~cosim.campaign.result.CampaignResult` of a campaign's trials.
 
     Parameters
     ----------
@@ -155,34 +155,44 @@ def write_report(trials, job, out, run_info):
         Every trial of the campaign (trials.parquet's rows), in grid order (as
         :func:`cosim.campaign.execute.read_parts` returns them).
     job : cosim.campaign.job.CampaignJob
-    out : pathlib.Path
     run_info : dict
-        What :func:`cosim.campaign.execute.run_trials` returned (timings, workers); summary.json adds
+        What :func:`cosim.campaign.execute.run_trials` returned (timings, workers); the result's ``run`` adds
         ``trial_s`` (wall time a trial, on its worker), ``overhead_share`` (the part of it outside the engine's
         loop) and the machine's load average.
 
     Returns
     -------
-    dict
-        The summary written to summary.json.
+    CampaignResult
     """
-    trials.to_parquet(out / "trials.parquet", index=False)
+    from cosim.campaign.result import CampaignResult
+
     table = table1(trials, [c.name for c in job.coatings])
-    table.to_csv(out / "table1.csv", index=False)
     paper = paper_iqrs()
-    (out / "table1.md").write_text(_markdown(table, paper, job), encoding="utf-8")
-    _boxplots(trials, job, out / "boxplots.png")
     ran = run_info["ran"]
-    summary = {
-        "job": str(job.path), "overrides": list(job.overrides), "trials": int(len(trials)),
-        "cells": int(len(table)), "no_steady_force": int(trials["steady_force_N"].isna().sum()),
-        "bounced_share": float(trials["bounced"].mean()) if len(trials) else None,
-        "p3_iqr_below_bare": _comparison(table, paper, "P3", "bare"),
-        "parameters_files": parameters_files(job),
-        "run": {**run_info,
-                "trial_s": run_info["trials_s"] / ran if run_info["ran"] else None,
-                "overhead_share": 1.0 - run_info["loop_s"] / run_info["trials_s"] if run_info["trials_s"] else None,
-                "load_average_1min": float(os.getloadavg()[0])},
-    }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
-    return summary
+    return CampaignResult(
+        job=str(job.path), overrides=list(job.overrides), trials=int(len(trials)), cells=int(len(table)),
+        no_steady_force=int(trials["steady_force_N"].isna().sum()),
+        bounced_share=float(trials["bounced"].mean()) if len(trials) else None,
+        p3_iqr_below_bare=_comparison(table, paper, "P3", "bare"), parameters_files=parameters_files(job),
+        run={**run_info,
+             "trial_s": run_info["trials_s"] / ran if run_info["ran"] else None,
+             "overhead_share": 1.0 - run_info["loop_s"] / run_info["trials_s"] if run_info["trials_s"] else None,
+             "load_average_1min": float(os.getloadavg()[0])},
+        records=trials, table=table, table_markdown=_markdown(table, paper, job))
+
+
+def write_report(result, job, out):
+    """Write trials.parquet, table1.csv, table1.md, boxplots.png and summary.json into ``out``.
+
+    Parameters
+    ----------
+    result : CampaignResult
+        What :func:`campaign_result` made of the trials.
+    job : cosim.campaign.job.CampaignJob
+    out : pathlib.Path
+    """
+    result.records.to_parquet(out / "trials.parquet", index=False)
+    result.table.to_csv(out / "table1.csv", index=False)
+    (out / "table1.md").write_text(result.table_markdown, encoding="utf-8")
+    _boxplots(result.records, job, out / "boxplots.png")
+    (out / "summary.json").write_text(json.dumps(result.to_json(), indent=2) + "\n", encoding="utf-8")
