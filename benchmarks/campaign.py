@@ -97,8 +97,8 @@ def on_dask(trials, out):
         shutil.rmtree(folder, ignore_errors=True)
         t0 = time.perf_counter()
         s = run_campaign(JOB, out=folder, overrides=_grid(trials), workers=workers, progress=False)
-        runs[workers] = (time.perf_counter() - t0, s["run"])
-        r = s["run"]
+        runs[workers] = (time.perf_counter() - t0, s.run)
+        r = s.run
         print(f"dask, {workers} worker(s), {r['ran']} trials ({_load()}): command {runs[workers][0]:.1f} s, "
               f"trials phase {r['wall_s']:.1f} s; per trial on its worker {r['trial_s']:.3f} s, outside the loop "
               f"{100 * r['overhead_share']:.1f} %, set-up summed over workers {r['setup_s']:.1f} s")
@@ -115,8 +115,8 @@ def full_campaign(out):
     t0 = time.perf_counter()
     summary = run_campaign(JOB, out=out, workers=2, progress=True)
     wall = time.perf_counter() - t0
-    print(f"full campaign, {summary['run']['ran']} trials on 2 workers ({_load()}): {wall / 60:.1f} min; "
-          f"{summary['p3_iqr_below_bare']}")
+    print(f"full campaign, {summary.run['ran']} trials on 2 workers ({_load()}): {wall / 60:.1f} min; "
+          f"{summary.p3_iqr_below_bare}")
     return wall, summary
 
 
@@ -167,17 +167,17 @@ def write_table1_section(wall, summary, out):
     cell = trials[(trials.speed_rpm == 1000) & (trials.current_A == 1.0)]
     med = cell.groupby("coating")[["peak_force_N", "steady_force_N"]].median()
     bounce = cell.groupby("coating")["bounced"].mean()
-    run = summary["run"]
-    notes = [f"{summary['p3_iqr_below_bare']} (Target: at least 13 of 15.)",
+    run = summary.run
+    notes = [f"{summary.p3_iqr_below_bare} (Target: at least 13 of 15.)",
              f"1000 rpm / 1 A, {len(cell[cell.coating == 'bare'])} trials a coating (medians; paper Secs. 4.3-4.4): "
              f"bare peak {med.loc['bare', 'peak_force_N']:.0f} N (220 N ± 20 %), steady "
              f"{med.loc['bare', 'steady_force_N']:.1f} N (62 N ± 15 %), bounced in "
              f"{100 * bounce['bare']:.0f} % of the trials (at least 10 %); P3 peak {med.loc['P3', 'peak_force_N']:.0f} N "
              f"(160 N ± 20 %), steady {med.loc['P3', 'steady_force_N']:.1f} N (40 N ± 15 %), bounced in "
              f"{100 * bounce['P3']:.0f} % (none).",
-             f"The whole campaign ({run['ran']} trials, {summary['cells']} cells with P1 and P2, 2 workers): "
+             f"The whole campaign ({run['ran']} trials, {summary.cells} cells with P1 and P2, 2 workers): "
              f"{wall / 60:.1f} min wall (target ≤ 10 min), {run['trial_s']:.3f} s a trial on its worker, "
-             f"{100 * run['overhead_share']:.1f} % outside the engine's loop; {summary['no_steady_force']} trials "
+             f"{100 * run['overhead_share']:.1f} % outside the engine's loop; {summary.no_steady_force} trials "
              "without a steady force."]
     write_section("campaign-table1", ["speed (rpm)", "current (A)", "bare median (N)", "bare IQR (N)",
                                       "paper bare IQR (N)", "P3 median (N)", "P3 IQR (N)", "paper P3 IQR (N)",

@@ -1,13 +1,17 @@
 """The public API's contract: numpydoc docstrings that document every parameter, and unknown keywords rejected;
 and the calls of ``cosim.__all__`` (issue 53 item 1): ``cosim.run`` gives the records ``cosim run`` writes, writes
-nothing without ``out``, and a config built in code is checked as a file is.
+nothing without ``out``, and a config built in code is checked as a file is; ``cosim.calibrate``,
+``cosim.diagnose`` and ``cosim.campaign`` give what their commands write, and are callable whether or not their
+subpackages' modules were imported first.
 
 The public API is what the modules below list in ``__all__``; the list is written out here, so a module that
 drops out of it fails this test instead of leaving the contract quietly.
 
 References: the damped oscillator's closed-form free response (a run's frame), ``cosim run``'s results.parquet read
 back with pyarrow (the API's records), the FMU's model description read by fmpy (the units), ``load_config`` on
-the same tables written as TOML (a config built in code).
+the same tables written as TOML (a config built in code); the files ``cosim calibrate``, ``cosim diagnose`` and
+``cosim campaign`` write for the same job, read back with json and pandas (the typed results), and the steady
+forces' percentiles by numpy (a campaign's table).
 """
 
 import dataclasses
@@ -21,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from numpydoc.docscrape import ClassDoc, FunctionDoc
+from test_campaign import GRID, job_path  # noqa: F401
 from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
 
 from cosim.config import load_config
@@ -246,3 +251,81 @@ def test_import_cosim_imports_none_of_the_api():
                                                  "if m.startswith(('cosim.', 'numpy', 'pandas'))))"],
                           capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "[]"
+
+
+def test_the_job_packages_are_the_api_calls_before_and_after_their_modules_are_imported():
+    code = ("import sys, cosim\n"
+            "from cosim.errors import ConfigError\n"
+            "def refused(call):\n"
+            "    try:\n"
+            "        call('no_such_job.toml')\n"
+            "    except ConfigError as error:\n"
+            "        return 'does not exist' in str(error)\n"
+            "print([refused(getattr(cosim, n)) for n in ('calibrate', 'diagnose', 'campaign')])\n"
+            "import cosim.calibrate.job, cosim.diagnose.job, cosim.campaign.job\n"
+            "print([refused(getattr(cosim, n)) for n in ('calibrate', 'diagnose', 'campaign')])\n"
+            "print(cosim.calibrate.job.load_job.__module__, cosim.campaign.load_campaign.__module__)\n")
+    for first in ("", "import cosim.calibrate.job, cosim.diagnose.job, cosim.campaign.job\n"):
+        done = subprocess.run([sys.executable, "-c", first + code], capture_output=True, text=True, check=True)
+        assert done.stdout.split("\n")[:3] == ["[True, True, True]", "[True, True, True]",
+                                               "cosim.calibrate.job cosim.campaign.job"]
+
+
+# the shipped static calibration on its first 20 s, one start of three iterations
+SHORT_CALIBRATION = {"data.stop": 20.0, "multistart.count": 1, "fit.max_iter": 3}
+
+
+@pytest.mark.slow
+def test_cosim_calibrate_gives_the_calibration_json_cosim_calibrate_writes(tmp_path, monkeypatch):
+    import json
+
+    import cosim
+    from cosim.cli import main
+
+    job = EXAMPLES / "calibrate_static.toml"
+    sets = [a for k, v in SHORT_CALIBRATION.items() for a in ("--set", f"{k}={v}")]
+    assert main(["calibrate", str(job), "--out", str(tmp_path / "cli"), "--no-progress", *sets]) == 0
+    written = json.loads((tmp_path / "cli" / "calibration.json").read_text())
+    monkeypatch.chdir(tmp_path / "cli")
+    before = _tree(tmp_path)
+    result = cosim.calibrate(job, set=SHORT_CALIBRATION)
+    assert _tree(tmp_path) == before and result.out is None
+    assert isinstance(result, cosim.CalibrationResult)
+    got = json.loads(json.dumps(result.to_json()))
+    assert got["provenance"].pop("date") and written["provenance"].pop("date")
+    assert got == written
+    assert list(result.parameters) == ["eta_g", "k_t", "T_c0"] and result.multistart[0]["start"] == {
+        "eta_g": 0.75, "k_t": 0.0394, "T_c0": 5.9e-3}  # the job's starts
+    assert result.values == {n: p["value"] for n, p in written["parameters"].items()}
+
+
+@pytest.mark.slow
+def test_cosim_campaign_gives_the_tables_cosim_campaign_writes(job_path, tmp_path, monkeypatch):  # noqa: F811
+    import json
+
+    import pandas as pd
+
+    import cosim
+    from cosim.cli import main
+
+    sets = GRID + ["campaign.trials=1"]  # bare and P3 at 1000 rpm, 1 A: one trial each
+    assert main(["campaign", str(job_path), "--out", str(tmp_path / "cli"), "--workers", "1", "--no-progress",
+                 *[a for s in sets for a in ("--set", s)]]) == 0
+    monkeypatch.chdir(tmp_path)
+    before = _tree(job_path.parent)
+    result = cosim.campaign(job_path, set=sets, workers=1)
+    assert _tree(job_path.parent) == before and sorted(p.name for p in tmp_path.iterdir()) == ["cli"]
+    assert isinstance(result, cosim.CampaignResult) and result.out is None and not result.interrupted
+    trials = pd.read_parquet(tmp_path / "cli" / "trials.parquet")
+    pd.testing.assert_frame_equal(result.records, trials)
+    pd.testing.assert_frame_equal(result.table, pd.read_csv(tmp_path / "cli" / "table1.csv"), check_dtype=False)
+    assert result.table_markdown == (tmp_path / "cli" / "table1.md").read_text(encoding="utf-8")
+    for row in result.table.itertuples():  # one trial a cell: its steady force is the cell's median, IQR 0
+        f = trials[trials.coating == row.coating].steady_force_N.to_numpy()
+        assert row.n == 1 and row.median_N == np.percentile(f, 50) and row.iqr_N == 0.0
+    summary = json.loads((tmp_path / "cli" / "summary.json").read_text(encoding="utf-8"))
+    got = json.loads(json.dumps(result.to_json()))
+    timings = ("wall_s", "setup_s", "loop_s", "trials_s", "trial_s", "overhead_share", "load_average_1min")
+    for entry in (got, summary):
+        entry["run"] = {k: v for k, v in entry["run"].items() if k not in timings}
+    assert got == summary and result.trials == 2 and result.cells == 2

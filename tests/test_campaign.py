@@ -70,7 +70,7 @@ def test_reduced_grid_end_to_end_statistics_by_hand(one_worker):
     drawn = [c for c in trials.columns if c not in COLUMNS_ISSUE + RESULTS_ISSUE]
     assert list(trials.columns) == COLUMNS_ISSUE + drawn + RESULTS_ISSUE
     assert len(drawn) >= 6  # placement, play, encoder, friction, gear, controller phase, load cell
-    assert len(trials) == 10 and summary["trials"] == 10
+    assert len(trials) == 10 and summary.trials == 10
     assert set(trials["seed"]) == set(trials["seed"].unique()) and trials["seed"].nunique() == 10
     table = pd.read_csv(out / "table1.csv")
     assert list(table.columns) == ["coating", "speed_rpm", "current_A", "n", "median_N", "q1_N", "q3_N", "iqr_N",
@@ -99,7 +99,7 @@ def test_reduced_grid_end_to_end_statistics_by_hand(one_worker):
 def test_same_trials_from_two_workers(job_path, one_worker, tmp_path):
     out, _ = one_worker
     summary = run_campaign(job_path, out=tmp_path / "two", overrides=GRID, workers=2, progress=False)
-    assert summary["run"]["workers"] == 2
+    assert summary.run["workers"] == 2
     pd.testing.assert_frame_equal(_trials(tmp_path / "two"), _trials(out))
     assert (tmp_path / "two" / "table1.csv").read_text() == (out / "table1.csv").read_text()
 
@@ -123,7 +123,7 @@ def test_interrupted_run_resumes_to_the_same_trials(job_path, one_worker, tmp_pa
     assert 1 <= kept < 6  # 2 cells x 5 trials in batches of 2: 6 parts in all
     assert "the same command resumes" in err
     summary = run_campaign(job_path, out=out, overrides=GRID, workers=1, progress=False)
-    assert summary["run"]["resumed"] >= 2 and summary["run"]["resumed"] + summary["run"]["ran"] == 10
+    assert summary.run["resumed"] >= 2 and summary.run["resumed"] + summary.run["ran"] == 10
     pd.testing.assert_frame_equal(_trials(out), _trials(one_worker[0]))
 
 
@@ -144,7 +144,7 @@ def test_real_dask_scheduler_and_worker_processes(job_path, one_worker, tmp_path
         address = json.loads(file.read_text())["address"]
         assert address.startswith("tcp://127.0.0.1:")
         summary = run_campaign(job_path, out=tmp_path / "remote", overrides=GRID, scheduler=address, progress=False)
-        assert summary["run"]["workers"] == 1
+        assert summary.run["workers"] == 1
         pd.testing.assert_frame_equal(_trials(tmp_path / "remote"), _trials(one_worker[0]))
     finally:
         for p in procs[::-1]:

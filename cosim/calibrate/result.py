@@ -33,7 +33,7 @@ class FittedParameter:
 @dataclass(frozen=True)
 class CalibrationResult:
     """The result of a calibration job: each attribute is the key of that name in ``calibration.json``
-    (:meth:`to_json`), but ``out``.
+    (:meth:`to_json`), but ``out``; ``values`` is name -> calibrated value, as parameters.toml holds them.
 
     Attributes
     ----------
@@ -45,7 +45,8 @@ class CalibrationResult:
     derivatives : str
         Exact (CasADi) or finite differences through the FMU.
     parameters : dict of str to FittedParameter
-        The free parameters, in the job's order.
+        The free parameters, in the job's order, each with its ``value``, ``std_error`` (one standard error,
+        None when the fitted samples do not determine it), ``identifiable`` and ``start``.
     correlation : dict
         ``names`` (the free parameters) and ``matrix`` (their correlations, None where not identifiable).
     cost_before, cost_after : float
