@@ -284,9 +284,9 @@ def test_cosim_calibrate_gives_the_calibration_json_cosim_calibrate_writes(tmp_p
 
     job = EXAMPLES / "calibrate_static.toml"
     sets = [a for k, v in SHORT_CALIBRATION.items() for a in ("--set", f"{k}={v}")]
-    assert main(["calibrate", str(job), "--out", str(tmp_path / "cli"), "--no-progress", *sets]) == 0
+    monkeypatch.chdir(tmp_path)  # (the provenance names the data file relative to the working folder)
+    assert main(["calibrate", str(job), "--out", "cli", "--no-progress", *sets]) == 0
     written = json.loads((tmp_path / "cli" / "calibration.json").read_text())
-    monkeypatch.chdir(tmp_path / "cli")
     before = _tree(tmp_path)
     result = cosim.calibrate(job, set=SHORT_CALIBRATION)
     assert _tree(tmp_path) == before and result.out is None
@@ -309,9 +309,9 @@ def test_cosim_campaign_gives_the_tables_cosim_campaign_writes(job_path, tmp_pat
     from cosim.cli import main
 
     sets = GRID + ["campaign.trials=1"]  # bare and P3 at 1000 rpm, 1 A: one trial each
-    assert main(["campaign", str(job_path), "--out", str(tmp_path / "cli"), "--workers", "1", "--no-progress",
+    monkeypatch.chdir(tmp_path)  # (the parameters files are named relative to the working folder)
+    assert main(["campaign", str(job_path), "--out", "cli", "--workers", "1", "--no-progress",
                  *[a for s in sets for a in ("--set", s)]]) == 0
-    monkeypatch.chdir(tmp_path)
     before = _tree(job_path.parent)
     result = cosim.campaign(job_path, set=sets, workers=1)
     assert _tree(job_path.parent) == before and sorted(p.name for p in tmp_path.iterdir()) == ["cli"]
@@ -329,3 +329,28 @@ def test_cosim_campaign_gives_the_tables_cosim_campaign_writes(job_path, tmp_pat
     for entry in (got, summary):
         entry["run"] = {k: v for k, v in entry["run"].items() if k not in timings}
     assert got == summary and result.trials == 2 and result.cells == 2
+
+
+# the shipped static diagnosis on its first 60 s, one candidate, one round
+SHORT_DIAGNOSIS = {"data.stop": 60.0, "candidates.effects": ["backdrive_efficiency"], "decision.rounds": 1,
+                   "compare.max_nfev": 5}
+
+
+@pytest.mark.slow
+def test_cosim_diagnose_gives_the_diagnosis_json_cosim_diagnose_writes(tmp_path, monkeypatch):
+    import json
+
+    import cosim
+    from cosim.cli import main
+
+    job = EXAMPLES / "diagnose_static.toml"
+    sets = [a for k, v in SHORT_DIAGNOSIS.items() for a in ("--set", f"{k}={v}")]  # a list as a TOML array
+    monkeypatch.chdir(tmp_path)
+    assert main(["diagnose", str(job), "--out", "cli", "--no-build", "--no-progress", *sets]) == 0
+    written = json.loads((tmp_path / "cli" / "diagnosis.json").read_text())
+    before = _tree(tmp_path)
+    result = cosim.diagnose(job, set=SHORT_DIAGNOSIS, build=False)
+    assert _tree(tmp_path) == before
+    assert isinstance(result, cosim.Diagnosis) and result.fmu is None
+    assert json.loads(json.dumps(result.to_json())) == written
+    assert written["verdict"] == result.verdict and result.candidates[0].effect == "backdrive_efficiency"
