@@ -1,18 +1,21 @@
 """Wall seconds per simulated second of the 1000 rpm impact at the full FOC rate (26.6 kHz): the compiled
 engine, the Python engine, a hand-written fmpy loop, and the FMU calls alone from C (the physical limit).
 
-    python benchmarks/engine.py [--fmus DIR] [--stop 1.0] [--fmpy-stop 0.1] [--validation]
+    python benchmarks/engine.py [--fmus DIR] [--stop 1.0] [--fmpy-stop 0.1] [--pairs 9] [--validation]
 
 For ``GripperPlant`` (examples/gripper_impact.toml) and the split ``PMSM`` + ``Drivetrain``
 (examples/gripper_impact_split.toml). Needs the gripper FMUs (``cosim build``) and gcc.
 
-* compiled / python: ``cosim.master.run`` with ``run.engine`` set; the loop's wall time (``RunResult.wall_s``,
-  compiled: best of 5 runs), numba compile time (or cache load) printed apart.
+* compiled / python: ``cosim.master.run`` with ``run.engine`` set; the loop's wall time (``RunResult.wall_s``),
+  numba compile time (or cache load) printed apart.
 * fmpy loop: fmpy's FMU3Model, RK4 at the FOC step, the same FOC and outer-loop controllers (numba
   kernels), Python loop (run over ``--fmpy-stop`` s: it is slow).
 * C: benchmarks/engine_harness.c (gcc -O2) dlopens the FMUs' shared libraries and makes exactly the
   FMU calls and RK4 arithmetic of the compiled engine's loop, replaying the controller outputs
-  recorded at every instant from a compiled run (no controllers); best of 5 runs.
+  recorded at every instant from a compiled run (no controllers).
+* compiled / C: the two run alternately, ``--pairs`` times (compiled, C, compiled, C, ...), so that each pair
+  sees the same load on a shared machine; the ratio's median over the pairs, its quartiles, min and max (the
+  rows "compiled engine" and "C" are the best run of each).
 * A config with typed ports: examples/hybrid_ball.toml (the bouncing ball of examples/hybrid, built here,
   records its Integer ``bounces``): which engine runs it (the compiled one, no fallback), its wall time against
   the Python engine's, and whether their results are identical.
@@ -188,8 +191,9 @@ def typed_figures(workdir):
 
 
 # -- the C harness -----------------------------------------------------------------------------------
-def c_limit(cfg, workdir):
-    """FMU calls of the compiled engine's loop from C (see the module docstring); wall s per simulated s."""
+def c_harness(cfg, workdir):
+    """The C harness set up for ``cfg`` (see the module docstring): a function that runs it once and returns its
+    wall s per simulated s, and the number of instants it makes."""
     from fmpy import extract, read_model_description
 
     from cosim.master import run
@@ -255,12 +259,38 @@ def c_limit(cfg, workdir):
         include = Path(fmpy.__file__).parent / "c-code"
         subprocess.run(["gcc", "-O2", f"-I{include}", str(ROOT / "benchmarks" / "engine_harness.c"), "-o", str(exe),
                         "-ldl", "-lm"], check=True)
-    best = None
-    for _ in range(5):  # best of 5: the machine is shared
+
+    def once():
         out = subprocess.run([str(exe), str(plan)], capture_output=True, text=True, check=True).stdout.split()
-        wall = float(out[0])
-        best = wall if best is None else min(best, wall)
-    return best / res.sim_s, int(out[1])
+        return float(out[0]) / res.sim_s, int(out[1])
+
+    return once
+
+
+def c_limit(cfg, workdir):
+    """FMU calls of the compiled engine's loop from C, best of 5 runs (the machine is shared); wall s per simulated
+    s and the number of instants."""
+    once = c_harness(cfg, workdir)
+    return min(once() for _ in range(5))
+
+
+def interleaved(make, once, pairs):
+    """``pairs`` alternating runs of the compiled engine and of the C harness (``once``), so that both see the same
+    load: the best compiled run and the C harness's best (wall s per simulated s) and each pair's ratio."""
+    from cosim.master import run
+
+    runs, c, ratios = [], [], []
+    for _ in range(pairs):
+        runs.append(run(make(["run.engine=compiled"]), progress=False))
+        c.append(once()[0])
+        ratios.append(runs[-1].wall_s / runs[-1].sim_s / c[-1])
+    return min(runs, key=lambda r: r.wall_s), min(c), ratios
+
+
+def spread(ratios):
+    """Median, quartiles, min and max of the pairs' ratios, as one line."""
+    q1, med, q3 = np.percentile(ratios, [25, 50, 75])
+    return f"median {med:.2f} (IQR {q1:.2f}-{q3:.2f}, min {min(ratios):.2f}, max {max(ratios):.2f}, {len(ratios)} pairs)"
 
 
 def main(argv=None):
@@ -268,6 +298,7 @@ def main(argv=None):
     ap.add_argument("--fmus", default=str(ROOT / "fmus"), help="folder with GripperPlant.fmu, PMSM.fmu, Drivetrain.fmu")
     ap.add_argument("--stop", type=float, default=1.0, help="simulated seconds for the engines and C (default 1.0)")
     ap.add_argument("--fmpy-stop", type=float, default=0.1, help="simulated seconds for the fmpy loop (default 0.1)")
+    ap.add_argument("--pairs", type=int, default=9, help="alternating compiled-engine / C-harness runs (default 9)")
     ap.add_argument("--validation", action="store_true", help="also write the table into docs/validation.md")
     args = ap.parse_args(argv)
     from cosim.master import run
@@ -282,11 +313,11 @@ def main(argv=None):
             t0 = time.perf_counter()
             first = run(make(["run.engine=compiled"]), progress=False)
             first_total = time.perf_counter() - t0
-            comp = min((run(make(["run.engine=compiled"]), progress=False) for _ in range(5)),
-                       key=lambda r: r.wall_s)
+            once = c_harness(make(["run.engine=compiled"]), Path(tmp))
+            n_inst = once()[1]  # warm-up: the FMUs' libraries in the page cache
+            comp, c, ratios = interleaved(make, once, args.pairs)
             py = run(make(["run.engine=python"]), progress=False)
             fm = fmpy_loop(make(), args.fmpy_stop)
-            c, n_inst = c_limit(make(["run.engine=compiled"]), Path(tmp))
             wc, wp = comp.wall_s / comp.sim_s, py.wall_s / py.sim_s
             same = all(np.array_equal(comp.data[n], py.data[n]) for n in comp.data.dtype.names)
             print(f"{label}:")
@@ -294,8 +325,8 @@ def main(argv=None):
                   f"{first.compile_s:.2f} s in this process's first run (first run total {first_total:.2f} s)")
             print(f"  python engine   : {wp:.4f}  ({1 / wp:5.1f} x)  results identical to compiled: {same}")
             print(f"  fmpy loop       : {fm:.4f}  ({1 / fm:5.1f} x)  ({args.fmpy_stop} s simulated)")
-            print(f"  FMU calls from C: {c:.4f}  ({1 / c:5.1f} x)  {n_inst} instants; compiled engine = "
-                  f"{wc / c:.2f} x the C cost")
+            print(f"  FMU calls from C: {c:.4f}  ({1 / c:5.1f} x)  {n_inst} instants")
+            print(f"  compiled engine / C, alternating pairs: {spread(ratios)}; load now {_machine().split()[-1]}")
             cs = "n/a (ME only)"
             if label == "GripperPlant":
                 wcs, deviation = cs_figures(make, comp)
@@ -303,7 +334,7 @@ def main(argv=None):
                 print(f"  compiled, CS FMU: {wcs:.4f}  ({1 / wcs:5.1f} x)  one fmi3DoStep per FOC period; largest "
                       f"deviation from the ME run {deviation:.2g} % of a signal's range")
             columns[label] = [f"{wc:.4f} ({1 / wc:.1f}x)", f"{wp:.4f} ({1 / wp:.1f}x)", f"{fm:.4f} ({1 / fm:.1f}x)",
-                              f"{c:.4f} ({1 / c:.1f}x)", f"{wc / c:.2f}", str(same), f"{first.compile_s:.2f}", cs]
+                              f"{c:.4f} ({1 / c:.1f}x)", spread(ratios), str(same), f"{first.compile_s:.2f}", cs]
         engine, wt, wpt, same_t = typed_figures(Path(tmp))
         typed = (f"examples/hybrid_ball.toml (an Integer output recorded, 3 s with 12 events): the {engine} engine "
                  f"by default; compiled {wt:.2e}, Python {wpt:.2e} wall s per simulated s ({wpt / wt:.0f} x); "
@@ -311,13 +342,14 @@ def main(argv=None):
         print(typed)
     if args.validation:
         what = ["compiled engine", "Python engine", f"hand-written fmpy loop ({args.fmpy_stop} s simulated)",
-                "the FMU calls alone from C (benchmarks/engine_harness.c)", "compiled engine / C",
+                "the FMU calls alone from C (benchmarks/engine_harness.c)", "compiled engine / C (ratio of each alternating pair)",
                 "Python and compiled results identical", "numba compile or cache load in the first run [s]",
                 "compiled engine, the plant as Co-Simulation FMU (deviation from ME, % of range)"]
         write_section("engine", ["wall s per simulated s (x real time)", *columns],
                       [[w, *(col[k] for col in columns.values())] for k, w in enumerate(what)],
                       notes=[f"1000 rpm impact, {args.stop} s simulated, FOC 26.6 kHz + outer loop 100 Hz, RK4 one "
-                             "step per FOC period; compiled engine and C harness best of 5 runs. Machine: "
+                             f"step per FOC period; compiled engine and C harness run alternately, {args.pairs} pairs "
+                             "(their rows: the best run of each). Machine: "
                              f"{_machine()}.", typed])
     return 0
 
