@@ -14,9 +14,13 @@ stays where it is.
 
 import types
 
+from cosim.kernel_cache import use_cache_dir
+
 __version__ = "0.1.0"
 __all__ = ["__version__", "build", "run", "calibrate", "diagnose", "campaign", "Config", "RunResult",
            "CalibrationResult", "Diagnosis", "CampaignResult"]
+
+use_cache_dir()  # before any kernel is decorated: numba's cache in the user's cache directory (cosim.kernel_cache)
 
 _API = {"build": "cosim.api", "run": "cosim.api", "Config": "cosim.api", "RunResult": "cosim.api",
         "CalibrationResult": "cosim.calibrate.result", "Diagnosis": "cosim.diagnose.result",

@@ -73,9 +73,10 @@ Tables (all int64 unless said):
 
 The kernel is compiled without numba's reference counting (``_nrt=False``: nothing is allocated in
 it; with reference counting the array arguments of the helpers cost two atomic operations per call
-and made the loop four times slower). numba's on-disk cache keys on this file only: after editing
-:mod:`cosim.fmi.native` or :mod:`cosim.master.events` (the event rules, shared with the Python loop), touch this
-file (or delete its ``__pycache__`` entries) so the kernel recompiles.
+and made the loop four times slower). numba's on-disk cache keys a function on its own file only; the cache's
+folder (:mod:`cosim.kernel_cache`) is named by a hash of this file, :mod:`cosim.fmi.native` and
+:mod:`cosim.master.events` (the event rules, shared with the Python loop), so an edit of any of them compiles
+the loop anew.
 """
 
 import math
