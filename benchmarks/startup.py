@@ -1,14 +1,21 @@
 """Where the time of one ``cosim run`` goes: imports, config, kernel load, set-up, loop, writing, plotting.
 
 Each run is a fresh process making the same calls as ``cosim run CONFIG --out DIR``, with a timer around each
-phase; the whole process is timed from outside. Prints min and median over the runs. Run after one warm-up
-``cosim run`` of the same config, so that the kernel load is numba's cache, not a first compile.
+phase; the whole process is timed from outside. Prints min and median over the runs, and the load average.
+``--cache`` says what numba's cache (cosim.kernel_cache) holds when each run starts:
 
-    python benchmarks/startup.py [--config examples/gripper_impact.toml] [--runs 3]
+* ``warm`` (default): the kernels of this config, from one warm-up run: a user's second run;
+* ``fresh``: nothing (a new empty cache folder per run): a first run that compiles everything;
+* ``precompiled``: what ``cosim build`` leaves (a new cache folder per run, filled by
+  ``cosim.master.compiled.precompile`` with the shipped controllers first): a new user's first run.
+
+    python benchmarks/startup.py [--config examples/gripper_impact.toml] [--runs 3] [--cache warm]
 """
 
 import argparse
 import json
+import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -46,10 +53,19 @@ print(json.dumps({"imports": t1 - t0, "config": t2 - t1, "kernel_load": result.c
 """
 
 
-def one_run(config, out):
-    """The phases of one fresh process, and its whole wall time (s)."""
+PRECOMPILE = "from cosim.master.compiled import precompile, shipped_controllers; precompile(shipped_controllers())"
+
+
+def one_run(config, out, cache=None):
+    """The phases of one fresh process, and its whole wall time (s); ``cache``: the user cache folder it sees
+    (None: this process's)."""
+    env = dict(os.environ)
+    if cache is not None:
+        env.pop("NUMBA_CACHE_DIR", None)
+        env["XDG_CACHE_HOME"] = cache
     start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-c", CHILD, config, out], capture_output=True, text=True, check=True)
+    done = subprocess.run([sys.executable, "-c", CHILD, config, out], capture_output=True, text=True, check=True,
+                          env=env)
     whole = time.perf_counter() - start
     phases = json.loads(done.stdout.strip().splitlines()[-1])
     phases["whole process"] = whole
@@ -60,11 +76,24 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--config", default="examples/gripper_impact.toml")
     parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--cache", choices=("warm", "fresh", "precompiled"), default="warm",
+                        help="what numba's cache holds when a run starts (see above)")
     args = parser.parse_args()
+    runs = []
     with tempfile.TemporaryDirectory(prefix="cosim-startup-") as out:
-        one_run(args.config, out)  # warm-up: numba's cache
-        runs = [one_run(args.config, out) for _ in range(args.runs)]
-    print(f"cosim run {args.config}: {args.runs} fresh processes after one warm-up")
+        if args.cache == "warm":
+            one_run(args.config, out)  # warm-up: numba's cache
+        else:  # once, copied into each run's new folder
+            filled = f"{out}/precompiled"
+            os.makedirs(filled)
+            if args.cache == "precompiled":
+                subprocess.run([sys.executable, "-c", PRECOMPILE], check=True,
+                               env={**os.environ, "XDG_CACHE_HOME": filled, "NUMBA_CACHE_DIR": ""})
+        for i in range(args.runs):
+            cache = None if args.cache == "warm" else shutil.copytree(filled, f"{out}/cache{i}")
+            runs.append(one_run(args.config, out, cache))
+    print(f"cosim run {args.config}: {args.runs} fresh processes, cache {args.cache}, load average "
+          f"{os.getloadavg()[0]:.1f}")
     print(f"{'phase':<16}{'min s':>8}{'median s':>10}")
     for phase in (*PHASES, "whole process"):
         values = [r[phase] for r in runs]

@@ -2,6 +2,7 @@
 
 import argparse
 import signal
+import subprocess
 import sys
 import warnings
 from pathlib import Path
@@ -11,14 +12,32 @@ from cosim.errors import CosimError, EngineFallbackWarning, ScaleWarning
 __all__ = ["main"]
 
 
+_PRECOMPILE = "from cosim.master.compiled import precompile, shipped_controllers; precompile(shipped_controllers())"
+
+
 def _cmd_build(args):
     from cosim.api import build
 
     if args.file is not None and args.model is None:
         raise CosimError(f"{args.file}: name the model to build with --model Pkg.Model")
-    build(args.models if args.model is None else args.file, args.model, out=args.out,
-          modelica_path=args.modelica_path, fmi_version=args.fmi_version, force=args.force,
-          c_sources=args.source or None, report=print)
+    if args.model is not None:
+        build(args.file, args.model, out=args.out, modelica_path=args.modelica_path, fmi_version=args.fmi_version,
+              c_sources=args.source or None, report=print)
+        return 0
+    # the engine's kernels compile into numba's cache meanwhile, so that the first `cosim run` loads them
+    ahead = subprocess.Popen([sys.executable, "-c", _PRECOMPILE], stdout=subprocess.DEVNULL,
+                             stderr=subprocess.PIPE, text=True)
+    try:
+        build(args.models, out=args.out, modelica_path=args.modelica_path, fmi_version=args.fmi_version,
+              force=args.force, c_sources=args.source or None, report=print)
+    except BaseException:
+        ahead.kill()
+        ahead.wait()
+        raise
+    _, err = ahead.communicate()
+    if ahead.returncode:
+        print(f"cosim build: note: compiling the engine's kernels ahead failed (the first run compiles them): "
+              f"{(err.strip().splitlines() or ['?'])[-1]}", file=sys.stderr)
     return 0
 
 

@@ -12,6 +12,8 @@ instants. Numba compile time (or loading from numba's on-disk cache) is what :me
 returns.
 """
 
+import importlib
+import pkgutil
 import time as _time
 import warnings
 
@@ -26,7 +28,7 @@ from cosim.master.ckernel import (CTL_COLS, DONE, ERROR, FF, FMU_COLS, FUNCTIONS
 from cosim.master.finite import nonfinite_error
 from cosim.master.events import CHATTER_WINDOW, EVENT_TOL, MAX_EVENTS_AT_ONE_TIME
 
-__all__ = ["CompiledLoop", "compiled_problem"]
+__all__ = ["CompiledLoop", "compiled_problem", "precompile", "shipped_controllers"]
 
 _K, _EF, _EFN, _ES, _NLOG, _EP = (ST.index(n) for n in ("k", "err_fmu", "err_fn", "err_status", "n_log", "err_port"))
 _LOG_ROWS = 1 << 14  # events the kernel logs before Python reads them (a chunk stops when half are used)
@@ -61,6 +63,48 @@ def compiled_problem(config):
         if spec.info.fmi_version not in (2, 3):
             return f"FMU {name!r} is FMI {spec.info.fmi_version}; the compiled engine calls FMI 2.0 and 3.0", False
     return None, False
+
+
+def precompile(controller_classes=()):
+    """Compile the loop and the kernels of ``controller_classes`` into numba's on-disk cache ahead of a run.
+
+    The loop in its four versions (with or without event code, with or without typed ports), called on empty
+    tables of the types :meth:`CompiledLoop.start` passes with no instant to run: a later run in any process
+    sharing the cache (:mod:`cosim.kernel_cache`) loads them instead of compiling. ``cosim build`` does this.
+
+    Parameters
+    ----------
+    controller_classes : iterable of type
+        :class:`~controllers.base.Controller` subclasses whose kernels to compile.
+    """
+    for cls in controller_classes:
+        native_kernel(cls.kernel)
+    i64, f64 = np.int64, np.float64
+    scr = np.zeros((0, 32), dtype=np.uint8)
+    ff = np.zeros(len(FF))
+    evt = (np.zeros((0, 3), i64), np.zeros((2, 0)), np.zeros((2, 0)), np.zeros(0, i64), np.zeros(0), scr,
+           scr.view(f64), ff, np.zeros((_LOG_ROWS, 3)))
+    for typed in (None, np.zeros((0, len(PORT_COLS)), i64)):
+        for events in (None, evt):
+            run_chunk(np.zeros((0, len(FMU_COLS)), i64), *(np.zeros(0, i64),) * 3, np.zeros((0, 4), i64), typed,
+                      np.zeros((2, 4), i64), np.zeros(0, i64), np.zeros(0, i64), np.zeros(0), np.zeros(0),
+                      np.zeros((0, 2), i64), np.zeros((0, 3), i64), np.zeros((0, len(CTL_COLS)), i64),
+                      np.zeros(5, i64), ff, np.zeros(1), np.zeros((7, 0)), np.zeros((1, 0)), np.zeros(1),
+                      np.zeros(1, i64), np.zeros(0, i64), np.zeros(0, i64), scr, np.zeros(len(ST), i64), events, 0)
+
+
+def shipped_controllers():
+    """The controller classes of the project's ``controllers`` package that the compiled engine runs (those of
+    the examples), for :func:`precompile`."""
+    import controllers
+
+    found = []
+    for info in pkgutil.iter_modules(controllers.__path__):
+        module = importlib.import_module(f"controllers.{info.name}")
+        found.extend(c for c in vars(module).values() if isinstance(c, type) and issubclass(c, Controller)
+                     and c.__module__ == module.__name__ and c.kernel is not Controller.kernel
+                     and c.step is Controller.step)
+    return found
 
 
 class CompiledLoop:
