@@ -290,7 +290,8 @@ def interleaved(make, once, pairs):
 def spread(ratios):
     """Median, quartiles, min and max of the pairs' ratios, as one line."""
     q1, med, q3 = np.percentile(ratios, [25, 50, 75])
-    return f"median {med:.2f} (IQR {q1:.2f}-{q3:.2f}, min {min(ratios):.2f}, max {max(ratios):.2f}, {len(ratios)} pairs)"
+    return (f"median {med:.2f} (IQR {q1:.2f}-{q3:.2f}, min {min(ratios):.2f}, max {max(ratios):.2f}, "
+            f"{len(ratios)} pairs)")
 
 
 def main(argv=None):
@@ -342,7 +343,8 @@ def main(argv=None):
         print(typed)
     if args.validation:
         what = ["compiled engine", "Python engine", f"hand-written fmpy loop ({args.fmpy_stop} s simulated)",
-                "the FMU calls alone from C (benchmarks/engine_harness.c)", "compiled engine / C (ratio of each alternating pair)",
+                "the FMU calls alone from C (benchmarks/engine_harness.c)",
+                "compiled engine / C (ratio of each alternating pair)",
                 "Python and compiled results identical", "numba compile or cache load in the first run [s]",
                 "compiled engine, the plant as Co-Simulation FMU (deviation from ME, % of range)"]
         write_section("engine", ["wall s per simulated s (x real time)", *columns],

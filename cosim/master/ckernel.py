@@ -83,6 +83,8 @@ import math
 
 import numba
 import numpy as np
+from numba.core import types
+from numba.extending import overload
 
 from cosim.fmi import native
 from cosim.master.events import bisection_narrow, bisection_trial, chatter, crossed, step_end, time_event_due
@@ -113,8 +115,17 @@ _DBL_MAX = 1.7976931348623157e308
 KINDS = ("state", "time", "step", "input")  # event kinds of the event log, as the Python engine's
 (_STATE, _TIME, _STEP, _INPUT) = range(len(KINDS))
 
+_PLAIN_LOOP = ("run_chunk", "_rk4", "_deriv", "_eval", "_io")
 
-@numba.njit(cache=True, _nrt=False)
+
+def _in_plain_loop(expr, caller, callee):
+    """numba inlines the helpers of the per-instant loop without events into their callers there: a call passes
+    each array as 7 words on the stack, and those calls were 27 % of the loop's CPU time on the gripper (issue
+    54). The event code, run at events only, keeps its calls."""
+    return caller.func_id.func_name in _PLAIN_LOOP
+
+
+@numba.njit(cache=True, _nrt=False, inline=_in_plain_loop)
 def _fail(st, f, fn, status):
     st[_EF] = f
     st[_EFN] = fn
@@ -122,7 +133,7 @@ def _fail(st, f, fn, status):
     return True
 
 
-@numba.njit(cache=True, _nrt=False)
+@numba.njit(cache=True, _nrt=False, inline=_in_plain_loop)
 def nonfinite(buf, W):
     """True when a value of the signal buffer or a state (row 0 of W) is NaN or infinite (``abs(v) <= DBL_MAX`` is
     false for those only; or-ed without branches, about 50 ns for the gripper's 31 values). A bad derivative makes
@@ -217,7 +228,7 @@ def _typed_io(fmu, port, j, buf_addr, setter, st):
     return False
 
 
-@numba.njit(cache=True, _nrt=False)
+@numba.njit(cache=True, _nrt=False, inline=_in_plain_loop)
 def _io(fmu, port, typed, grp, g, buf_addr, setter, st):
     """Get (``setter`` False) or set the ports of group ``g``; True on an FMI error. Float64 ports are read and
     written in place in the signal buffer; typed ports (``typed``; None when the run has none: numba then
@@ -234,20 +245,37 @@ def _io(fmu, port, typed, grp, g, buf_addr, setter, st):
         if s > 1:
             st[_EP] = j
             return _fail(st, f, 4 if setter else 3, s)
-    if typed is not None:
+    return _typed_group(fmu, typed, grp, g, buf_addr, setter, st)
+
+
+def _typed_group(fmu, typed, grp, g, buf_addr, setter, st):
+    """Get or set the typed ports of group ``g``; True on an FMI error (compiled through the overload below)."""
+    raise NotImplementedError("only callable from numba-compiled code")
+
+
+@overload(_typed_group, inline="always")
+def _typed_group_code(fmu, typed, grp, g, buf_addr, setter, st):
+    """No code when the run has no typed port (``typed`` None: chosen by type, so that it holds where ``_io`` is
+    inlined and ``typed`` is no longer an argument numba can prune on), else ``_typed_io`` port by port."""
+    if isinstance(typed, types.NoneType):
+        return lambda fmu, typed, grp, g, buf_addr, setter, st: False
+
+    def code(fmu, typed, grp, g, buf_addr, setter, st):
         for j in range(grp[g, 2], grp[g, 3]):
             if _typed_io(fmu, typed, j, buf_addr, setter, st):
                 return True
-    return False
+        return False
+
+    return code
 
 
-@numba.njit(cache=True, _nrt=False)
+@numba.njit(cache=True, _nrt=False, inline=_in_plain_loop)
 def _route(buf, rsrc, rdst, rgain, roff, rgrp, g):
     for j in range(rgrp[g, 0], rgrp[g, 1]):
         buf[rdst[j]] = rgain[j] * buf[rsrc[j]] + roff[j]
 
 
-@numba.njit(cache=True, _nrt=False)
+@numba.njit(cache=True, _nrt=False, inline=_in_plain_loop)
 def _eval(t, push, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
     """Set time and states of every ME FMU (``push``), route ME-to-ME connections level by level."""
     if push:
@@ -268,7 +296,7 @@ def _eval(t, push, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff
     return False
 
 
-@numba.njit(cache=True, _nrt=False)
+@numba.njit(cache=True, _nrt=False, inline=_in_plain_loop)
 def _deriv(t, push, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, dx_addr, buf_addr,
            st):
     if _eval(t, push, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, x_addr, buf_addr, st):
@@ -281,7 +309,7 @@ def _deriv(t, push, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, rof
     return False
 
 
-@numba.njit(cache=True, _nrt=False)
+@numba.njit(cache=True, _nrt=False, inline=_in_plain_loop)
 def _stage(W, s, c):
     for i in range(W.shape[1]):
         W[3 + s, i] = W[2, i]
@@ -557,7 +585,7 @@ def _rk4_events(ta, tb, n, net, evt, cmp, W, addrs, st):
     return False
 
 
-@numba.njit(cache=True, _nrt=False)
+@numba.njit(cache=True, _nrt=False, inline=_in_plain_loop)
 def _rk4(t, t_next, k, h_max, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, rgain, roff, rgrp, W, x_addr, dx_addr,
          buf_addr, st):
     """RK4 substeps of the ME FMUs' combined state from ``t`` to ``t_next`` when no FMU has events or asks for
@@ -595,7 +623,7 @@ def _rk4(t, t_next, k, h_max, fmu, me, port, typed, pgrp, lvl, buf, rsrc, rdst, 
     return False
 
 
-@numba.njit(cache=True, _nrt=False)
+@numba.njit(cache=True, _nrt=False, inline=_in_plain_loop)
 def _do_steps(t, t_next, fmu, cs, scr, st):
     """doStep of every CS FMU from ``t`` to ``t_next``; True on an FMI error or a request to terminate."""
     for i in range(cs.shape[0]):
