@@ -14,8 +14,9 @@ For ``GripperPlant`` (examples/gripper_impact.toml) and the split ``PMSM`` + ``D
   FMU calls and RK4 arithmetic of the compiled engine's loop, replaying the controller outputs
   recorded at every instant from a compiled run (no controllers).
 * compiled / C: the two run alternately, ``--pairs`` times (compiled, C, compiled, C, ...), so that each pair
-  sees the same load on a shared machine; the ratio's median over the pairs, its quartiles, min and max (the
-  rows "compiled engine" and "C" are the best run of each).
+  sees the same load on a shared machine; the ratio's median over the pairs, its quartiles, min and max, of the
+  wall times and of the CPU times (the loop's thread CPU time, the harness's ``CLOCK_THREAD_CPUTIME_ID``: what
+  other jobs take of the cores is not in it); the rows "compiled engine" and "C" are the best run of each.
 * A config with typed ports: examples/hybrid_ball.toml (the bouncing ball of examples/hybrid, built here,
   records its Integer ``bounces``): which engine runs it (the compiled one, no fallback), its wall time against
   the Python engine's, and whether their results are identical.
@@ -262,7 +263,7 @@ def c_harness(cfg, workdir):
 
     def once():
         out = subprocess.run([str(exe), str(plan)], capture_output=True, text=True, check=True).stdout.split()
-        return float(out[0]) / res.sim_s, int(out[1])
+        return float(out[0]) / res.sim_s, int(out[1]), float(out[3]) / res.sim_s
 
     return once
 
@@ -271,20 +272,36 @@ def c_limit(cfg, workdir):
     """FMU calls of the compiled engine's loop from C, best of 5 runs (the machine is shared); wall s per simulated
     s and the number of instants."""
     once = c_harness(cfg, workdir)
-    return min(once() for _ in range(5))
+    return min(once()[:2] for _ in range(5))
 
 
 def interleaved(make, once, pairs):
     """``pairs`` alternating runs of the compiled engine and of the C harness (``once``), so that both see the same
-    load: the best compiled run and the C harness's best (wall s per simulated s) and each pair's ratio."""
-    from cosim.master import run
+    load: the best compiled run, the C harness's best (wall s per simulated s), and each pair's ratio of wall times
+    and of CPU times (the loop's thread CPU time: what the machine's other jobs take is not in it)."""
+    from cosim.master import CompiledLoop, Engine
 
-    runs, c, ratios = [], [], []
+    class CpuTimed(CompiledLoop):
+        """The compiled loop, adding up the thread CPU time of its chunks."""
+
+        cpu = 0.0
+
+        def run(self, n):
+            t0 = time.thread_time()
+            try:
+                return super().run(n)
+            finally:
+                self.cpu += time.thread_time() - t0
+
+    runs, c, wall, cpu = [], [], [], []
     for _ in range(pairs):
-        runs.append(run(make(["run.engine=compiled"]), progress=False))
-        c.append(once()[0])
-        ratios.append(runs[-1].wall_s / runs[-1].sim_s / c[-1])
-    return min(runs, key=lambda r: r.wall_s), min(c), ratios
+        engine = Engine(make(["run.engine=compiled"]), CpuTimed)
+        runs.append(engine.run(progress=False))
+        c_wall, _, c_cpu = once()
+        c.append(c_wall)
+        wall.append(runs[-1].wall_s / runs[-1].sim_s / c_wall)
+        cpu.append(engine.loop.cpu / runs[-1].sim_s / c_cpu)
+    return min(runs, key=lambda r: r.wall_s), min(c), wall, cpu
 
 
 def spread(ratios):
@@ -316,7 +333,7 @@ def main(argv=None):
             first_total = time.perf_counter() - t0
             once = c_harness(make(["run.engine=compiled"]), Path(tmp))
             n_inst = once()[1]  # warm-up: the FMUs' libraries in the page cache
-            comp, c, ratios = interleaved(make, once, args.pairs)
+            comp, c, ratios, cpu_ratios = interleaved(make, once, args.pairs)
             py = run(make(["run.engine=python"]), progress=False)
             fm = fmpy_loop(make(), args.fmpy_stop)
             wc, wp = comp.wall_s / comp.sim_s, py.wall_s / py.sim_s
@@ -327,7 +344,8 @@ def main(argv=None):
             print(f"  python engine   : {wp:.4f}  ({1 / wp:5.1f} x)  results identical to compiled: {same}")
             print(f"  fmpy loop       : {fm:.4f}  ({1 / fm:5.1f} x)  ({args.fmpy_stop} s simulated)")
             print(f"  FMU calls from C: {c:.4f}  ({1 / c:5.1f} x)  {n_inst} instants")
-            print(f"  compiled engine / C, alternating pairs: {spread(ratios)}; load now {_machine().split()[-1]}")
+            print(f"  compiled engine / C, alternating pairs, wall: {spread(ratios)}; load now {_machine().split()[-1]}")
+            print(f"  compiled engine / C, the same pairs, CPU: {spread(cpu_ratios)}")
             cs = "n/a (ME only)"
             if label == "GripperPlant":
                 wcs, deviation = cs_figures(make, comp)
@@ -335,7 +353,7 @@ def main(argv=None):
                 print(f"  compiled, CS FMU: {wcs:.4f}  ({1 / wcs:5.1f} x)  one fmi3DoStep per FOC period; largest "
                       f"deviation from the ME run {deviation:.2g} % of a signal's range")
             columns[label] = [f"{wc:.4f} ({1 / wc:.1f}x)", f"{wp:.4f} ({1 / wp:.1f}x)", f"{fm:.4f} ({1 / fm:.1f}x)",
-                              f"{c:.4f} ({1 / c:.1f}x)", spread(ratios), str(same), f"{first.compile_s:.2f}", cs]
+                              f"{c:.4f} ({1 / c:.1f}x)", spread(ratios), spread(cpu_ratios), str(same), f"{first.compile_s:.2f}", cs]
         engine, wt, wpt, same_t = typed_figures(Path(tmp))
         typed = (f"examples/hybrid_ball.toml (an Integer output recorded, 3 s with 12 events): the {engine} engine "
                  f"by default; compiled {wt:.2e}, Python {wpt:.2e} wall s per simulated s ({wpt / wt:.0f} x); "
@@ -344,7 +362,8 @@ def main(argv=None):
     if args.validation:
         what = ["compiled engine", "Python engine", f"hand-written fmpy loop ({args.fmpy_stop} s simulated)",
                 "the FMU calls alone from C (benchmarks/engine_harness.c)",
-                "compiled engine / C (ratio of each alternating pair)",
+                "compiled engine / C, wall (ratio of each alternating pair)",
+                "compiled engine / C, CPU time of the loop (the same pairs)",
                 "Python and compiled results identical", "numba compile or cache load in the first run [s]",
                 "compiled engine, the plant as Co-Simulation FMU (deviation from ME, % of range)"]
         write_section("engine", ["wall s per simulated s (x real time)", *columns],

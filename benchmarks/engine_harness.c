@@ -6,7 +6,8 @@
  * run. This program dlopens each FMU's .so, sets it up, then repeats exactly the FMU calls and the RK4
  * arithmetic of cosim.master.ckernel.run_chunk (sampling, ME-to-ME routing at every stage, held
  * inputs, RK4 with the first stage reusing the sampled state), without controllers: the inputs are
- * replayed. Prints the wall seconds of the loop and the number of instants.
+ * replayed. Prints the wall seconds of the loop, the number of instants, the first port's last value and the
+ * loop's CPU seconds (the thread's).
  *
  *   gcc -O2 -I<fmpy>/c-code engine_harness.c -o harness -ldl && ./harness plan.txt
  */
@@ -137,8 +138,9 @@ int main(int argc, char** argv) {
   for (long j = 0; j < n_rows * n_in; ++j) inputs[j] = rd();
   fclose(fp);
 
-  struct timespec a, b;
+  struct timespec a, b, ca, cb;
   clock_gettime(CLOCK_MONOTONIC, &a);
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ca);
   long k = 0, inst = 0;
   io(1, 1);
   for (;;) {
@@ -176,8 +178,10 @@ int main(int argc, char** argv) {
     }
     k = k_next;
   }
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &cb);
   clock_gettime(CLOCK_MONOTONIC, &b);
   double wall = (b.tv_sec - a.tv_sec) + 1e-9 * (b.tv_nsec - a.tv_nsec);
-  printf("%.9f %ld %.17g\n", wall, inst, buf[p_off[0]]);
+  double cpu = (cb.tv_sec - ca.tv_sec) + 1e-9 * (cb.tv_nsec - ca.tv_nsec);
+  printf("%.9f %ld %.17g %.9f\n", wall, inst, buf[p_off[0]], cpu);
   return 0;
 }
