@@ -23,7 +23,7 @@ import copy
 import math
 import re
 import warnings
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields, is_dataclass
 from pathlib import Path
 
 from cosim.errors import ParameterError, ScaleWarning
@@ -129,11 +129,11 @@ class FmuSpec:
         The file ``parameters_file`` named (its values are in ``parameters``, under the config's own).
     """
 
-    name: str
-    path: Path
-    kind: str
-    parameters: dict
-    start: dict
+    name: str = None
+    path: Path = None
+    kind: str = None
+    parameters: dict = field(default_factory=dict)
+    start: dict = field(default_factory=dict)
     info: object = field(repr=False, compare=False, default=None)
     parameters_file: object = field(repr=False, compare=False, default=None)
 
@@ -158,8 +158,8 @@ class ControllerSpec:
         The imported :class:`controllers.base.Controller` subclass.
     """
 
-    name: str
-    class_path: str
+    name: str = None
+    class_path: str = None
     rate: float = None
     parameters: dict = field(default_factory=dict)
     jit: bool = True
@@ -247,9 +247,19 @@ class SummarySpec:
 class Config:
     """A validated run config (frozen), one field per TOML section.
 
-    Made by :meth:`load` (a TOML file), :meth:`from_data` (the same tables built in code) or :meth:`with_set` (a
-    config with some keys changed): each checks every key as ``cosim run`` does and raises one
-    :class:`~cosim.errors.ConfigError` listing every problem.
+    Made by :meth:`load` (a TOML file), :meth:`from_data` (the same tables built in code), :meth:`with_set` (a
+    config with some keys changed) or the constructor (the sections as spec objects, or as their tables): each
+    checks every key as ``cosim run`` does, with the loader's checks, and raises one
+    :class:`~cosim.errors.ConfigError` listing every problem. Built in code, a config is its sections as they would
+    be written in ``path`` (which need not exist: FMU paths and controller files are relative to its folder); a
+    section left out takes its default, an FMU's or controller's name is its key::
+
+        Config("examples/two.toml", run=RunSpec(stop=1.0),
+               fmus={"a": FmuSpec(path="ssp/fmus/Body.fmu", kind="CS", parameters={"x0": 0.1})},
+               connections=[Connection(src=("a", "x"), dst=("b", "x_other"))],
+               record=RecordSpec(rate=1000.0, signals=[("a", "x")]))
+
+    The problems are those of a file of the same content, each at its key instead of a ``file:line``.
 
     Attributes
     ----------
@@ -269,17 +279,25 @@ class Config:
         The ``--set key=value`` overrides applied.
     """
 
-    path: Path
-    run: RunSpec
-    solver: SolverSpec
-    fmus: dict
-    controllers: dict
-    connections: tuple
-    record: RecordSpec
-    plot: PlotSpec
-    summary: SummarySpec
+    path: Path = Path("config.toml")
+    run: RunSpec = RunSpec()
+    solver: SolverSpec = SolverSpec()
+    fmus: dict = field(default_factory=dict)
+    controllers: dict = field(default_factory=dict)
+    connections: tuple = ()
+    record: RecordSpec = RecordSpec()
+    plot: PlotSpec = PlotSpec()
+    summary: SummarySpec = SummarySpec()
     raw: dict = field(repr=False, compare=False, default_factory=dict)
     overrides: tuple = ()
+
+    def __post_init__(self):
+        """Check the config built in code with the loader's checks (:func:`config_from_data` of its tables); the
+        fields become the checked ones (an FMU's model description read, a controller's class imported)."""
+        checked = config_from_data(_tables(self), self.path)
+        for f in fields(self):
+            if f.name != "overrides":
+                object.__setattr__(self, f.name, getattr(checked, f.name))
 
     @property
     def name(self):
@@ -348,6 +366,72 @@ class Config:
         keys = {format_key(k) for k in key_paths(data)}  # the config's own keys, before the new ones
         set_keys = apply_overrides(data, items)
         return _validated(data, Problems(str(self.path), None, set_keys, keys), self.path, self.overrides + items)
+
+
+def _tables(config):
+    """The tables of a config built in code, as its file would hold them; each section a spec or its table. A spec
+    the loader made (its FMU's ``info``, its controller's ``cls`` read) holds paths resolved against the working
+    folder: they are written absolute, so that a config changed with :func:`dataclasses.replace` is the same."""
+    data = {key: _spec_table(getattr(config, key)) for key in ("run", "solver", "plot")}
+    data["record"] = _spec_table(config.record)
+    if isinstance(config.record, RecordSpec):
+        data["record"]["signals"] = [_dotted(s) for s in config.record.signals]
+    data["fmus"] = {name: _fmu_table(spec) for name, spec in config.fmus.items()}
+    data["controllers"] = {name: _controller_table(spec) for name, spec in config.controllers.items()}
+    data["connections"] = [_connection_table(c) for c in config.connections]
+    data["summary"] = _summary_table(config.summary)
+    return data
+
+
+def _spec_table(spec):
+    """A spec's fields as a table, those of value None left out (a table, or anything else, is itself)."""
+    if not is_dataclass(spec):
+        return spec
+    return {f.name: getattr(spec, f.name) for f in fields(spec) if getattr(spec, f.name) is not None}
+
+
+def _dotted(signal):
+    """``("inst", "var")`` as ``"inst.var"`` (a string is itself)."""
+    return ".".join(signal) if isinstance(signal, tuple) else signal
+
+
+def _fmu_table(spec):
+    if not isinstance(spec, FmuSpec):
+        return spec
+    made = spec.info is not None
+    upstream = spec.parameters_file
+    table = {"path": Path(spec.path).absolute() if made else spec.path, "kind": spec.kind,
+             "parameters": spec.parameters, "start": spec.start,
+             "parameters_file": upstream.path.absolute() if hasattr(upstream, "sha256") else upstream}
+    return {key: value for key, value in table.items() if value is not None}
+
+
+def _controller_table(spec):
+    if not isinstance(spec, ControllerSpec):
+        return spec
+    paths = spec.cls.path_parameters if spec.cls is not None else ()
+    parameters = {pn: str(Path(v).absolute()) if pn in paths and isinstance(v, str) and v else v
+                  for pn, v in spec.parameters.items()}
+    table = {"class": spec.class_path, "rate": spec.rate, "jit": spec.jit, "parameters": parameters}
+    return {key: value for key, value in table.items() if value is not None}
+
+
+def _connection_table(connection):
+    if not isinstance(connection, Connection):
+        return connection
+    return {"from": _dotted(connection.src), "to": _dotted(connection.dst), "gain": connection.gain,
+            "offset": connection.offset, "round": connection.round}
+
+
+def _summary_table(spec):
+    """The summary's table: its kind, controller and the columns of its plugin's signals (the outputs it reads
+    are not keys)."""
+    if not isinstance(spec, SummarySpec):
+        return spec
+    signals = spec.plugin.signals if spec.plugin is not None else spec.columns
+    table = {"kind": spec.kind, "controller": spec.controller}
+    table.update({key: column for key, column in spec.columns.items() if key in signals})
+    return {key: value for key, value in table.items() if value is not None}
 
 
 def _set_items(set):
@@ -1131,5 +1215,8 @@ def _validated(data, problems, path, overrides):
         _bounds(run, solver, fmus, ctrls, record, problems)
     problems.raise_if_any()
     _time_scales(run, fmus, ctrls)
-    return Config(path=path, run=run, solver=solver, fmus=fmus, controllers=ctrls, connections=connections,
-                  record=record, plot=plot, summary=summary, raw=data, overrides=overrides)
+    config = object.__new__(Config)  # checked already: not again by Config.__post_init__
+    for name, value in dict(path=path, run=run, solver=solver, fmus=fmus, controllers=ctrls, connections=connections,
+                            record=record, plot=plot, summary=summary, raw=data, overrides=overrides).items():
+        object.__setattr__(config, name, value)
+    return config

@@ -209,6 +209,70 @@ def test_a_config_built_in_code_gives_the_loaders_errors(master_dir):  # noqa: F
     assert problems(lambda: cosim.Config.load(path)) == from_file
 
 
+def _osc_specs(**changes):
+    """The sections of osc_config(stop=1.0) as spec objects, ``changes`` replacing some."""
+    from cosim.config import Connection, ControllerSpec, FmuSpec, RecordSpec, RunSpec
+
+    specs = dict(run=RunSpec(stop=1.0), fmus={"plant": FmuSpec(path="Osc.fmu", parameters={"k": 9.0})},
+                 controllers={"src": ControllerSpec(class_path="ctl.py:Sine", rate=1000.0,
+                                                    parameters={"amp": 2.0, "f": 1.0})},
+                 connections=(Connection(("src", "u"), ("plant", "u")),),
+                 record=RecordSpec(100.0, (("plant", "y"), ("plant", "v_out"), ("src", "u"))))
+    return {**specs, **changes}
+
+
+def test_a_config_constructed_in_code_runs_to_the_numbers_of_its_file(master_dir):  # noqa: F811
+    import cosim
+
+    path = osc_config(master_dir, stop=1.0)
+    code = cosim.Config(master_dir / "code.toml", **_osc_specs())
+    from_file = load_config(path)
+    assert code.fmus["plant"].info is not None and code.controllers["src"].cls.__name__ == "Sine"
+    assert code.record == from_file.record and code.connections == from_file.connections
+    ours, theirs = cosim.run(code).frame("plant"), cosim.run(from_file).frame("plant")
+    assert np.ptp(theirs.y) > 0.1 and np.array_equal(ours.to_numpy(), theirs.to_numpy())
+    # a loaded config changed with dataclasses.replace is checked again, its paths still the file's
+    with pytest.raises(ConfigError, match=r"run\.stop: must be > run\.start \(0\.0\); got -1\.0"):
+        dataclasses.replace(from_file, run=cosim.config.RunSpec(stop=-1.0))
+    shorter = dataclasses.replace(from_file, run=cosim.config.RunSpec(stop=0.5))
+    assert shorter.overrides == () and dataclasses.replace(shorter, overrides=("run.stop=0.5",)) == load_config(
+        path, ["run.stop=0.5"])
+
+
+@pytest.mark.parametrize("where, value, expected", [
+    (("connections", 0, "to"), "plant.uu", "no input 'uu'"),
+    (("controllers", "src", "rate"), -5.0, "must be > 0; got -5.0"),
+    (("fmus", "plant", "path"), "Missing.fmu", "does not exist"),
+])
+def test_an_invalid_config_constructed_in_code_raises_the_files_error(master_dir, where, value, expected):  # noqa: F811
+    """An unknown connection target, a negative rate, a missing FMU: the same problem as the TOML file of the same
+    content, but at its key (a file built in code has no lines)."""
+    import cosim
+    from cosim.config import Connection
+
+    data = tomllib.loads(osc_config(master_dir, stop=1.0).read_text())
+    table = data
+    for key in where[:-1]:
+        table = table[key]
+    table[where[-1]] = value
+    path = master_dir / "api_invalid.toml"
+    path.write_text(toml_text(data))
+    changes = {"connections": (Connection(("src", "u"), ("plant", "uu")),)} if where[0] == "connections" else {}
+    specs = _osc_specs(**changes)
+    if where[0] == "controllers":
+        specs["controllers"] = {"src": dataclasses.replace(specs["controllers"]["src"], rate=value)}
+    if where[0] == "fmus":
+        specs["fmus"] = {"plant": dataclasses.replace(specs["fmus"]["plant"], path=value)}
+    with pytest.raises(ConfigError) as from_file:
+        load_config(path)
+    with pytest.raises(ConfigError) as from_code:
+        cosim.Config(path, **specs)
+    [file_line] = from_file.value.problems
+    [code_line] = from_code.value.problems
+    assert expected in code_line and file_line.startswith(f"{path}:") and code_line.startswith(f"{path}: ")
+    assert file_line.split(": ", 1)[1] == code_line.split(": ", 1)[1]
+
+
 def test_with_set_checks_the_changed_config_and_leaves_the_config_alone(master_dir):  # noqa: F811
     import cosim
 
