@@ -250,16 +250,12 @@ class Config:
     Made by :meth:`load` (a TOML file), :meth:`from_data` (the same tables built in code), :meth:`with_set` (a
     config with some keys changed) or the constructor (the sections as spec objects, or as their tables): each
     checks every key as ``cosim run`` does, with the loader's checks, and raises one
-    :class:`~cosim.errors.ConfigError` listing every problem. Built in code, a config is its sections as they would
-    be written in ``path`` (which need not exist: FMU paths and controller files are relative to its folder); a
-    section left out takes its default, an FMU's or controller's name is its key::
-
-        Config("examples/two.toml", run=RunSpec(stop=1.0),
-               fmus={"a": FmuSpec(path="ssp/fmus/Body.fmu", kind="CS", parameters={"x0": 0.1})},
-               connections=[Connection(src=("a", "x"), dst=("b", "x_other"))],
-               record=RecordSpec(rate=1000.0, signals=[("a", "x")]))
-
-    The problems are those of a file of the same content, each at its key instead of a ``file:line``.
+    :class:`~cosim.errors.ConfigError` listing every problem, each at its key instead of a ``file:line``. Built in
+    code, a config is its sections as they would be written in ``path`` (which need not exist: FMU paths and
+    controller files are relative to its folder), a section left out taking its default and an FMU or controller
+    named by its key: ``Config("sys.toml", run=RunSpec(stop=1.0), fmus={"a": FmuSpec(path="A.fmu"), "b":
+    FmuSpec(path="B.fmu")}, connections=[Connection(("a", "y"), ("b", "u"))], record=RecordSpec(signals=[("a",
+    "y")]))`` (docs/guide/python.md runs one). :func:`dataclasses.replace` of a config is checked again the same way.
 
     Attributes
     ----------
@@ -374,7 +370,7 @@ def _tables(config):
     folder: they are written absolute, so that a config changed with :func:`dataclasses.replace` is the same."""
     data = {key: _spec_table(getattr(config, key)) for key in ("run", "solver", "plot")}
     data["record"] = _spec_table(config.record)
-    if isinstance(config.record, RecordSpec):
+    if isinstance(config.record, RecordSpec) and config.record.signals:
         data["record"]["signals"] = [_dotted(s) for s in config.record.signals]
     data["fmus"] = {name: _fmu_table(spec) for name, spec in config.fmus.items()}
     data["controllers"] = {name: _controller_table(spec) for name, spec in config.controllers.items()}
@@ -384,10 +380,11 @@ def _tables(config):
 
 
 def _spec_table(spec):
-    """A spec's fields as a table, those of value None left out (a table, or anything else, is itself)."""
+    """A spec's fields as a table, those at their default left out as a file leaves them out (a table, or anything
+    else, is itself)."""
     if not is_dataclass(spec):
         return spec
-    return {f.name: getattr(spec, f.name) for f in fields(spec) if getattr(spec, f.name) is not None}
+    return {f.name: getattr(spec, f.name) for f in fields(spec) if getattr(spec, f.name) != f.default}
 
 
 def _dotted(signal):
