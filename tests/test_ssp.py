@@ -2,17 +2,11 @@
 an SSP written by hand after the standard's examples runs in ``cosim run`` to the numbers of FMPy stepping the same
 FMUs by hand; a bad SSP is an SspError naming the element."""
 
-import json
-import subprocess
-import sys
-import tempfile
-import zipfile
 from pathlib import Path
 
-import fmpy
 import numpy as np
 import pytest
-from fmpy.fmi3 import FMU3Slave
+from ssp_support import TWO_BODIES, fmpy_by_hand, hand_ssp, libcosim_ssp
 
 from cosim.config import load_config
 from cosim.errors import SspError
@@ -20,7 +14,6 @@ from cosim.master.run import run_config
 from cosim.ssp.write import export_ssp
 
 ROOT = Path(__file__).resolve().parent.parent
-RUNNER = Path(__file__).resolve().parent / "other_tools_run.py"
 
 
 # ---- (a) cosim export-ssp -> libcosim ---------------------------------------------------------------------------
@@ -32,34 +25,6 @@ def body_fmu(tmp_path_factory):
 
     return build_fmu(ROOT / "examples" / "ssp" / "Oscillators.mo", "Oscillators.Body",
                      out_dir=tmp_path_factory.mktemp("ssp_fmus"), fmi_version=2)
-
-
-TWO_BODIES = """
-[run]
-stop = {stop}
-
-[fmus.a]
-path = "{fmu}"
-kind = "CS"
-parameters = {{ x0 = 0.1, c = 30.0 }}
-
-[fmus.b]
-path = "{fmu}"
-kind = "CS"
-parameters = {{ m = 2.0 }}
-
-[[connections]]
-from = "a.x"
-to = "b.x_other"
-
-[[connections]]
-from = "b.x"
-to = "a.x_other"
-
-[record]
-rate = {rate}
-signals = ["a.x", "b.x", "a.v", "b.v"]
-"""
 
 
 @pytest.mark.slow
@@ -75,10 +40,7 @@ def test_libcosim_runs_the_exported_ssp_like_cosim_run(body_fmu, tmp_path):
     ours = run_config(config, out=tmp_path / "out")[0].data[1:]  # libcosim reports after each step
     ssp = export_ssp(config, tmp_path / "two_bodies.ssp")
     signals = ["a.x", "b.x", "a.v", "b.v"]
-    done = subprocess.run([sys.executable, str(RUNNER), "libcosim-ssp", str(ssp), "{}", json.dumps(signals),
-                           str(step), str(stop)], capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, f"libcosim failed (exit {done.returncode}):\n{done.stderr[-3000:]}"
-    rows = np.array(json.loads(done.stdout.strip().splitlines()[-1]))
+    rows = libcosim_ssp(ssp, signals, step, stop)
     assert rows.shape == (len(ours), 1 + len(signals))
     np.testing.assert_allclose(rows[:, 0], ours["time"], atol=1e-9)
     v_max = max(np.max(np.abs(ours["a.v"])), np.max(np.abs(ours["b.v"])))
@@ -89,106 +51,14 @@ def test_libcosim_runs_the_exported_ssp_like_cosim_run(body_fmu, tmp_path):
 
 # ---- (b) an SSP written by hand -> cosim run, against FMPy ------------------------------------------------------
 
-SSD = """<?xml version="1.0" encoding="UTF-8"?>
-<ssd:SystemStructureDescription version="{version}" name="BallIntegrator"
-    xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon"
-    xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription"
-    xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues">
-  <ssd:System name="BallIntegrator">
-    <ssd:Elements>
-      <ssd:Component name="ball" type="application/x-fmu-sharedlibrary" source="{ball}"
-          implementation="CoSimulation">
-        <ssd:Connectors>
-          <ssd:Connector name="h" kind="output"><ssc:Real unit="m"/></ssd:Connector>
-        </ssd:Connectors>
-        <ssd:ParameterBindings>
-          <ssd:ParameterBinding source="resources/ball.ssv"/>
-        </ssd:ParameterBindings>
-      </ssd:Component>
-      <ssd:Component name="integrator" source="resources/Feedthrough.fmu" implementation="CoSimulation">
-        <ssd:Connectors>
-          <ssd:Connector name="{input}" kind="input"><ssc:Real{unit}/></ssd:Connector>
-          <ssd:Connector name="x" kind="output"><ssc:Real/></ssd:Connector>
-        </ssd:Connectors>
-      </ssd:Component>
-    </ssd:Elements>
-    <ssd:Connections>
-      <ssd:Connection startElement="ball" startConnector="h" endElement="integrator" endConnector="u_f64">{transform}
-      </ssd:Connection>
-    </ssd:Connections>
-  </ssd:System>
-  <ssd:DefaultExperiment startTime="0" stopTime="2"/>
-</ssd:SystemStructureDescription>
-"""
-
-SSV = """<?xml version="1.0" encoding="UTF-8"?>
-<ssv:ParameterSet version="{version}" name="ball"
-    xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues">
-  <ssv:Parameters>
-    <ssv:Parameter name="e"><ssv:Real value="0.5"/></ssv:Parameter>
-    <ssv:Parameter name="g"><ssv:Real value="9.81" unit="m/s2"/></ssv:Parameter>
-  </ssv:Parameters>
-  <ssv:Units><ssc:Unit name="m/s2" xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon">
-    <ssc:BaseUnit m="1" s="-2"/></ssc:Unit></ssv:Units>
-</ssv:ParameterSet>
-"""
-
-
-def _hand_ssp(folder, third_party_fmu, version="1.0", ball="resources/BouncingBall.fmu", input="u_f64", unit="",
-              transform=""):
-    """BouncingBall's height integrated by Feedthrough (x = integral of u_f64), the ball's restitution 0.5 set by
-    an SSV: an SSP written after the standard's examples; the keywords spoil one element or add to one."""
-    path = folder / f"ball_{version}.ssp"
-    with zipfile.ZipFile(path, "w") as zf:
-        zf.writestr("SystemStructure.ssd", SSD.format(version=version, ball=ball, input=input, unit=unit,
-                                                      transform=transform))
-        zf.writestr("resources/ball.ssv", SSV.format(version=version))
-        zf.write(third_party_fmu("BouncingBall"), "resources/BouncingBall.fmu")
-        zf.write(third_party_fmu("Feedthrough"), "resources/Feedthrough.fmu")
-    return path
-
-
-def _fmpy_by_hand(ball_fmu, integrator_fmu, step, stop, factor=1.0, offset=0.0):
-    """FMPy's FMI 3.0 Co-Simulation of the two FMUs stepped by hand: at each communication point the ball's height
-    is read and set (times ``factor`` plus ``offset``) as the integrator's input, then both step (ball.e = 0.5).
-    Rows ``[t, h, x]``."""
-    slaves, refs = [], []
-    for fmu, start in ((ball_fmu, {"e": 0.5}), (integrator_fmu, {})):
-        md = fmpy.read_model_description(str(fmu))
-        slave = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(str(fmu), unzipdir=tempfile.mkdtemp()),
-                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName=md.modelName)
-        slave.instantiate()
-        vr = {v.name: v.valueReference for v in md.modelVariables}
-        for name, value in start.items():
-            slave.setFloat64([vr[name]], [value])
-        slave.enterInitializationMode(startTime=0.0)
-        slave.exitInitializationMode()
-        slaves.append(slave)
-        refs.append(vr)
-    ball, integrator = slaves
-    rows = []
-    for k in range(round(stop / step) + 1):
-        t = k * step
-        h = ball.getFloat64([refs[0]["h"]])[0]
-        rows.append([t, h, integrator.getFloat64([refs[1]["x"]])[0]])
-        if k < round(stop / step):
-            integrator.setFloat64([refs[1]["u_f64"]], [factor * h + offset])
-            ball.doStep(t, step)
-            integrator.doStep(t, step)
-    for slave in slaves:
-        slave.terminate()
-        slave.freeInstance()
-    return np.array(rows)
-
-
 @pytest.mark.parametrize("version", ["1.0", "2.0"])
 def test_hand_written_ssp_runs_like_fmpy_stepping_the_fmus(third_party_fmu, version, tmp_path):
     """SSP 1.0 (validated by FMPy's schema) and 2.0 (read unvalidated): the default experiment (2 s), the SSV
     parameter (the ball's restitution 0.5, not its FMU's 0.7), the connection and the FMUs' step (0.01 s) all reach
     the run: cosim's numbers are FMPy's to round-off."""
-    ssp = _hand_ssp(tmp_path, third_party_fmu, version)
+    ssp = hand_ssp(tmp_path, third_party_fmu, version)
     result = run_config(ssp, out=tmp_path / "out")[0]
-    reference = _fmpy_by_hand(third_party_fmu("BouncingBall"), third_party_fmu("Feedthrough"), 0.01, 2.0)
+    reference = fmpy_by_hand(third_party_fmu("BouncingBall"), third_party_fmu("Feedthrough"), 0.01, 2.0)
     assert result.data["time"][-1] == pytest.approx(2.0)
     np.testing.assert_allclose(result.data["time"], reference[:, 0], atol=1e-12)
     assert np.min(reference[:, 1]) < 0.05 and np.max(reference[-50:, 1]) < 0.3  # it bounced at e = 0.5
@@ -202,17 +72,17 @@ def test_a_connections_linear_transformation_reaches_the_run(third_party_fmu, tm
     from fmpy.ssp.ssd import read_ssd
 
     transform = '\n        <ssc:LinearTransformation factor="2" offset="0.5"/>'
-    ssp = _hand_ssp(tmp_path, third_party_fmu, transform=transform)
+    ssp = hand_ssp(tmp_path, third_party_fmu, transform=transform)
     assert not hasattr(read_ssd(str(ssp)).system.connections[0], "linearTransformation")
     result = run_config(ssp, out=tmp_path / "out")[0]
-    reference = _fmpy_by_hand(third_party_fmu("BouncingBall"), third_party_fmu("Feedthrough"), 0.01, 2.0, 2.0, 0.5)
+    reference = fmpy_by_hand(third_party_fmu("BouncingBall"), third_party_fmu("Feedthrough"), 0.01, 2.0, 2.0, 0.5)
     assert reference[-1, 2] > 1.0  # the offset alone integrates to 1 over 2 s
     np.testing.assert_allclose(result.data["x"], reference[:, 2], rtol=0, atol=1e-12)
 
 
 def test_a_config_naming_an_ssp_runs_its_system_under_its_own_values(third_party_fmu, tmp_path):
     """``[system] ssp = ...``: the SSP's FMUs and connections, its SSV values under the config's (and --set's)."""
-    ssp = _hand_ssp(tmp_path, third_party_fmu)
+    ssp = hand_ssp(tmp_path, third_party_fmu)
     config = tmp_path / "ball.toml"
     config.write_text(f'[system]\nssp = "{ssp.name}"\n\n[fmus.ball.parameters]\ng = 3.0\n\n'
                       '[record]\nrate = 100\nsignals = ["integrator.x"]\n')
@@ -233,7 +103,7 @@ def test_a_config_naming_an_ssp_runs_its_system_under_its_own_values(third_party
                             r"in 'm', u_f64 in 's'"),
 ])
 def test_a_bad_ssp_is_an_ssp_error_naming_the_element(third_party_fmu, tmp_path, spoil, expected):
-    ssp = _hand_ssp(tmp_path, third_party_fmu, **spoil)
+    ssp = hand_ssp(tmp_path, third_party_fmu, **spoil)
     with pytest.raises(SspError, match=expected):
         load_config(ssp)
 
