@@ -1212,8 +1212,32 @@ def _validated(data, problems, path, overrides):
         _bounds(run, solver, fmus, ctrls, record, problems)
     problems.raise_if_any()
     _time_scales(run, fmus, ctrls)
-    config = object.__new__(Config)  # checked already: not again by Config.__post_init__
-    for name, value in dict(path=path, run=run, solver=solver, fmus=fmus, controllers=ctrls, connections=connections,
-                            record=record, plot=plot, summary=summary, raw=data, overrides=overrides).items():
+    return _made(dict(path=path, run=run, solver=solver, fmus=fmus, controllers=ctrls, connections=connections,
+                      record=record, plot=plot, summary=summary, raw=data, overrides=overrides))
+
+
+def _made(values):
+    """The Config of these field values, not checked by :meth:`Config.__post_init__` (they are checked already)."""
+    config = object.__new__(Config)
+    for name, value in values.items():
         object.__setattr__(config, name, value)
     return config
+
+
+def replace_unchecked(config, **changes):
+    """``config`` with some fields changed and not checked again, where :func:`dataclasses.replace` checks it: for
+    the variants of a checked config the master runs (a calibration's or a campaign's values, checked where they
+    are given), where a check per run would cost more than the run and refuse the values an optimizer tries.
+
+    Parameters
+    ----------
+    config : Config
+        A checked config.
+    **changes
+        New values of its fields, by name.
+
+    Returns
+    -------
+    Config
+    """
+    return _made({**{f.name: getattr(config, f.name) for f in fields(config)}, **changes})

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from cosim.config import replace_unchecked
 from cosim.errors import ConfigError, EngineFallbackWarning, NonFiniteError, SimulationTerminated
 from cosim.fmi import FmuInstance
 from cosim.master.compiled import CompiledLoop, compiled_problem
@@ -343,7 +344,7 @@ class Engine:
                               f"{base.run.start!r} s by one tick of the time base")
         fmus = {n: replace(s, parameters={**s.parameters, **parameters.get(n, {})},
                            start={**s.start, **start.get(n, {})}) for n, s in base.fmus.items()}
-        self.config, self.k_stop = replace(base, run=replace(base.run, stop=stop), fmus=fmus), k_stop
+        self.config, self.k_stop = replace_unchecked(base, run=replace(base.run, stop=stop), fmus=fmus), k_stop
         for name, ctrl in self.controllers.items():
             ctrl.values = {**self._values[name], **controllers.get(name, {})}
             ctrl.p[:] = ctrl.pack()
