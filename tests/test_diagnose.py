@@ -154,6 +154,30 @@ def test_linearised_fit_of_a_linear_replay_is_its_least_squares_fit():
     assert bounded.parameters_["q"] == pytest.approx(0.0, abs=1e-9) and bounded.replays_ == 2
 
 
+def test_sample_fit_moves_a_parameter_that_starts_at_zero():
+    """A phase starting at 0 is fitted: the fit's forward differences step DIFF_STEP * max(1, |q|), not scipy's
+    diff_step * |q| (1.5e-8 at 0, below a replay's error, here 1e-4 and changing with the parameters: the phase's
+    column was noise, and the speed job's fold fit stopped at phase 0). Data made with amplitude 1.2 and phase
+    -1 rad, no noise: the fit from 0.8 and 0 must give them back to the replay's error."""
+    from cosim.diagnose.fitting import SampleFit
+    from cosim.fitting import FreeParameter
+
+    t = np.linspace(0.0, 1.0, 400)
+    scale = np.array([0.8, 1.0])  # a start of 0 is scaled by 1 (tasks._replay)
+
+    def evaluate(q):  # with an error that changes with the parameters, as an ODE solver's
+        amplitude, phase = q * scale
+        error = 1e-4 * np.sin(1e9 * (q[0] + 2 * q[1]) + 37 * t)
+        return (amplitude * np.sin(2 * np.pi * 12 * t + phase) + error)[None, :]
+
+    replay = SimpleNamespace(free=["T", "phase"], scale=scale, evaluate=evaluate)
+    measured = 1.2 * np.sin(2 * np.pi * 12 * t - 1.0)[None, :]
+    free = {"T": FreeParameter(0.8, 0.0, 5.0), "phase": FreeParameter(0.0, -3.1416, 3.1416)}
+    fit = SampleFit(replay, np.array([1e3]), np.ones(len(t), bool), free, max_nfev=20).fit(measured)
+    assert fit.parameters_["phase"] == pytest.approx(-1.0, abs=1e-3)
+    assert fit.parameters_["T"] == pytest.approx(1.2, abs=1e-3)
+
+
 def test_a_rival_must_also_leave_a_residual_like_the_winners():
     """'Also explained by' asks for a score within 0.1 of the winner's and a held-out mean square within 1.5 times
     its own. Numbers of two shipped demos (held-out mean squares in noise units from their RMSE after and the

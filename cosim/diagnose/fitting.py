@@ -101,6 +101,22 @@ class Trials:
         return np.hstack([r.evaluate(q) for r in self.replays])
 
 
+def _forward_jacobian(residual, q0, r0, hi, columns):
+    """The ``columns`` (indices) of d residual / dq at ``q0`` (where it is ``r0``) by forward differences of
+    ``DIFF_STEP * max(1, |q|)`` (backwards past the upper bound ``hi``); the other columns zero, as is one whose
+    replay failed (no evidence)."""
+    q0 = np.asarray(q0, float)
+    jacobian = np.zeros((len(r0), len(q0)))
+    for k in columns:
+        h = DIFF_STEP * max(1.0, abs(q0[k]))
+        h = h if q0[k] + h <= hi[k] else -h
+        q = q0.copy()
+        q[k] += h
+        r = residual(q)
+        jacobian[:, k] = 0.0 if np.all(r == _FAILED_REPLAY) else (r - r0) / h
+    return jacobian
+
+
 def _residual_function(replay, measured, weights, mask):
     """The weighted residual on ``mask`` as a function of scaled parameters, and the outputs of its last
     evaluations by parameter bytes (the fit's optimum was evaluated: no replay again to predict there)."""
@@ -227,8 +243,20 @@ class SampleFit(Estimator):
         residual = watch_residual(residual, self.progress, self.max_nfev * (len(q0) + 1))
         jacobian = np.zeros((int(mask.sum()) * measured.shape[0], 0))
         if len(q0):
-            solution = least_squares(residual, q0, bounds=(lo, hi), method="trf", jac="2-point",
-                                     diff_step=DIFF_STEP, x_scale=1.0, xtol=1e-6, ftol=1e-6, max_nfev=self.max_nfev)
+            # our forward differences, not scipy's "2-point": scipy's diff_step is relative to |q|, a step of 1.5e-8
+            # for a parameter at 0 (a phase), below the replay's tolerance, and the fit stalls on a noise column
+            last = {}
+
+            def fun(q):
+                last["q"], last["r"] = np.array(q, float), residual(q)
+                return last["r"]
+
+            def jac(q):
+                r0 = last["r"] if np.array_equal(last.get("q"), q) else residual(q)
+                return _forward_jacobian(residual, q, r0, hi, range(len(q)))
+
+            solution = least_squares(fun, q0, bounds=(lo, hi), method="trf", jac=jac, x_scale=1.0, xtol=1e-6,
+                                     ftol=1e-6, max_nfev=self.max_nfev)
             q, self.success_, jacobian = solution.x, bool(solution.success), solution.jac
         else:
             q, self.success_ = q0, True
@@ -287,18 +315,12 @@ class LinearisedFit(Estimator):
         q0 = np.clip(_scaled_starts(self.free, replay), lo, hi)
         residual, _ = _residual_function(replay, measured, self.weights, self.mask)
         r0 = residual(q0)
-        jacobian, replays = np.empty((len(r0), len(q0))), 1
+        unknown = [k for k, name in enumerate(replay.free) if name not in self.columns]
+        jacobian = _forward_jacobian(residual, q0, r0, hi, unknown)
         for k, name in enumerate(replay.free):
             if name in self.columns:
                 jacobian[:, k] = self.columns[name] * scale[k]
-                continue
-            h = DIFF_STEP * max(1.0, abs(q0[k]))
-            h = h if q0[k] + h <= hi[k] else -h
-            q = q0.copy()
-            q[k] += h
-            r = residual(q)
-            jacobian[:, k] = 0.0 if np.all(r == _FAILED_REPLAY) else (r - r0) / h  # a failed replay: no evidence
-            replays += 1
+        replays = 1 + len(unknown)
         step = lsq_linear(jacobian, -r0, bounds=(lo - q0, hi - q0 + 1e-15))
         self.chi2_start_ = float(r0 @ r0)
         self.chi2_predicted_ = float(np.sum((r0 + jacobian @ step.x) ** 2))
