@@ -3,6 +3,7 @@
     python docs/guide/make_outputs.py [PAGE.md ...]           # run the commands, rewrite their outputs in the pages
     python docs/guide/make_outputs.py --check [PAGE.md ...]   # write nothing; exit 1 when a page drifted
     python docs/guide/make_outputs.py --check --fast          # skip the commands marked slow (minutes each)
+    python docs/guide/make_outputs.py --only diagnose_speed.toml docs/guide/diagnose.md   # that command's blocks
 
 A fenced block whose lines start with ``$ `` shows commands and what they print. The line before it says what to
 do with it: ``<!-- output -->`` (run it), ``<!-- output: slow -->`` (run it unless ``--fast``: a diagnosis, a
@@ -120,7 +121,7 @@ def _file_problem(shown, path):
     return None
 
 
-def check_page(page, fast=False, write=True, log=print):
+def check_page(page, fast=False, write=True, log=print, only=None):
     """Run the commands of one guide page and compare (and with ``write``, rewrite) their outputs.
 
     Parameters
@@ -133,6 +134,8 @@ def check_page(page, fast=False, write=True, log=print):
         Rewrite the page's command outputs (and JSON file blocks) with what the commands printed.
     log : callable, default print
         Gets one line per block checked.
+    only : str, optional
+        Run only the blocks with a command holding this text (and the file blocks after them), e.g. one job's.
 
     Returns
     -------
@@ -154,9 +157,10 @@ def check_page(page, fast=False, write=True, log=print):
                     problems.append((f"{where}: a $ block without <!-- output --> (or slow, or not run: why)", False))
                 continue
             if kind == "output":
-                skipped = arg.startswith("not run") or (fast and arg == "slow")
+                other = only is not None and not any(only in command for command, _ in _commands(body))
+                skipped = arg.startswith("not run") or (fast and arg == "slow") or other
                 if skipped:
-                    log(f"{where}: skipped ({arg})")
+                    log(f"{where}: skipped ({f'not {only}' if other else arg})")
                     continue
                 new = []
                 for command, shown in _commands(body):
@@ -189,10 +193,12 @@ def main(argv=None):
     parser.add_argument("pages", nargs="*", type=Path, help="pages (default: every docs/guide/*.md)")
     parser.add_argument("--check", action="store_true", help="write nothing; exit 1 when a page drifted")
     parser.add_argument("--fast", action="store_true", help="skip the commands marked slow")
+    parser.add_argument("--only", metavar="TEXT", help="run only the blocks with a command holding TEXT, e.g. a job's "
+                                                       "file name (and the file blocks after them)")
     args = parser.parse_args(argv)
     problems = []
     for page in args.pages or sorted(GUIDES.glob("*.md")):
-        problems += check_page(page, fast=args.fast, write=not args.check)
+        problems += check_page(page, fast=args.fast, write=not args.check, only=args.only)
     for problem in problems:
         print(problem, file=sys.stderr)
     return 1 if problems else 0
