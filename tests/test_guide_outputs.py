@@ -88,8 +88,8 @@ def test_only_runs_the_blocks_of_the_command_asked_for(tmp_path):
 
 # The diagnoses of docs/guide/diagnose.md whose answer the suite checks (a refactor that changes an answer fails
 # here): each job runs as the guide shows it, and what it prints and the report's lines shown are compared. CPU
-# time on the 2-core machine: speed 57 s, impact 30 s, haptic 6 s. The others (rounds, several experiments, the
-# static curve: 4 to 15 min of CPU each): python docs/guide/make_outputs.py --check.
+# time on the 2-core machine: speed 57 s, impact 30 s, haptic 6 s. The rounds and the several experiments (minutes
+# each): python docs/guide/make_outputs.py --check; the static curve (over 6 min of CPU) is shown by none.
 GUIDE_DIAGNOSES = ("diagnose_speed.toml", "diagnose_impact.toml", "diagnose_haptic.toml")
 
 
