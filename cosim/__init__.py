@@ -5,14 +5,9 @@ The public API is the names of ``__all__`` (docs/reference/python.md): :func:`bu
 first use, so that ``import cosim`` stays instant.
 
 ``cosim.calibrate``, ``cosim.diagnose`` and ``cosim.campaign`` are also the subpackages that hold those jobs'
-code, and importing a subpackage sets the attribute of its name on ``cosim``: a plain function of that name here
-would be replaced by the module as soon as any of its modules is imported. So each of the three subpackages is a
-module that can be called (:func:`_callable_package`): ``cosim.calibrate(job, ...)`` calls
-:func:`cosim.api.calibrate` whether or not ``cosim.calibrate.job`` was imported first, and ``cosim.calibrate.job``
-stays where it is.
+code: each is a module that can be called (:mod:`cosim.callable_package` says why), so ``cosim.calibrate(job,
+...)`` is ``cosim.calibrate.calibrate(job, ...)`` and ``cosim.calibrate.job`` stays where it is.
 """
-
-import types
 
 from cosim.kernel_cache import use_cache_dir
 
@@ -32,7 +27,7 @@ def __getattr__(name):
     """The API's names, from their modules on first use (they import numpy and more)."""
     import importlib
 
-    if name in _CALLABLE:  # the subpackage, which calls the API function of its name
+    if name in _CALLABLE:  # the subpackage, which calls its function of its name
         return importlib.import_module(f"cosim.{name}")
     if name in _API:
         return getattr(importlib.import_module(_API[name]), name)
@@ -41,18 +36,3 @@ def __getattr__(name):
 
 def __dir__():
     return sorted(set(globals()) | set(_API) | set(_CALLABLE))
-
-
-class _CallablePackage(types.ModuleType):
-    """A subpackage that is also the API function of its name (see the module docstring)."""
-
-    def __call__(self, *args, **kwargs):
-        from cosim import api
-
-        return getattr(api, self.__name__.rpartition(".")[2])(*args, **kwargs)
-
-
-def _callable_package(module):
-    """Make the subpackage ``module`` (``cosim.calibrate``, ...) callable as :mod:`cosim.api`'s function of its
-    name; its contents stay as they are."""
-    module.__class__ = _CallablePackage

@@ -1,9 +1,7 @@
-"""The Python API: one call per job, as ``cosim build``, ``run``, ``calibrate``, ``diagnose`` and ``campaign`` do it
-on the command line (the command line is a thin layer over these calls). Everything else of the package is its
-inside; docs/reference/python.md documents these names. Nothing is written unless a call is given ``out``.
-
-``cosim.calibrate``, ``cosim.diagnose`` and ``cosim.campaign`` are the functions here, called through their
-subpackages (the reason is in :mod:`cosim`'s docstring).
+"""The Python API of a build and a run, as ``cosim build`` and ``cosim run`` do them on the command line (the
+command line is a thin layer over these calls). Nothing is written unless a call is given ``out``. The jobs'
+calls, ``cosim.calibrate``, ``cosim.diagnose`` and ``cosim.campaign``, are their subpackages' own (the reason is
+in :mod:`cosim`'s docstring); docs/reference/python.md documents them all.
 
 Example::
 
@@ -18,11 +16,11 @@ Example::
 
 from pathlib import Path
 
-from cosim.config import Config, _set_items
+from cosim.config import Config
 from cosim.errors import CosimError
 from cosim.master.engine import RunResult
 
-__all__ = ["build", "run", "calibrate", "diagnose", "campaign", "Config", "RunResult"]
+__all__ = ["build", "run", "Config", "RunResult"]
 
 
 def build(source_or_models="modelica/models.toml", model=None, *, out=None, modelica_path=(), fmi_version=None,
@@ -133,113 +131,3 @@ def run(config, *, set=None, out=None, csv=False, force=False, progress=None):
         return replace(result, config=config, summary=summarize(result, config))
     result, summary, files = write_run(config, out, csv=csv, progress=progress, force=force)
     return replace(result, config=config, summary=summary, out=Path(out), files=files)
-
-
-def calibrate(job, *, set=None, out=None, force=False, progress=False):
-    """Fit the free parameters of a calibration job's model to its measured data, as ``cosim calibrate`` does;
-    nothing is written unless ``out`` is given.
-
-    Parameters
-    ----------
-    job : path-like
-        The calibration job (.toml, docs/guide/calibrate.md).
-    set : dict or sequence of str, optional
-        Job keys changed first, as ``cosim calibrate --set``: ``{"multistart.count": 1}`` or
-        ``["multistart.count=1"]``.
-    out : path-like, optional
-        Write calibration.json, parameters.toml (the calibrated set, for a run config) and fit.png there: new,
-        empty, or a previous cosim output with ``force``.
-    force : bool, default False
-        With ``out``: replace a previous cosim output there.
-    progress : bool, default False
-        A progress bar over the starts' fits on stderr.
-
-    Returns
-    -------
-    CalibrationResult
-        What calibration.json holds: the values with their standard errors, correlations, costs, every start's
-        fit, the provenance.
-
-    Raises
-    ------
-    ConfigError
-        The job is invalid (every problem, with its key), or ``out`` cannot be used.
-    """
-    from cosim.calibrate.job import run_job
-
-    return run_job(job, out=out, overrides=_set_items(set), progress=progress, force=force)
-
-
-def diagnose(job, *, set=None, out=None, build=True, force=False, progress=False):
-    """Find where a calibrated model and a measurement disagree and name the missing effect, as ``cosim diagnose``
-    does; nothing is written unless ``out`` is given (but, with ``build``, the FMUs built, see ``out``).
-
-    Parameters
-    ----------
-    job : path-like
-        The diagnosis job (.toml, docs/guide/diagnose.md).
-    set : dict or sequence of str, optional
-        Job keys changed first, as ``cosim diagnose --set``.
-    out : path-like, optional
-        Write diagnosis.json, report.md, the plots, the variant's Modelica and its diff, the FMUs and the re-run
-        configs there: new, empty, or a previous cosim output with ``force``. Without it, the FMUs and re-run
-        configs ``build`` makes go to a new temporary folder that the result's ``fmu`` and ``rerun`` name.
-    build : bool, default True
-        Build the baseline's and the winner's FMUs and re-run them through the master.
-    force : bool, default False
-        With ``out``: replace a previous cosim output there.
-    progress : bool, default False
-        A progress bar over the candidates' fits on stderr.
-
-    Returns
-    -------
-    Diagnosis
-        What diagnosis.json holds: the verdict, the evidence and the next step, the gap before and after, every
-        candidate's score.
-
-    Raises
-    ------
-    ConfigError
-        The job is invalid (every problem, with its key), or ``out`` cannot be used.
-    """
-    from cosim.diagnose import diagnose as diagnose_job
-
-    return diagnose_job(job, out=out, overrides=_set_items(set), progress=progress, build=build, force=force)
-
-
-def campaign(job, *, set=None, out=None, workers=None, scheduler="", progress=False):
-    """Run every trial of a campaign job on Dask, as ``cosim campaign`` does; nothing is written unless ``out``
-    is given (the trials' parts then go to a temporary folder, removed at the end).
-
-    Parameters
-    ----------
-    job : path-like
-        The campaign job (.toml, docs/guide/campaign.md).
-    set : dict or sequence of str, optional
-        Job keys changed first, as ``cosim campaign --set``: ``{"campaign.trials": 2}``.
-    out : path-like, optional
-        The campaign folder: the finished trials' parts as they arrive, then trials.parquet, table1.csv,
-        table1.md, boxplots.png and summary.json. A folder holding the same job is resumed.
-    workers : int, optional
-        Workers of the local Dask cluster (default: one a core).
-    scheduler : str, default ""
-        Address of a running Dask scheduler to use instead of a local cluster.
-    progress : bool, default False
-        A progress bar with the ETA on stderr.
-
-    Returns
-    -------
-    CampaignResult
-        summary.json's figures, the trials and the table of each cell's statistics; after Ctrl-C
-        (``interrupted``), those of the trials finished (kept in ``out/parts``: the same call resumes).
-
-    Raises
-    ------
-    ConfigError
-        The job is invalid; ``out`` is not a cosim output or holds another job (the changed keys are named); the
-        scheduler does not answer.
-    """
-    from cosim.campaign import run_campaign
-
-    return run_campaign(job, out=out, overrides=_set_items(set), workers=workers, scheduler=scheduler,
-                        progress=progress)

@@ -124,7 +124,7 @@ def _add_run(sub):
 
 
 def _cmd_calibrate(args):
-    from cosim.api import calibrate
+    from cosim.calibrate import calibrate
     from cosim.calibrate.report import standard_error
 
     out = args.out or f"out/{Path(args.job).stem}"
@@ -154,7 +154,7 @@ def _add_calibrate(sub):
 
 
 def _cmd_diagnose(args):
-    from cosim.api import diagnose
+    from cosim.diagnose import diagnose
 
     out = args.out or f"out/{Path(args.job).stem}"
     result = diagnose(args.job, set=args.set, out=out, build=not args.no_build, force=args.force,
@@ -194,7 +194,7 @@ def _add_diagnose(sub):
 
 
 def _cmd_campaign(args):
-    from cosim.api import campaign
+    from cosim.campaign import campaign
     from cosim.campaign import run_one_trial
 
     if args.trial is not None:

@@ -36,6 +36,7 @@ from cosim.tomldoc import (Problems, apply_overrides, format_key, key_paths, par
 
 __all__ = [
     "load_config",
+    "override_items",
     "config_from_data",
     "check_parameter",
     "check_start",
@@ -317,7 +318,7 @@ class Config:
             Checked: an invalid one raises a :class:`~cosim.errors.ConfigError` listing every problem at its
             ``file:line`` or ``--set`` key.
         """
-        return load_config(path, _set_items(set))
+        return load_config(path, override_items(set))
 
     @classmethod
     def from_data(cls, data, path="config.toml"):
@@ -357,7 +358,7 @@ class Config:
         ConfigError
             A changed key is unknown or invalid, or makes another key invalid.
         """
-        items = _set_items(set)
+        items = override_items(set)
         data = copy.deepcopy(self.raw)
         keys = {format_key(k) for k in key_paths(data)}  # the config's own keys, before the new ones
         set_keys = apply_overrides(data, items)
@@ -431,8 +432,19 @@ def _summary_table(spec):
     return {key: value for key, value in table.items() if value is not None}
 
 
-def _set_items(set):
-    """``set`` (a dict of keys to values, or ``key=value`` strings) as ``--set`` items."""
+def override_items(set):
+    """The ``set`` of a Python call (:func:`cosim.run`, :func:`cosim.calibrate`, ...) as ``--set`` items.
+
+    Parameters
+    ----------
+    set : dict or str or sequence of str or None
+        Keys to values (``{"run.stop": 0.5}``), or ``key=value`` items.
+
+    Returns
+    -------
+    tuple of str
+        ``key=value`` items, each value written as TOML.
+    """
     if set is None:
         return ()
     if isinstance(set, str):

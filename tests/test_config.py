@@ -145,6 +145,7 @@ def shipped_fmus(tmp_path_factory):
         for models, path in lists:
             list(build_all(models_toml=models, out_dir=out, modelica_path=path))
         build_fmu(EXAMPLES / "hybrid" / "BouncingBall.mo", "BouncingBall", out_dir=out)
+        build_fmu(EXAMPLES / "ssp" / "Oscillators.mo", "Oscillators.Body", out_dir=out, fmi_version=2)
     return out
 
 
@@ -174,7 +175,8 @@ def test_every_shipped_run_config_loads_without_a_scale_warning(shipped_fmus):
             warnings.simplefilter("error", ScaleWarning)
             load_config(path, [f"fmus.{n}.path={shipped_fmus / Path(f['path']).name}" for n, f in fmus.items()])
         loaded.append(path.name)
-    assert {"gripper_static.toml", "gripper_impact.toml", "speed_pi.toml", "haptic_wall.toml"} <= set(loaded)
+    assert {"gripper_static.toml", "gripper_impact.toml", "speed_pi.toml", "haptic_wall.toml", "two_bodies.toml",
+            "held.toml"} <= set(loaded)
 
 
 def test_summary_kind_none_keeps_the_keys_of_the_controllers_summaries(gripper_dir):

@@ -232,7 +232,7 @@ def test_end_to_end_a_gap_without_a_candidate(tmp_path):
                                levels=(0.0, 0.5, 1.0, 0.5, 0.0))
     assert abs(truth["F_off"]) > 2.0  # the drawn offset: well above the noise
     path = write_job(tmp_path, pd.DataFrame({"time": t, "i_ref": i, "F_g": y}), (), workers=0)
-    diagnose(path, out=tmp_path / "out", overrides=["experiment.duration=3.4"], progress=False, build=False)
+    diagnose(path, out=tmp_path / "out", set=["experiment.duration=3.4"], build=False)
     s = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
     assert s["effect"] == "none" and s["outcome"] == "unexplained gap" and s["gap_found"]
     levels = s["rmse_before"] / s["noise"]["used"][0]

@@ -150,7 +150,7 @@ def _is_time(t):
 
 
 def run_job(path, out=None, overrides=(), progress=True, force=False):
-    """Run a calibration job: :func:`cosim.api.calibrate` (the parameters are described there).
+    """Run a calibration job: :func:`cosim.calibrate.calibrate` (the parameters are described there).
 
     ``out`` must be new, empty, or a previous cosim output (replaced only with ``force``); it is checked before
     the fit, the results are written beside it and moved into place at the end

@@ -1,4 +1,4 @@
-"""The typed result of a calibration (:func:`cosim.api.calibrate`): what ``calibration.json`` holds is
+"""The typed result of a calibration (:func:`cosim.calibrate.calibrate`): what ``calibration.json`` holds is
 :meth:`CalibrationResult.to_json`."""
 
 import math

@@ -10,21 +10,58 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
-from cosim import _callable_package
+from cosim.callable_package import make_callable
 from cosim.campaign.draws import trial_list
 from cosim.campaign.execute import command_line, read_parts, run_trials
 from cosim.campaign.job import load_campaign
 from cosim.campaign.report import campaign_result, table1, write_report
 from cosim.campaign.trial import TrialRunner, run_command
+from cosim.config import override_items
 from cosim.errors import ConfigError
 
-__all__ = ["run_campaign", "run_one_trial", "load_campaign", "table1"]
+__all__ = ["campaign", "run_campaign", "run_one_trial", "load_campaign", "table1"]
 
-_callable_package(sys.modules[__name__])  # cosim.campaign(job, ...) is cosim.api.campaign
+make_callable(sys.modules[__name__])  # cosim.campaign(job, ...) is campaign below
+
+
+def campaign(job, *, set=None, out=None, workers=None, scheduler="", progress=False):
+    """Run every trial of a campaign job on Dask, as ``cosim campaign`` does; nothing is written unless ``out``
+    is given (the trials' parts then go to a temporary folder, removed at the end).
+
+    Parameters
+    ----------
+    job : path-like
+        The campaign job (.toml, docs/guide/campaign.md).
+    set : dict or sequence of str, optional
+        Job keys changed first, as ``cosim campaign --set``: ``{"campaign.trials": 2}``.
+    out : path-like, optional
+        The campaign folder: the finished trials' parts as they arrive, then trials.parquet, table1.csv,
+        table1.md, boxplots.png and summary.json. A folder holding the same job is resumed.
+    workers : int, optional
+        Workers of the local Dask cluster (default: one a core).
+    scheduler : str, default ""
+        Address of a running Dask scheduler to use instead of a local cluster.
+    progress : bool, default False
+        A progress bar with the ETA on stderr.
+
+    Returns
+    -------
+    CampaignResult
+        summary.json's figures, the trials and the table of each cell's statistics; after Ctrl-C
+        (``interrupted``), those of the trials finished (kept in ``out/parts``: the same call resumes).
+
+    Raises
+    ------
+    ConfigError
+        The job is invalid; ``out`` is not a cosim output or holds another job (the changed keys are named); the
+        scheduler does not answer.
+    """
+    return run_campaign(job, out=out, overrides=override_items(set), workers=workers, scheduler=scheduler,
+                        progress=progress)
 
 
 def run_campaign(path, out=None, overrides=(), workers=None, scheduler="", progress=True):
-    """Run (or resume) a campaign job: :func:`cosim.api.campaign` (the parameters are described there); without
+    """Run (or resume) a campaign job: :func:`campaign` (the parameters are described there); without
     ``out`` the trials' parts go to a temporary folder, removed at the end."""
     if workers is not None and not (isinstance(workers, int) and workers >= 1):
         raise ConfigError(f"--workers: expected a whole number >= 1; got {workers!r}")

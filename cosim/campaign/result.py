@@ -1,4 +1,4 @@
-"""The typed result of a campaign (:func:`cosim.api.campaign`): what ``summary.json`` holds is
+"""The typed result of a campaign (:func:`cosim.campaign.campaign`): what ``summary.json`` holds is
 :meth:`CampaignResult.to_json`, and its tables are those of trials.parquet, table1.csv and table1.md."""
 
 from dataclasses import dataclass, field, fields

@@ -5,7 +5,7 @@ docs/guide/diagnose.md."""
 
 import sys
 
-from cosim import _callable_package
+from cosim.callable_package import make_callable
 from cosim.diagnose.effects import EFFECTS, effect_names, get_effect, write_variant
 from cosim.diagnose.job import DiagnoseJob, load_diagnose_job
 from cosim.diagnose.result import Diagnosis
@@ -14,38 +14,48 @@ from cosim.diagnose.rounds import run_diagnosis
 __all__ = ["EFFECTS", "effect_names", "get_effect", "write_variant", "DiagnoseJob", "load_diagnose_job",
            "Diagnosis", "run_diagnosis", "diagnose"]
 
-_callable_package(sys.modules[__name__])  # cosim.diagnose(job, ...) is cosim.api.diagnose
+make_callable(sys.modules[__name__])  # cosim.diagnose(job, ...) is diagnose below
 
 
-def diagnose(path, out="out/diagnosis", overrides=(), progress=True, build=True, force=False):
-    """Run the diagnosis job at ``path`` and write its results to ``out``; returns the :class:`Diagnosis`.
+def diagnose(job, *, set=None, out=None, build=True, force=False, progress=False):
+    """Find where a calibrated model and a measurement disagree and name the missing effect, as ``cosim diagnose``
+    does; nothing is written unless ``out`` is given (but, with ``build``, the FMUs built, see ``out``).
 
     Parameters
     ----------
-    path : str or Path
-        Job file (TOML, see :mod:`cosim.diagnose.job`).
-    out : str or Path or None, default "out/diagnosis"
-        Output folder: diagnosis.json, report.md, PNGs, the variant's Modelica and diff, fmu/ (the baseline's and
-        the winner's FMUs) and rerun/ (the run configs that replay them through the master); a later round's under
-        round<k>/. New, empty, or a
-        previous cosim output (with ``force``); written beside it and moved into place at the end
-        (:func:`cosim.outputs.output_folder`). None: nothing is written but, with ``build``, the FMUs and the
-        re-run configs, in a new temporary folder that the result's ``fmu`` and ``rerun`` name.
-    overrides : sequence of str
-        ``key=value`` job overrides (``--set``).
-    progress : bool, default True
-        Progress bar over the candidate fits.
+    job : path-like
+        The diagnosis job (.toml, docs/guide/diagnose.md).
+    set : dict or sequence of str, optional
+        Job keys changed first, as ``cosim diagnose --set``.
+    out : path-like, optional
+        Write diagnosis.json, report.md, the plots, the variant's Modelica and its diff, the FMUs and the re-run
+        configs there: new, empty, or a previous cosim output with ``force``. Without it, the FMUs and re-run
+        configs ``build`` makes go to a new temporary folder that the result's ``fmu`` and ``rerun`` name.
     build : bool, default True
-        Build the baseline's and the winner's FMUs into ``out/fmu`` and re-run them through the master.
+        Build the baseline's and the winner's FMUs and re-run them through the master.
     force : bool, default False
-        Replace a previous cosim output at ``out``.
+        With ``out``: replace a previous cosim output there.
+    progress : bool, default False
+        A progress bar over the candidates' fits on stderr.
+
+    Returns
+    -------
+    Diagnosis
+        What diagnosis.json holds: the verdict, the evidence and the next step, the gap before and after, every
+        candidate's score.
+
+    Raises
+    ------
+    ConfigError
+        The job is invalid (every problem, with its key), or ``out`` cannot be used.
     """
+    from cosim.config import override_items
     from cosim.diagnose.report import write_diagnosis
     from cosim.master.run import SignalsHeld, interrupt_on_signals
     from cosim.outputs import output_folder
     from cosim.parallel import check_scheduler
 
-    job = load_diagnose_job(path, overrides)
+    job = load_diagnose_job(job, override_items(set))
     if job.scheduler:  # the candidates' fits need it only after the baseline's: say now that it does not answer
         check_scheduler(job.scheduler)
     if out is None:

@@ -21,7 +21,6 @@ from make_cli import write_or_check  # noqa: E402  (this folder's, first on the 
 from numpydoc.docscrape import ClassDoc, FunctionDoc  # noqa: E402
 
 import cosim  # noqa: E402
-import cosim.api  # noqa: E402
 
 __all__ = ["page_text", "main"]
 
@@ -97,8 +96,8 @@ def page_text():
     parts = ["# Python API reference", "", *textwrap.wrap(intro, WIDTH), ""]
     for name in cosim.__all__:
         obj = getattr(cosim, name)
-        if inspect.ismodule(obj):  # cosim.calibrate and co.: subpackages that call the API function of their name
-            obj = getattr(cosim.api, name)
+        if inspect.ismodule(obj):  # cosim.calibrate and co.: subpackages that call their function of their name
+            obj = getattr(obj, name)
         if inspect.isclass(obj):
             parts += _entry(f"## `cosim.{name}`", ClassDoc(obj, config={"show_class_members": False}))
             for method, function in _methods(obj):
