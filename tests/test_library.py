@@ -5,14 +5,18 @@ Standard Library is tested in tests/test_msl.py."""
 
 import os
 import textwrap
+from pathlib import Path
 
 import fmpy
 import numpy as np
 import pytest
+import rumoca
 
 from cosim.cli import main
 from cosim.compile import build_all, build_fmu
+from cosim.compile.frontend import load_flat_model
 from cosim.compile.library import find_class_file, library_path
+from cosim.compile.library_subset import library_subset
 from cosim.errors import ModelicaError
 
 # A library of two files (a package folder), as users' and vendors' libraries are laid out.
@@ -141,3 +145,52 @@ def test_the_library_path_is_ordered_and_checked(tmp_path):
     assert find_class_file("Absent.A", [tmp_path / "c"]) is None
     with pytest.raises(ModelicaError, match="from MODELICAPATH"):
         library_path([], environ={"MODELICAPATH": str(tmp_path / "nope")})
+
+
+# A library whose classes name each other relative to their enclosing packages, with a package the model never uses.
+RELATIVE = {
+    "package.mo": "package Lib\nend Lib;\n",
+    "Interfaces.mo": "within Lib;\npackage Interfaces\n  connector Port\n    Real x;\n  end Port;\nend Interfaces;\n",
+    "Parts/package.mo": "within Lib;\npackage Parts\nend Parts;\n",
+    "Parts/Decay.mo": textwrap.dedent("""\
+        within Lib.Parts;
+        model Decay "x' = -x/tau"
+          parameter Real tau = 2;
+          Interfaces.Port port(x(start = 1, fixed = true));
+        equation
+          der(port.x) = -port.x/tau;
+        end Decay;
+        """),
+    "Unused/package.mo": "within Lib;\npackage Unused\n  model Big\n    Real z = 1;\n  end Big;\nend Unused;\n",
+    "Examples.mo": textwrap.dedent("""\
+        within Lib;
+        package Examples
+          model Demo "see Lib.Unused.Big, a name in a string: not a use"
+            Parts.Decay decay;
+            output Real y = decay.port.x;
+          end Demo;
+        end Examples;
+        """),
+}
+
+
+def _without_spans(ir):
+    if isinstance(ir, dict):
+        return {k: _without_spans(v) for k, v in ir.items() if k not in ("span", "source_map")}
+    return [_without_spans(v) for v in ir] if isinstance(ir, list) else ir
+
+
+def test_a_library_model_is_flattened_from_the_library_files_it_uses_alone(tmp_path):
+    libs = tmp_path / "libs"
+    for name, text in RELATIVE.items():
+        (libs / "Lib" / name).parent.mkdir(parents=True, exist_ok=True)
+        (libs / "Lib" / name).write_text(text)
+    (libs / "Other.mo").write_text("package Other\n  model M\n    Real q = 2;\n  end M;\nend Other;\n")
+    copies = library_subset("Lib.Examples.Demo", [], [libs], tmp_path / "subset")
+    used = {"package.mo", "Examples.mo", "Parts/package.mo", "Parts/Decay.mo", "Interfaces.mo"}
+    assert set(copies.values()) == {str(libs / "Lib" / name) for name in used}
+    assert all(Path(copy).read_text() == Path(original).read_text() for copy, original in copies.items())
+    flat = load_flat_model(None, "Lib.Examples.Demo", [libs])
+    whole = rumoca.Session(roots=[str(libs)]).load(str(libs / "Lib" / "package.mo"), model="Lib.Examples.Demo")
+    assert _without_spans(flat.ir) == _without_spans(whole.to_dict("dae"))
+    assert {name for _, name, _ in flat.ir["source_map"]["files"]} == {str(libs / "Lib" / name) for name in used}

@@ -10,6 +10,7 @@ import rumoca
 
 from cosim.compile.der_expressions import rewrite_der_expressions
 from cosim.compile.library import describe_path, find_class_file, library_session
+from cosim.compile.library_subset import library_subset
 from cosim.compile.refusal import refusal
 from cosim.compile.source_text import locate_rumoca_error
 from cosim.errors import ModelicaError, StructureError
@@ -177,14 +178,31 @@ def _load(path, model, files, scratch, roots):
     # No local names rumoca's Session or Model: they are unsendable PyO3 objects, and a frame a Dask worker's
     # profiler still holds when this returns would drop them on the profiler's thread (a RuntimeError printed
     # by tornado, the objects leaked). A library session is kept by this thread (library.library_session).
+    originals = {str(scratch / mo.name): str(mo) for mo in files} if source != path else {}
     if roots:
-        ir = library_session(roots).load(str(source), model=model).to_dict("dae")
+        ir = _library_load(source, model, [] if in_library else files, roots, originals)
     else:
         ir = rumoca.Session().load(str(source), model=model).to_dict("dae")
-    if source != path:
-        originals = {str(scratch / mo.name): str(mo) for mo in files}
-        ir["source_map"]["files"] = [[file_id, originals.get(name, name), text]
-                                     for file_id, name, text in ir["source_map"]["files"]]
+    ir["source_map"]["files"] = [[file_id, originals.get(name, name), text]
+                                 for file_id, name, text in ir["source_map"]["files"]]
+    return ir
+
+
+def _library_load(source, model, files, roots, originals):
+    """rumoca's DAE IR of ``model`` with the library path ``roots``: first from a copy of only the library files
+    the model and the user's ``files`` use (:func:`~cosim.compile.library_subset.library_subset`; rumoca reads
+    every file under its roots), then, if that fails (a class the text scan missed, or an error of the model's
+    own), from the whole library path, whose session this thread keeps (its errors name the library's files).
+    ``originals`` gains the copies' original names."""
+    with tempfile.TemporaryDirectory(prefix="cosim-libraries-") as subset:
+        copies = library_subset(model, [mo.read_text(encoding="utf-8") for mo in files], roots, Path(subset))
+        lifted = {original: copy for copy, original in copies.items()}
+        try:
+            ir = rumoca.Session(roots=[subset]).load(lifted.get(str(source), str(source)),
+                                                     model=model).to_dict("dae")
+        except rumoca.RumocaError:
+            return library_session(roots).load(str(source), model=model).to_dict("dae")
+    originals.update(copies)
     return ir
 
 
