@@ -1,10 +1,11 @@
-"""The part of the libraries a model uses, copied to a scratch folder for rumoca: its session reads and resolves
-every class of every library under its roots (the whole Modelica Standard Library, about 2,500 files, 20 s and
-1.4 GB for one small example), so handing it only the packages the model names makes a build of one library
-model some ten times cheaper. The packages are found from the sources' text: every dotted name that starts with
-a library's top-level name (``Modelica.Mechanics.Rotational.Components.Inertia``) brings in that name's package
-two levels below the top (``Modelica/Mechanics/Rotational/``, or the file ``Modelica/Blocks/Sources.mo``) and the
-``package.mo`` files above it, then the names those files use, until no new package comes in."""
+"""The part of the libraries a model uses, copied to a scratch folder for rumoca: its session reads and parses
+every file of every library under its roots (the whole Modelica Standard Library, about 2,500 files, 20 s and
+1.4 GB for one small example), so handing it only the files the model's classes come from makes a build of one
+library model several times cheaper. The files are found from the sources' text: each dotted name, taken as a
+full name (``Modelica.Mechanics.Rotational.Components.Inertia``) and relative to each package enclosing the file
+that uses it (``Interfaces.Flange_a`` in ``Rotational/Components/``), brings in the file that stores its class
+and the ``package.mo`` files above it, then the names that file uses, until no new file comes in. A scan that
+misses a class makes rumoca's load of the copy fail, and the caller loads from the whole library path instead."""
 
 import re
 import shutil
@@ -15,6 +16,16 @@ __all__ = ["library_subset"]
 # String literals (documentation, modelica:// links) and comments name classes that are not used.
 _NOISE = re.compile(r'"(?:[^"\\]|\\.)*"|//[^\n]*|/\*.*?\*/', re.S)
 _DOTTED = re.compile(r"\b[A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*")
+
+
+def _names(text):
+    """The dotted names of Modelica code ``text``, outside its strings and comments."""
+    return _DOTTED.findall(_NOISE.sub(" ", text))
+
+
+def _top_of(mo, tops):
+    """The library folder (or single file) that holds file ``mo``."""
+    return next(t for t in tops.values() if mo == t or mo.is_relative_to(t))
 
 
 def _tops(roots):
@@ -29,33 +40,49 @@ def _tops(roots):
     return tops
 
 
-def _files(parts, folder):
+def _listing(folder, listings):
+    """The class names a library folder stores as files (``X.mo``) and as package folders (``X/package.mo``),
+    read once per folder into ``listings``."""
+    if folder not in listings:
+        entries = list(folder.iterdir()) if folder.is_dir() else []
+        listings[folder] = ({e.stem for e in entries if e.suffix == ".mo" and e.name != "package.mo"},
+                            {e.name for e in entries if (e / "package.mo").is_file()})
+    return listings[folder]
+
+
+def _files(parts, folder, listings):
     """The files that hold dotted name ``parts`` looked up in library folder ``folder``: the ``package.mo`` of
     each package folder on the way and the file of the first class stored as a file; none when ``parts[0]`` is
     not in ``folder``."""
     files = []
     for part in parts:
-        if (folder / f"{part}.mo").is_file():
+        stored_files, packages = _listing(folder, listings)
+        if part in stored_files:
             return files + [folder / f"{part}.mo"]
-        if not (folder / part / "package.mo").is_file():
+        if part not in packages:
             return files  # a class of the package.mo above
         folder = folder / part
         files.append(folder / "package.mo")
     return files
 
 
-def _used(mo, tops):
+def _absolute(parts, tops, listings):
+    """The files that hold full name ``parts`` (``Modelica``, ``Mechanics``, ...), none if no library is named so."""
+    top = tops.get(parts[0])
+    if top is None:
+        return []
+    return [top] if top.is_file() else [top / "package.mo"] + _files(parts[1:], top, listings)
+
+
+def _used(mo, tops, listings):
     """The files holding the classes that file ``mo`` names, by full name or relative to its enclosing packages."""
-    names = {tuple(n.split(".")) for n in _DOTTED.findall(_NOISE.sub(" ", mo.read_text(encoding="utf-8",
-                                                                                     errors="replace")))}
-    top = next(t for t in tops.values() if mo == t or mo.is_relative_to(t))
+    names = {tuple(n.split(".")) for n in _names(mo.read_text(encoding="utf-8", errors="replace"))}
+    top = _top_of(mo, tops)
     enclosing = [top] if top.is_file() else [f for f in [mo.parent, *mo.parent.parents] if f.is_relative_to(top)]
     for parts in names:
-        if parts[0] in tops:
-            found = tops[parts[0]]
-            yield from [found] if found.is_file() else [found / "package.mo"] + _files(parts[1:], found)
+        yield from _absolute(parts, tops, listings)
         for folder in enclosing if not top.is_file() else []:
-            yield from _files(parts, folder)
+            yield from _files(parts, folder, listings)
 
 
 def library_subset(model, texts, roots, scratch):
@@ -77,25 +104,18 @@ def library_subset(model, texts, roots, scratch):
     dict of str to str
         Each copied file's path -> the original's (to name the originals in rumoca's source map).
     """
-    tops = _tops(roots)
-    queue = [t if t.is_file() else t / "package.mo" for t in tops.values()
-             if t.stem.split(" ", 1)[0] == model.split(".", 1)[0]]
-    queue += _files(model.split(".")[1:], queue[0].parent) if queue and queue[0].name == "package.mo" else []
-    for text in texts:
-        for name in _DOTTED.findall(_NOISE.sub(" ", text)):
-            parts = name.split(".")
-            if parts[0] in tops:
-                top = tops[parts[0]]
-                queue += [top] if top.is_file() else [top / "package.mo"] + _files(parts[1:], top)
+    tops, listings = _tops(roots), {}
+    names = {model, *(n for text in texts for n in _names(text))}
+    queue = [mo for name in names for mo in _absolute(name.split("."), tops, listings)]
     seen = set()
     while queue:
         mo = queue.pop()
         if mo not in seen:
             seen.add(mo)
-            queue += [f for f in _used(mo, tops) if f not in seen]
+            queue += [f for f in _used(mo, tops, listings) if f not in seen]
     copies = {}
     for mo in seen:
-        top = next(t for t in tops.values() if mo == t or mo.is_relative_to(t))
+        top = _top_of(mo, tops)
         copy = scratch / top.name / mo.relative_to(top) if mo != top else scratch / top.name
         copy.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(mo, copy)
