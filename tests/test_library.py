@@ -180,11 +180,15 @@ def _without_spans(ir):
     return [_without_spans(v) for v in ir] if isinstance(ir, list) else ir
 
 
-def test_a_library_model_is_flattened_from_the_library_files_it_uses_alone(tmp_path):
-    libs = tmp_path / "libs"
+def _relative_library(libs):
     for name, text in RELATIVE.items():
         (libs / "Lib" / name).parent.mkdir(parents=True, exist_ok=True)
         (libs / "Lib" / name).write_text(text)
+    return libs
+
+
+def test_a_library_model_is_flattened_from_the_library_files_it_uses_alone(tmp_path):
+    libs = _relative_library(tmp_path / "libs")
     (libs / "Other.mo").write_text("package Other\n  model M\n    Real q = 2;\n  end M;\nend Other;\n")
     copies = library_subset("Lib.Examples.Demo", [], [libs], tmp_path / "subset")
     used = {"package.mo", "Examples.mo", "Parts/package.mo", "Parts/Decay.mo", "Interfaces.mo"}
@@ -194,3 +198,17 @@ def test_a_library_model_is_flattened_from_the_library_files_it_uses_alone(tmp_p
     whole = rumoca.Session(roots=[str(libs)]).load(str(libs / "Lib" / "package.mo"), model="Lib.Examples.Demo")
     assert _without_spans(flat.ir) == _without_spans(whole.to_dict("dae"))
     assert {name for _, name, _ in flat.ir["source_map"]["files"]} == {str(libs / "Lib" / name) for name in used}
+
+
+def test_a_class_the_scan_misses_is_found_in_the_whole_library(tmp_path):
+    """A wildcard import hides Decay's package from the text scan: rumoca fails on the copy, the whole path serves."""
+    libs = _relative_library(tmp_path / "libs")
+    user = tmp_path / "user"
+    user.mkdir()
+    (user / "Plant.mo").write_text("model Plant\n  import Lib.Parts.*;\n  Decay decay;\nend Plant;\n")
+    assert str(libs / "Lib" / "Parts" / "Decay.mo") not in library_subset(
+        "Plant", [(user / "Plant.mo").read_text()], [libs], tmp_path / "subset").values()
+    flat = load_flat_model(user / "Plant.mo", "Plant", [libs])
+    whole = rumoca.Session(roots=[str(libs)]).load(str(user / "Plant.mo"), model="Plant")
+    assert _without_spans(flat.ir) == _without_spans(whole.to_dict("dae"))
+    assert [v["name"] for v in flat.ir["storage"]["variables"] if v["role"] == "state"] == ["decay.port.x"]

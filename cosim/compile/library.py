@@ -1,6 +1,7 @@
 """Modelica libraries: the folders where a model's classes are looked for (``--modelica-path``, the
 ``MODELICAPATH`` environment variable, ``libraries`` in ``models.toml``), the file that holds a top-level class,
-and one rumoca session per library path and thread, so that several builds parse a library once."""
+and one rumoca session per library path and thread, for the loads that need the whole library (a model rumoca
+refuses, a class :mod:`~cosim.compile.library_subset` missed), so that several builds parse a library once."""
 
 import hashlib
 import os
