@@ -6,8 +6,12 @@ compiled kernel) and the master's compiled loop (:mod:`cosim.master.compiled`, w
 cached on disk; when numba cannot compile it, the reason is kept as one line naming the construct.
 """
 
+import contextlib
 import linecache
+import os
 import re
+import signal
+import threading
 import warnings
 from pathlib import Path
 
@@ -15,7 +19,7 @@ import numba
 
 from cosim.fmi.native import KERNEL_SIGNATURE
 
-__all__ = ["compile_kernel", "kernel_problem", "native_kernel", "numba_problem"]
+__all__ = ["compile_kernel", "kernel_problem", "native_kernel", "numba_problem", "signals_deferred"]
 
 _COMPILED = {}
 _WARNED = set()  # kernels whose fallback was already warned about
@@ -23,6 +27,34 @@ _PROBLEMS = {}  # kernel -> one-line reason numba could not compile it
 _NATIVE = {}  # kernel -> numba cfunc wrapper (for the compiled engine)
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")
 _SIGNATURE = "(float64, float64[::1], float64[::1], float64[::1], float64[::1])"
+
+
+_DEFERRED = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+@contextlib.contextmanager
+def signals_deferred():
+    """Within the block, Ctrl-C, SIGTERM and SIGHUP are noted and handled as they would have been once it ends.
+
+    numba compiles (and loads from its cache) through llvmlite, which calls back into Python by ctypes: a
+    KeyboardInterrupt raised in such a callback is printed as "Exception ignored" and lost, so a Ctrl-C during a
+    kernel's compilation would leave a long run going. Only in the main thread (where handlers can be set)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    noted = []
+    previous = {s: signal.signal(s, lambda signum, frame: noted.append(signum)) for s in _DEFERRED}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        if noted:
+            handler = previous[noted[0]]
+            if callable(handler):
+                handler(noted[0], None)  # the handler's own answer (default_int_handler: KeyboardInterrupt)
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), noted[0])
 
 
 def numba_problem(err):

@@ -22,7 +22,7 @@ import numpy as np
 from controllers.base import Controller
 from cosim.errors import EventError, FmiCallError, SimulationTerminated
 from cosim.fmi import FmuInstance, check
-from cosim.jit import compile_kernel, kernel_problem, native_kernel
+from cosim.jit import compile_kernel, kernel_problem, native_kernel, signals_deferred
 from cosim.master.ckernel import (CTL_COLS, DONE, ERROR, FF, FMU_COLS, FUNCTIONS, KINDS, PORT_COLS, RAW_TYPES, ST,
                                   run_chunk)
 from cosim.master.finite import nonfinite_error
@@ -158,7 +158,8 @@ class CompiledLoop:
                       tab["ff"], eng.buf, plant.W, rec.values, rec.times, rec.rows, rec.index, self.calls, tab["scr"], self.st,
                       tab["evt"])
         t0 = _time.perf_counter()
-        run_chunk(*self._args, 0)  # compile, or load from numba's cache
+        with signals_deferred():  # a Ctrl-C inside numba's compilation would be lost
+            run_chunk(*self._args, 0)  # compile, or load from numba's cache
         return _time.perf_counter() - t0
 
     def call_counts(self):

@@ -27,6 +27,7 @@ import numpy as np
 from cosim.config import replace_unchecked
 from cosim.errors import ConfigError, EngineFallbackWarning, NonFiniteError, SimulationTerminated
 from cosim.fmi import FmuInstance
+from cosim.jit import signals_deferred
 from cosim.master.compiled import CompiledLoop, compiled_problem
 from cosim.master.layout import Layout
 from cosim.master.loop import PythonLoop
@@ -450,7 +451,8 @@ def engine_for(config):
     if config.run.engine == "python":
         return Engine(config)
     t0 = _time.perf_counter()
-    reason, numba_failed = compiled_problem(config)  # compiles the controllers' cfuncs (or loads them)
+    with signals_deferred():  # a Ctrl-C inside numba's compilation would be lost
+        reason, numba_failed = compiled_problem(config)  # compiles the controllers' cfuncs (or loads them)
     if reason is None:
         return Engine(config, CompiledLoop, compile_s=_time.perf_counter() - t0)
     note = f"running the Python engine ({PYTHON_COST}) because {reason}"
