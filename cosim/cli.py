@@ -7,7 +7,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from cosim.errors import CosimError, EngineFallbackWarning, ScaleWarning
+from cosim.errors import CosimError, EngineFallbackWarning, LibraryTransformWarning, ScaleWarning
 
 __all__ = ["main"]
 
@@ -383,7 +383,7 @@ def _warning_line(command):
     """How a warning reads on the terminal: ``cosim COMMAND: warning: message`` (cosim's own warnings say where
     and what; the Python source line that raised them says nothing to a user)."""
     def line(message, category, filename, lineno, file=None, line=None):
-        if issubclass(category, (ScaleWarning, EngineFallbackWarning)):
+        if issubclass(category, (ScaleWarning, EngineFallbackWarning, LibraryTransformWarning)):
             return f"cosim {command}: warning: {message}\n"
         return default(message, category, filename, lineno, line)
 

@@ -17,6 +17,7 @@ __all__ = [
     "ScaleWarning",
     "LoopWarning",
     "OutputWarning",
+    "LibraryTransformWarning",
     "EffectSlotError",
     "EventError",
     "SimulationTerminated",
@@ -143,6 +144,11 @@ class LoopWarning(UserWarning):
 class OutputWarning(UserWarning):
     """A part of a command's output that the results do not depend on (a plot, a summary plugin's keys) could
     not be made; the results themselves were written (the message says what is missing and why)."""
+
+
+class LibraryTransformWarning(UserWarning):
+    """A library was handed to the Modelica front end as a transformed private copy, to work around a bug of that
+    front end's version; the user's files are unchanged (the message names the transform, the files and why)."""
 
 
 class EffectSlotError(ConfigError):

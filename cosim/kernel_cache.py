@@ -17,13 +17,14 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["cache_dir", "use_cache_dir"]
+__all__ = ["cache_dir", "use_cache_dir", "user_cache_root"]
 
 _ROOT = Path(__file__).resolve().parent
 _LOOP_SOURCES = ("master/ckernel.py", "master/events.py", "fmi/native.py")
 
 
-def _user_cache_root():
+def user_cache_root():
+    """The platform's folder for a user's caches."""
     if sys.platform == "win32":
         return Path(os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local")
     if sys.platform == "darwin":
@@ -43,7 +44,7 @@ def cache_dir():
     digest = hashlib.sha256()
     for name in _LOOP_SOURCES:
         digest.update((_ROOT / name).read_bytes())
-    return _user_cache_root() / "cosim" / f"numba-{digest.hexdigest()[:16]}"
+    return user_cache_root() / "cosim" / f"numba-{digest.hexdigest()[:16]}"
 
 
 def use_cache_dir():

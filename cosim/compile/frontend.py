@@ -9,10 +9,11 @@ from pathlib import Path
 import rumoca
 
 from cosim.compile.der_expressions import rewrite_der_expressions
-from cosim.compile.library import describe_path, find_class_file, library_session
+from cosim.compile.library import describe_path, find_class_file, library_fingerprint, library_session
 from cosim.compile.library_subset import library_subset
 from cosim.compile.refusal import refusal
 from cosim.compile.source_text import locate_rumoca_error
+from cosim.compile.workarounds import transformed_roots
 from cosim.errors import ModelicaError, StructureError
 from cosim.modelica_text import check_redeclares, find_class, line_of, model_names
 from cosim.tomldoc import did_you_mean, read_text
@@ -99,6 +100,8 @@ def load_flat_model(path, model, modelica_path=()):
         A ``redeclare`` form that rumoca would ignore without a word (:func:`~cosim.modelica_text.check_redeclares`).
     """
     roots = tuple(Path(r) for r in modelica_path)
+    if roots:  # a library with a construct this rumoca version miscounts is read from a transformed copy
+        roots = transformed_roots(roots, rumoca.version(), library_fingerprint(roots))
     if path is None:
         path = find_class_file(model, roots)
         if path is None:

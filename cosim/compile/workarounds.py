@@ -1,0 +1,78 @@
+"""Source transforms for front-end bugs of one rumoca version, applied to a private copy of a library.
+
+rumoca 0.10.2 gives a scalar parameter bound to a call with an array argument the shape of that argument (a table
+object counts as its table), so each equation that uses the parameter is counted once per element and the model is
+refused as unbalanced (docs/dev/rumoca-upstream.md, "Parameter bound to a call with an array argument"). The MSL
+4.1.0 binds such parameters to its table lookups (``mu0`` of ``Clutch``, ``Brake``, ``OneWayClutch``,
+``eta_mf1_0``... of ``LossyGear``). The transform ``table-lookup-binding`` writes the binding ``= e`` as
+``= 1.0*(e)``, the same value for every floating-point ``e``, which rumoca 0.10.2 counts right. It is applied to a
+cached copy of the library (``<user cache>/cosim/library-transforms/rumoca-<version>/``: the transformed files
+written, every other file a link to the user's), never to the user's files, and only under the rumoca version it
+works around: with another version the library is handed to rumoca as it is."""
+
+import hashlib
+import re
+import warnings
+from pathlib import Path
+
+from cosim.errors import LibraryTransformWarning
+from cosim.kernel_cache import user_cache_root
+
+__all__ = ["RUMOCA_VERSION", "TRANSFORM", "transform_table_bindings", "transformed_roots"]
+
+RUMOCA_VERSION = "0.10.2"
+TRANSFORM = "table-lookup-binding"
+_WHY = (f"rumoca {RUMOCA_VERSION} counts an equation that uses a parameter bound to a table lookup once per element "
+        "of the table (docs/dev/rumoca-upstream.md); its binding = e is read as = 1.0*(e), the same value")
+# A scalar parameter declaration whose binding calls a 1-D table lookup: its binding (up to the description string
+# or the ';') is wrapped. The MSL's lookups take the table object, which rumoca sizes as its table.
+_BINDING = re.compile(r"(?P<head>\bparameter\s+[\w.]+\s+\w+\s*(?:\([^;]*?\))?\s*=[ \t]*)"
+                      r"(?P<expr>[^;\"]*?\bgetTable1DValue(?:NoDer2?)?\s*\([^;\"]*?)"
+                      r"(?P<tail>\s*(?:\"[^\"]*\"\s*)?(?:annotation\b[^;]*)?;)")
+
+
+def transform_table_bindings(text):
+    """``text`` with each parameter binding that calls a table lookup written ``1.0*(...)``; the lines are kept
+    (the expression keeps its line breaks). Returns the text and the number of bindings rewritten."""
+    return _BINDING.subn(lambda m: f"{m['head'].rstrip()} 1.0*({m['expr']}){m['tail']}", text)
+
+
+def transformed_roots(roots, version, fingerprint):
+    """The library folders to hand rumoca ``version``: each of ``roots`` whose files hold the construct replaced by
+    its transformed copy (made once per library state ``fingerprint``), with a :class:`LibraryTransformWarning`.
+
+    Returns
+    -------
+    tuple of Path
+    """
+    if version != RUMOCA_VERSION:
+        return tuple(roots)
+    out = []
+    for root in roots:
+        key = hashlib.sha256(f"{root}\n{fingerprint}".encode()).hexdigest()[:16]
+        copy = user_cache_root() / "cosim" / "library-transforms" / f"rumoca-{version}" / key / root.name
+        count = _copy_transformed(root, copy) if not (copy.parent / "done").is_file() else None
+        if count is None:
+            count = int((copy.parent / "done").read_text())
+        out.append(copy if count else root)
+        if count:
+            warnings.warn(LibraryTransformWarning(f"{TRANSFORM}: {count} parameter bindings of {root} read from a "
+                                                  f"transformed private copy ({copy}): {_WHY}"), stacklevel=2)
+    return tuple(out)
+
+
+def _copy_transformed(root, copy):
+    """Write ``copy``: the transformed ``.mo`` files of ``root``, a link for every other file; the count."""
+    count = 0
+    for source in sorted(p for p in root.rglob("*") if p.is_file()):
+        target = copy / source.relative_to(root)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.unlink(missing_ok=True)
+        text, n = transform_table_bindings(source.read_text(encoding="utf-8")) if source.suffix == ".mo" else ("", 0)
+        if n:
+            target.write_text(text, encoding="utf-8")
+        else:
+            target.symlink_to(source)
+        count += n
+    (copy.parent / "done").write_text(str(count))
+    return count
