@@ -99,9 +99,9 @@ def load_flat_model(path, model, modelica_path=()):
     UnsupportedConstructError
         A ``redeclare`` form that rumoca would ignore without a word (:func:`~cosim.modelica_text.check_redeclares`).
     """
-    roots = tuple(Path(r) for r in modelica_path)
-    if roots:  # a library with a construct this rumoca version miscounts is read from a transformed copy
-        roots = transformed_roots(roots, rumoca.version(), library_fingerprint(roots))
+    given = tuple(Path(r) for r in modelica_path)
+    # a library with a construct this rumoca version miscounts is read from a transformed copy
+    roots = transformed_roots(given, rumoca.version(), library_fingerprint(given)) if given else ()
     if path is None:
         path = find_class_file(model, roots)
         if path is None:
@@ -109,7 +109,7 @@ def load_flat_model(path, model, modelica_path=()):
             held = sorted({p.stem if p.suffix == ".mo" else p.name for r in roots for p in r.iterdir()
                            if p.suffix == ".mo" or (p / "package.mo").is_file()})
             raise ModelicaError(f"no library holds {top} (for the model {model}){did_you_mean(top, held)}: looked "
-                                f"in {describe_path(roots)}")
+                                f"in {describe_path(given)}")
         files = [path]
     else:
         path = Path(path)
@@ -131,7 +131,16 @@ def load_flat_model(path, model, modelica_path=()):
             if isinstance(error, StructureError) and not roots:
                 error.padded = _padded(path, model, files, str(err))
             raise error from err
+    copies = {str(copy): str(root) for copy, root in zip(roots, given) if copy != root}
+    if copies:  # the transformed copy's lines are the library's: name the user's files
+        _rename_sources(ir, lambda name: next((root + name[len(copy):] for copy, root in copies.items()
+                                               if name.startswith(copy + "/")), name))
     return FlatModel(name=model, path=path, ir=ir)
+
+
+def _rename_sources(ir, rename):
+    """Pass the file names of ``ir``'s source map through ``rename`` (a copy's name to the user's file)."""
+    ir["source_map"]["files"] = [[file_id, rename(name), text] for file_id, name, text in ir["source_map"]["files"]]
 
 
 _BALANCE = re.compile(r"balance = (-?\d+)")
@@ -160,8 +169,7 @@ def _padded(path, model, files, text):
         except rumoca.RumocaError:
             return None
         originals = {str(Path(scratch) / mo.name): str(mo) for mo in files}
-        ir["source_map"]["files"] = [[file_id, originals.get(name, name), text]
-                                     for file_id, name, text in ir["source_map"]["files"]]
+        _rename_sources(ir, lambda name: originals.get(name, name))
     return FlatModel(name=model, path=path, ir=ir)
 
 
@@ -186,8 +194,7 @@ def _load(path, model, files, scratch, roots):
         ir = _library_load(source, model, [] if in_library else files, roots, originals)
     else:
         ir = rumoca.Session().load(str(source), model=model).to_dict("dae")
-    ir["source_map"]["files"] = [[file_id, originals.get(name, name), text]
-                                 for file_id, name, text in ir["source_map"]["files"]]
+    _rename_sources(ir, lambda name: originals.get(name, name))
     return ir
 
 

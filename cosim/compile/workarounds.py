@@ -6,8 +6,8 @@ refused as unbalanced (docs/dev/rumoca-upstream.md, "Parameter bound to a call w
 4.1.0 binds such parameters to its table lookups (``mu0`` of ``Clutch``, ``Brake``, ``OneWayClutch``,
 ``eta_mf1_0``... of ``LossyGear``). The transform ``table-lookup-binding`` writes the binding ``= e`` as
 ``= 1.0*(e)``, the same value for every floating-point ``e``, which rumoca 0.10.2 counts right. It is applied to a
-cached copy of the library (``<user cache>/cosim/library-transforms/rumoca-<version>/``: the transformed files
-written, every other file a link to the user's), never to the user's files, and only under the rumoca version it
+cached copy of the library (``<user cache>/cosim/library-transforms/rumoca-<version>/``: its ``.mo`` files, a
+link to the user's for every other file), never to the user's files, and only under the rumoca version it
 works around: with another version the library is handed to rumoca as it is."""
 
 import hashlib
@@ -62,17 +62,18 @@ def transformed_roots(roots, version, fingerprint):
 
 
 def _copy_transformed(root, copy):
-    """Write ``copy``: the transformed ``.mo`` files of ``root``, a link for every other file; the count."""
+    """Write ``copy``: the ``.mo`` files of ``root``, transformed, and a link for every other file; the count of
+    bindings rewritten."""
     count = 0
     for source in sorted(p for p in root.rglob("*") if p.is_file()):
         target = copy / source.relative_to(root)
         target.parent.mkdir(parents=True, exist_ok=True)
         target.unlink(missing_ok=True)
-        text, n = transform_table_bindings(source.read_text(encoding="utf-8")) if source.suffix == ".mo" else ("", 0)
-        if n:
-            target.write_text(text, encoding="utf-8")
-        else:
+        if source.suffix != ".mo":
             target.symlink_to(source)
+            continue
+        text, n = transform_table_bindings(source.read_text(encoding="utf-8"))
+        target.write_text(text, encoding="utf-8")  # a link would lead rumoca to the original's folder
         count += n
     (copy.parent / "done").write_text(str(count))
     return count
