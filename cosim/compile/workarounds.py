@@ -12,6 +12,8 @@ works around: with another version the library is handed to rumoca as it is."""
 
 import hashlib
 import re
+import shutil
+import tempfile
 import warnings
 from pathlib import Path
 
@@ -50,30 +52,35 @@ def transformed_roots(roots, version, fingerprint):
     out = []
     for root in roots:
         key = hashlib.sha256(f"{root}\n{fingerprint}".encode()).hexdigest()[:16]
-        copy = user_cache_root() / "cosim" / "library-transforms" / f"rumoca-{version}" / key / root.name
-        count = _copy_transformed(root, copy) if not (copy.parent / "done").is_file() else None
-        if count is None:
-            count = int((copy.parent / "done").read_text())
-        out.append(copy if count else root)
+        folder = user_cache_root() / "cosim" / "library-transforms" / f"rumoca-{version}" / key
+        if not (folder / "count").is_file():
+            _write_copy(root, folder)
+        count = int((folder / "count").read_text())
+        out.append(folder / root.name if count else root)
         if count:
             warnings.warn(LibraryTransformWarning(f"{TRANSFORM}: {count} parameter bindings of {root} read from a "
-                                                  f"transformed private copy ({copy}): {_WHY}"), stacklevel=2)
+                                                  f"transformed private copy ({folder / root.name}): {_WHY}"),
+                          stacklevel=2)
     return tuple(out)
 
 
-def _copy_transformed(root, copy):
-    """Write ``copy``: the ``.mo`` files of ``root``, transformed, and a link for every other file; the count of
-    bindings rewritten."""
-    count = 0
-    for source in sorted(p for p in root.rglob("*") if p.is_file()):
-        target = copy / source.relative_to(root)
+def _write_copy(root, folder):
+    """Write ``folder``: ``count`` (the bindings rewritten) and, when there are any, ``<root's name>/`` with the
+    ``.mo`` files of ``root`` transformed and a link for every other file. Built aside and renamed into place, so
+    that builds running at once never read a half-written copy."""
+    texts = {mo: transform_table_bindings(mo.read_text(encoding="utf-8")) for mo in sorted(root.rglob("*.mo"))}
+    count = sum(n for _, n in texts.values())
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix=f"{folder.name}-", dir=folder.parent))
+    for source in (sorted(p for p in root.rglob("*") if p.is_file()) if count else ()):
+        target = scratch / root.name / source.relative_to(root)
         target.parent.mkdir(parents=True, exist_ok=True)
-        target.unlink(missing_ok=True)
-        if source.suffix != ".mo":
+        if source in texts:
+            target.write_text(texts[source][0], encoding="utf-8")  # a link would lead rumoca to the original's folder
+        else:
             target.symlink_to(source)
-            continue
-        text, n = transform_table_bindings(source.read_text(encoding="utf-8"))
-        target.write_text(text, encoding="utf-8")  # a link would lead rumoca to the original's folder
-        count += n
-    (copy.parent / "done").write_text(str(count))
-    return count
+    (scratch / "count").write_text(str(count))
+    try:
+        scratch.rename(folder)
+    except OSError:  # another build put it there first
+        shutil.rmtree(scratch)
