@@ -59,3 +59,14 @@ def test_the_transform_wraps_the_msl_bindings_and_keeps_the_lines():
                    '  parameter Real u_min = getTable1DAbscissaUmin(tableID);\n'
                    'equation\n'
                    '  mu = getTable1DValueNoDer2(tableID, 1, w_rel);\n')
+
+
+def test_a_copy_left_without_its_count_is_rebuilt(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    with pytest.warns(LibraryTransformWarning):
+        (copy,) = workarounds.transformed_roots((LIBRARY,), workarounds.RUMOCA_VERSION, "state 1")
+    (copy.parent / "count").unlink()  # as an interrupted or older cosim leaves it
+    with pytest.warns(LibraryTransformWarning, match="1 parameter bindings"):
+        assert workarounds.transformed_roots((LIBRARY,), workarounds.RUMOCA_VERSION, "state 1") == (copy,)
+    assert "1.0*(" in (copy / "Lookup" / "package.mo").read_text()
+    assert workarounds.transformed_roots((LIBRARY,), "0.10.3", "state 1") == (LIBRARY,)

@@ -80,7 +80,9 @@ def _write_copy(root, folder):
         else:
             target.symlink_to(source)
     (scratch / "count").write_text(str(count))
-    try:
-        scratch.rename(folder)
-    except OSError:  # another build put it there first
+    if (folder / "count").is_file():  # another build put it there first
         shutil.rmtree(scratch)
+        return
+    if folder.is_dir() and not (folder / "count").is_file():  # left without its count by an older cosim
+        shutil.rmtree(folder)
+    scratch.rename(folder)
