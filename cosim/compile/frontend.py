@@ -123,6 +123,7 @@ def load_flat_model(path, model, modelica_path=()):
                 raise ModelicaError(message, file=file, line=line)
         check_redeclares(path.read_text(encoding="utf-8"), str(path))
         files = [path] + [mo for mo in sorted(path.parent.glob("*.mo")) if mo != path]
+    copies = {str(copy): str(root) for copy, root in zip(roots, given) if copy != root}
     with tempfile.TemporaryDirectory(prefix="cosim-der-") as scratch:
         try:
             ir = _load(path, model, files, Path(scratch), roots)
@@ -130,12 +131,19 @@ def load_flat_model(path, model, modelica_path=()):
             error = _front_end_error(err, path, model, files, roots)
             if isinstance(error, StructureError) and not roots:
                 error.padded = _padded(path, model, files, str(err))
+            if copies:
+                error.file, error.args = _users(error.file, copies), (_users(str(error), copies),)
             raise error from err
-    copies = {str(copy): str(root) for copy, root in zip(roots, given) if copy != root}
-    if copies:  # the transformed copy's lines are the library's: name the user's files
-        _rename_sources(ir, lambda name: next((root + name[len(copy):] for copy, root in copies.items()
-                                               if name.startswith(copy + "/")), name))
+    if copies:
+        _rename_sources(ir, lambda name: _users(name, copies))
     return FlatModel(name=model, path=path, ir=ir)
+
+
+def _users(text, copies):
+    """``text`` naming the user's library files where it names their transformed copies (same lines)."""
+    for copy, root in copies.items():
+        text = text and text.replace(copy + "/", root + "/")
+    return text
 
 
 def _rename_sources(ir, rename):
