@@ -143,15 +143,11 @@ def test_front_end_refusal_of_an_msl_example_names_its_file_and_the_validation_r
 
 
 @pytest.mark.slow
-def test_the_friction_examples_pass_the_front_end_through_the_library_transform(tmp_path):
+def test_coupled_clutches_pass_the_front_end_through_the_library_transform_and_match_the_reference(tmp_path):
     # rumoca 0.10.2 miscounts Clutch's mu0 (a parameter bound to a table lookup); from the transformed copy it
-    # loads CoupledClutches, and cosim's lowering names the clutch's table object, at the user's Clutch.mo
-    from cosim.compile import build_fmu
-    from cosim.errors import LibraryTransformWarning, UnsupportedConstructError
+    # loads CoupledClutches, whose clutches' table objects (mu_pos) are lowered from rumoca's table data
+    from cosim.errors import LibraryTransformWarning
 
-    model = "Modelica.Mechanics.Rotational.Examples.CoupledClutches"
-    with pytest.warns(LibraryTransformWarning, match="8 parameter bindings"), \
-            pytest.raises(UnsupportedConstructError, match="clutch1.tableID") as stopped:
-        build_fmu(None, model, out_dir=tmp_path, modelica_path=[MSL])
-    assert stopped.value.file == str(MSL / "Modelica" / "Mechanics" / "Rotational" / "Components" / "Clutch.mo")
-    assert stopped.value.line == 39
+    with pytest.warns(LibraryTransformWarning, match="8 parameter bindings"):
+        row = verify("Modelica.Mechanics.Rotational.Examples.CoupledClutches", MSL, REFS, workdir=tmp_path)
+    assert row.stage == "verified", f"{row.stage}: {row.cause}"

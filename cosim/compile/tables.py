@@ -347,6 +347,9 @@ def _table(tr, handle, kind, location):
     if handle_value is None or not handle_value.is_constant() or int(float(handle_value)) not in entries:
         _reject(tr, f"the table object of {block} (rumoca 0.10.2 gave no table data for it)", location)
     entry = entries[int(float(handle_value))]
+    if _variable(tr, prefix + "tableOnFile")[0] is None:  # not a table block's: the MSL's Clutch, LossyGear...
+        table = tr.tables.tables[name] = _object_table(tr, entry, kind, prefix, block, location)
+        return table
     data_at = _where(tr, prefix + "table", location)
     on_file, _ = _numeric(tr, _parameter(tr, prefix, "tableOnFile", location), f"{block}.tableOnFile", location)
     if on_file.item():
@@ -366,6 +369,33 @@ def _table(tr, handle, kind, location):
         table.time_events = {LINEAR: int(events.item()), CONSTANT: ALWAYS}[table.smoothness]
     tr.tables.tables[name] = table
     return table
+
+
+def _object_table(tr, entry, kind, prefix, block, location):
+    """The 1-D table object of a component that is not a table block (``mu_pos`` of the MSL's ``Clutch``,
+    ``lossTable`` of ``LossyGear``): data, columns, smoothness and extrapolation as rumoca gives them. The data's
+    parameter is the one of the component whose value is that data (it becomes structural)."""
+    if kind != "1d":
+        _reject(tr, f"a time table object of {block}, which is not a CombiTimeTable block", location)
+    rows = np.array(entry["data"], dtype=float)
+    sources = [v["name"] for i, v in enumerate(tr.storage["variables"]) if v["name"].startswith(prefix)
+               and v["role"] == "parameter" and tr.syms[i].shape == rows.shape and _holds(tr, tr.syms[i], rows)]
+    if len(sources) != 1:
+        _reject(tr, f"the table object of {block}, whose data {len(sources)} of its parameters hold "
+                    f"({', '.join(sources) or 'none'}; one is lowered)", location)
+    table = TableData(block, rows, [int(c) for c in entry["columns"]], int(entry["smoothness"]),
+                      int(entry["extrapolation"]), _where(tr, sources[0], location))
+    _check_data(tr, table, tr.syms[_variable(tr, sources[0])[0]], kind, prefix, location)
+    return table
+
+
+def _holds(tr, symbol, rows):
+    """Whether parameter expression ``symbol`` evaluates to ``rows`` at build time."""
+    try:
+        values, _ = _numeric(tr, symbol, "a parameter", None)
+    except ModelicaError:
+        return False
+    return values.shape == rows.shape and np.array_equal(values, rows)
 
 
 def _check_data(tr, table, symbol, kind, prefix, location):
