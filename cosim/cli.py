@@ -77,6 +77,11 @@ def _add_haptic(sub):
     add_haptic_parser(sub)
 
 
+def _signal_exit(result):
+    """The exit status of a run a signal interrupted, as a shell gives it: 128 + the signal's number (Ctrl-C 130)."""
+    return 128 + signal.Signals[result.stopped["cause"]].value
+
+
 def _cmd_run(args):
     from cosim.api import run
     from cosim.errors import RunStopped
@@ -98,7 +103,7 @@ def _cmd_run(args):
     s = result.stopped
     if result.interrupted:
         print(f"cosim run: {s['reason']}; kept what was recorded", file=sys.stderr)
-        return 143 if s["cause"] == "SIGTERM" else 129 if s["cause"] == "SIGHUP" else 130
+        return _signal_exit(result)
     if s is not None:
         print(f"cosim run: stopped at t={s['time']:.9g} s: {s['by']} asked to terminate"
               f"{': ' + s['reason'] if s['reason'] else ''}; kept what was recorded")
@@ -194,8 +199,7 @@ def _add_diagnose(sub):
 
 
 def _cmd_campaign(args):
-    from cosim.campaign import campaign
-    from cosim.campaign import run_one_trial
+    from cosim.campaign import campaign, run_one_trial
 
     if args.trial is not None:
         row, command = run_one_trial(args.job, args.trial, overrides=args.set)
@@ -326,7 +330,7 @@ def _cmd_simulate(args):
     result, out, kind = simulate_fmu(args.fmu, out=args.out, start=args.start_time, stop=args.stop_time,
                                      step=args.step, sets=args.set, kind=args.kind, force=args.force)
     print("\n".join(report_lines(result, out, kind)))
-    return 128 + signal.Signals[result.stopped["cause"]].value if result.interrupted else 0
+    return _signal_exit(result) if result.interrupted else 0
 
 
 def _add_simulate(sub):

@@ -10,12 +10,11 @@ and time events located as in any run.
 
 import math
 import re
-import tomllib
 from pathlib import Path
 
 from cosim.errors import ConfigError
 from cosim.fmi import read_model_info, value_dtype
-from cosim.tomldoc import Problems
+from cosim.tomldoc import Problems, override_value
 
 __all__ = ["describe_fmu", "simulate_fmu", "simulation_window", "parse_sets", "recorded_variables", "report_lines"]
 
@@ -134,10 +133,7 @@ def parse_sets(info, items):
         if not sep or not name:
             raise ConfigError(f"--set {item!r}: expected name=value, e.g. --set e=0.8 (the name as the FMU spells "
                               f"it; `cosim info FMU` lists them)")
-        try:
-            values[name] = tomllib.loads(f"v = {text.strip()}")["v"]
-        except tomllib.TOMLDecodeError:
-            values[name] = text.strip()
+        values[name] = override_value(text)
     problems = Problems(info.path.name, None, {name: name for name in values})
     parameters, starts = {}, {}
     for name, value in values.items():

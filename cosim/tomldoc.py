@@ -16,8 +16,8 @@ from cosim.errors import ConfigError
 from cosim.fitting import FreeParameter
 
 __all__ = ["read_text", "read_toml", "sections", "bounded_parameters", "number", "string", "values", "signal_tables",
-           "Problems", "Locator", "parse_overrides", "apply_override", "apply_overrides", "format_key", "toml_text",
-           "toml_value", "toml_key", "key_paths", "did_you_mean"]
+           "Problems", "Locator", "override_value", "parse_overrides", "apply_override", "apply_overrides", "format_key",
+           "toml_text", "toml_value", "toml_key", "key_paths", "did_you_mean"]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -195,6 +195,14 @@ class Problems:
 # ----------------------------------------------------------------------------------------------
 # overrides
 # ----------------------------------------------------------------------------------------------
+def override_value(text):
+    """The value of a ``--set`` item: ``text`` read as a TOML value, else the plain string (bare words)."""
+    try:
+        return tomllib.loads(f"v = {text.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
+
+
 def parse_overrides(items):
     """Turn ``["a.b=1", ...]`` into a list of (path tuple, value); values are TOML, else plain strings.
 
@@ -220,10 +228,7 @@ def parse_overrides(items):
         if not sep or not _DOTTED.match(key):
             raise ConfigError(f"--set {item!r}: expected key=value with a dotted key such as run.stop, e.g. "
                               f"--set run.stop=2.0; got the key {key!r}")
-        try:
-            v = tomllib.loads(f"v = {value.strip()}")["v"]
-        except tomllib.TOMLDecodeError:
-            v = value.strip()
+        v = override_value(value)
         parts = []
         for p in _split_dotted(key):
             parts.append(int(p) if p.isdigit() else p)
