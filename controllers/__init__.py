@@ -1,1 +1,1 @@
-"""Python controllers the co-simulation master runs: see ``controllers.base.Controller`` for the interface."""
+"""Python controllers the co-simulation master runs: see ``cosim.controller.Controller`` for the interface."""

@@ -22,8 +22,8 @@ import math
 import numba
 import numpy as np
 
-from controllers.base import Controller
-from controllers.foc import foc_gains
+from cosim.controller import Controller
+from cosim_controllers.foc import foc_gains
 
 __all__ = ["DcCurrentPI", "DcSpeedPI", "pi_step", "trapezoid"]
 

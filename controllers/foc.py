@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from controllers.base import Controller
+from cosim.controller import Controller
 
 __all__ = ["FOC", "foc_gains"]
 

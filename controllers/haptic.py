@@ -29,7 +29,7 @@ UserIntent
 
 import numpy as np
 
-from controllers.base import Controller
+from cosim.controller import Controller
 
 __all__ = ["VirtualWall", "AdaptiveWall", "UserIntent"]
 

@@ -35,7 +35,7 @@ import math
 import numba
 import numpy as np
 
-from controllers.base import Controller
+from cosim.controller import Controller
 
 __all__ = ["OuterLoop", "staircase_current", "staircase_steps", "StaircaseSummary", "ImpactSummary"]
 

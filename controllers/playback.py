@@ -9,7 +9,7 @@ before the first sample: the first value).
 Example config::
 
     [controllers.replay]
-    class = "controllers.playback:Playback"
+    class = "cosim_controllers.playback:Playback"
     rate = 100                               # Hz: at least the data's sample rate
     parameters = { file = "data/static_paper.csv", column = "i_ref" }
 
@@ -20,7 +20,7 @@ Example config::
 
 import numpy as np
 
-from controllers.base import Controller
+from cosim.controller import Controller
 from cosim.experiment import load_measurements
 
 __all__ = ["Playback"]

@@ -1,8 +1,10 @@
 """cosim: Modelica plants compiled to FMUs, co-simulated against Python controllers at their real rates.
 
 The public API is the names of ``__all__`` (docs/reference/python.md): :func:`build`, :func:`run`,
-:func:`calibrate`, :func:`diagnose`, :func:`campaign`, their results and :class:`Config`. They are imported on
-first use, so that ``import cosim`` stays instant.
+:func:`calibrate`, :func:`diagnose`, :func:`campaign`, their results, :class:`Config` and the specs of its sections,
+:class:`Controller` (the interface a user's controller implements) and :class:`CosimError` (what every error cosim
+raises derives from). Everything else, the modules of the package included, is private: it may change without
+notice. The names are imported on first use, so that ``import cosim`` stays instant.
 
 ``cosim.calibrate``, ``cosim.diagnose`` and ``cosim.campaign`` are also the subpackages that hold those jobs'
 code: each is a module that can be called (:mod:`cosim.callable_package` says why), so ``cosim.calibrate(job,
@@ -13,13 +15,16 @@ from cosim.kernel_cache import use_cache_dir
 
 __version__ = "0.1.0"
 __all__ = ["__version__", "build", "run", "calibrate", "diagnose", "campaign", "Config", "RunResult",
-           "CalibrationResult", "Diagnosis", "CampaignResult"]
+           "CalibrationResult", "Diagnosis", "CampaignResult", "RunSpec", "SolverSpec", "FmuSpec", "ControllerSpec",
+           "Connection", "RecordSpec", "PlotSpec", "SummarySpec", "Controller", "CosimError"]
 
 use_cache_dir()  # before any kernel is decorated: numba's cache in the user's cache directory (cosim.kernel_cache)
 
 _API = {"build": "cosim.api", "run": "cosim.api", "Config": "cosim.api", "RunResult": "cosim.api",
         "CalibrationResult": "cosim.calibrate.result", "Diagnosis": "cosim.diagnose.result",
-        "CampaignResult": "cosim.campaign.result"}
+        "CampaignResult": "cosim.campaign.result", "Controller": "cosim.controller", "CosimError": "cosim.errors",
+        **{spec: "cosim.config" for spec in ("RunSpec", "SolverSpec", "FmuSpec", "ControllerSpec", "Connection",
+                                             "RecordSpec", "PlotSpec", "SummarySpec")}}
 _CALLABLE = ("calibrate", "diagnose", "campaign")
 
 

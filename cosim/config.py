@@ -156,7 +156,7 @@ class ControllerSpec:
     jit : bool
         Compile the kernel with numba.
     cls : type
-        The imported :class:`controllers.base.Controller` subclass.
+        The imported :class:`cosim.controller.Controller` subclass.
     """
 
     name: str = None

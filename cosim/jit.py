@@ -1,6 +1,6 @@
 """numba compilation of controller kernels: ``njit`` for ``Controller.step``, a ``cfunc`` for the compiled engine.
 
-Both the controller interface (:class:`controllers.base.Controller`, whose ``step`` calls the
+Both the controller interface (:class:`cosim.controller.Controller`, whose ``step`` calls the
 compiled kernel) and the master's compiled loop (:mod:`cosim.master.compiled`, which calls the
 ``cfunc`` by address) use it, so it lives below both. Each kernel is compiled once per process and
 cached on disk; when numba cannot compile it, the reason is kept as one line naming the construct.

@@ -13,7 +13,7 @@ import sys
 import traceback
 from pathlib import Path
 
-from controllers.base import Controller
+from cosim.controller import Controller
 from cosim.tomldoc import did_you_mean as _close
 
 __all__ = ["load_class", "load_controller_class"]
@@ -110,7 +110,7 @@ def _import_failure(kind, name, err):
 
 
 def load_controller_class(spec, base_dir=None):
-    """Import a :class:`controllers.base.Controller` subclass (see :func:`load_class`).
+    """Import a :class:`cosim.controller.Controller` subclass (see :func:`load_class`).
 
     Parameters
     ----------

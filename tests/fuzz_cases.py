@@ -51,7 +51,7 @@ _OWN_FOLDER = {"sensitivity": ("sensitivity", ["campaign_table1.toml"])}
 _WORDS = ["plant", "foc", "outer", "F_g", "rate", "x", "0", "signals", "parameters", "class", "path", "kind",
           "campaign", "coatings", "sources", "trials", "P3", "config", "sensitivity", "factors", "set", "low",
           "samples", "C_h"]
-_STRINGS = (st.sampled_from(["", "plant.F_g", "plant.nope", "controllers.foc:FOC", ":FOC", ".foc:FOC", "foc:",
+_STRINGS = (st.sampled_from(["", "plant.F_g", "plant.nope", "cosim_controllers.foc:FOC", ":FOC", ".foc:FOC", "foc:",
                             "nope.py:X", "../fmus/GripperPlant.fmu", "data/static_paper.csv", "rk4", "none",
                             "static", "frequency", "x.y.z", "ME", "CS", "auto", "\x00", "data/\x00.csv"])
             | st.text(max_size=12))  # a NUL byte: a path the operating system refuses (1 case in 10,000 before)

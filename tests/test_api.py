@@ -4,8 +4,10 @@ nothing without ``out``, and a config built in code is checked as a file is; ``c
 ``cosim.diagnose`` and ``cosim.campaign`` give what their commands write, and are callable whether or not their
 subpackages' modules were imported first.
 
-The public API is what the modules below list in ``__all__``; the list is written out here, so a module that
-drops out of it fails this test instead of leaving the contract quietly.
+The public API is ``cosim.__all__``; everything else is private, and the code a user reads in the guides, the
+README and the examples imports nothing else of cosim. The docstrings checked are those of the modules below
+(the API's and the internal ones a contributor reads); the list is written out here, so a module that drops out of
+it fails this test instead of leaving the contract quietly.
 
 References: the damped oscillator's closed-form free response (a run's frame), ``cosim run``'s results.parquet read
 back with pyarrow (the API's records), the FMU's model description read by fmpy (the units), ``load_config`` on
@@ -32,7 +34,7 @@ from cosim.config import load_config
 from cosim.errors import ConfigError, CosimError
 from cosim.tomldoc import toml_text
 
-PUBLIC_MODULES = [
+DOCUMENTED_MODULES = [
     "cosim",
     "cosim.api",
     "cosim.compile",
@@ -46,21 +48,24 @@ PUBLIC_MODULES = [
     "cosim.haptic",
     "cosim.config",
     "cosim.plugins",
-    "controllers.base",
-    "controllers.foc",
-    "controllers.outer",
-    "controllers.haptic",
-    "controllers.playback",
+    "cosim.controller",
+    "cosim_controllers.foc",
+    "cosim_controllers.outer",
+    "cosim_controllers.haptic",
+    "cosim_controllers.playback",
 ]
 
 
 def _public():
-    """(qualified name, object) of every public function and class."""
-    for module_name in PUBLIC_MODULES:
+    """(qualified name, object) of every public function and class, once each: a name ``cosim`` exports is
+    checked under that name."""
+    seen = set()
+    for module_name in DOCUMENTED_MODULES:
         module = importlib.import_module(module_name)
         for name in module.__all__:
             obj = getattr(module, name)
-            if inspect.isfunction(obj) or inspect.isclass(obj):
+            if (inspect.isfunction(obj) or inspect.isclass(obj)) and id(obj) not in seen:
+                seen.add(id(obj))
                 yield f"{module_name}.{name}", obj
 
 
@@ -104,7 +109,7 @@ def _takes_any_keyword(obj):
 
 
 def _controller_with_bogus_keyword():
-    from controllers.foc import FOC
+    from cosim_controllers.foc import FOC
 
     FOC(rate=1000.0, jit=False, not_a_parameter=1.0)
 
@@ -112,7 +117,7 @@ def _controller_with_bogus_keyword():
 # Every public callable that takes **kwargs, with a call that passes an unknown keyword: it must raise
 # TypeError naming the keyword before doing any work.
 UNKNOWN_KEYWORD_CALLS = {
-    "controllers.base.Controller": _controller_with_bogus_keyword,
+    "cosim.Controller": _controller_with_bogus_keyword,
 }
 
 
@@ -317,6 +322,41 @@ def test_import_cosim_imports_none_of_the_api():
                                                  "if m.startswith(('cosim.', 'numpy', 'pandas', 'numba'))))"],
                           capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "['cosim.kernel_cache']"
+
+
+def _python_a_user_reads():
+    """(where, source) of the Python shown to users: the README's and the guides' ``python`` blocks, and the
+    examples' files. examples/data/*.py are left out: they made the shipped synthetic measurements from the
+    model's internals (docs/dev), and are no example of how to use cosim."""
+    root = Path(__file__).resolve().parents[1]
+    for page in [root / "README.md", *sorted((root / "docs" / "guide").glob("*.md"))]:
+        blocks = page.read_text(encoding="utf-8").split("```python\n")[1:]
+        for number, block in enumerate(blocks, 1):
+            yield f"{page.relative_to(root)} (python block {number})", block.partition("```")[0]
+    for path in sorted((root / "examples").rglob("*.py")):
+        if path.parent.name != "data":
+            yield str(path.relative_to(root)), path.read_text(encoding="utf-8")
+
+
+def test_the_code_users_read_imports_only_the_public_api():
+    """Everything outside ``cosim.__all__`` is private (cosim/__init__.py): what the guides and examples show a
+    user imports ``cosim``, names of its ``__all__``, or the shipped controllers, and nothing else of cosim."""
+    import ast
+
+    import cosim
+
+    private = []
+    for where, source in _python_a_user_reads():
+        for node in ast.walk(ast.parse(source, where)):
+            if isinstance(node, ast.Import):
+                private += [f"{where}: import {a.name}" for a in node.names if a.name.startswith("cosim.")]
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("cosim"):
+                if node.module == "cosim":
+                    private += [f"{where}: from cosim import {a.name}" for a in node.names
+                                if a.name not in cosim.__all__]
+                elif not node.module.startswith("cosim_controllers"):
+                    private.append(f"{where}: from {node.module} import ...")
+    assert not private, "private modules in code users read: " + "; ".join(private)
 
 
 def test_the_job_packages_are_the_api_calls_before_and_after_their_modules_are_imported():

@@ -192,7 +192,7 @@ def test_summary_kind_none_keeps_the_keys_of_the_controllers_summaries(gripper_d
 RAMP_PY = textwrap.dedent(
     '''
     import numpy as np
-    from controllers.base import Controller
+    from cosim.controller import Controller
 
     def _ramp(t, u, y, x, p):
         y[0] = p[0] * t

@@ -12,24 +12,25 @@ import pytest
 from numpy.testing import assert_allclose
 from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
 
-import controllers
-from controllers.base import Controller
-from controllers.foc import FOC, foc_gains
-from controllers.outer import OuterLoop, staircase_current, staircase_steps
-from controllers.playback import Playback
+import cosim_controllers
+from cosim.controller import Controller
+from cosim_controllers.foc import FOC, foc_gains
+from cosim_controllers.outer import OuterLoop, staircase_current, staircase_steps
+from cosim_controllers.playback import Playback
 from cosim.config import load_config
 from cosim.master import run
 
 
 def _all_controller_classes():
-    for m in pkgutil.iter_modules(controllers.__path__):
-        importlib.import_module(f"controllers.{m.name}")
+    for m in pkgutil.iter_modules(cosim_controllers.__path__):
+        importlib.import_module(f"cosim_controllers.{m.name}")
     seen, stack = [], list(Controller.__subclasses__())
     while stack:
         c = stack.pop()
         stack.extend(c.__subclasses__())
-        if c.__module__.startswith("controllers.") and c not in seen:
+        if c.__module__.startswith("cosim_controllers.") and c not in seen:
             seen.append(c)
+    assert seen, "no shipped controller found: the tests parametrized by them would be skipped, not run"
     return sorted(seen, key=lambda c: (c.__module__, c.__name__))
 
 
@@ -89,7 +90,7 @@ def test_playback_drives_an_fmu_from_a_config_beside_its_data(master_dir, tmp_pa
     u_data = np.sin(7.0 * t_data)
     pd.DataFrame({"time": t_data, "u": u_data}).to_csv(master_dir / "play_u.csv", index=False)
     text = osc_config(master_dir, stop=1.0, rate=100, record_rate=100).read_text()
-    text = text.replace('class = "ctl.py:Sine"', 'class = "controllers.playback:Playback"').replace(
+    text = text.replace('class = "ctl.py:Sine"', 'class = "cosim_controllers.playback:Playback"').replace(
         "parameters = { amp = 2.0, f = 1.0 }", 'parameters = { file = "play_u.csv", column = "u" }').replace(
         '"src.u"', '"src.y"')
     (master_dir / "play.toml").write_text(text)
@@ -137,7 +138,7 @@ def _foc_config(tmp, gripper_dir, iq, stop, record_rate):
         rate = 26600
         parameters = {{ value = {iq}, t_step = 0.0 }}
         [controllers.foc]
-        class = "controllers.foc:FOC"
+        class = "cosim_controllers.foc:FOC"
         rate = 26600
         parameters = {{ bandwidth_hz = 1000.0, psi_m = 0.0098485 }}
         [[connections]]

@@ -157,17 +157,19 @@ def test_signature_on_the_impact_is_computed_and_zero_at_the_neutral_value(tmp_p
 
 
 
-# In the venv: where cosim and the shipped jobs are, that every shipped job loads there, and the advice's change of
-# cogging on the speed run (the job it names for cogging).
+# In the venv: where cosim, the shipped controllers and jobs are, that no top-level `controllers` was installed, that
+# every shipped job loads there, and the advice's change of cogging on the speed run (the job it names for cogging).
 _INSTALLED = """
-import json, sys
-import cosim
+import importlib.util, json, sys
+import cosim, cosim_controllers.outer
 from cosim.diagnose.advice import change_on, shipped_examples
 from cosim.diagnose.job import load_diagnose_job
 examples = shipped_examples()
 loaded = sorted(path.name for path in examples.glob("diagnose_*.toml") if load_diagnose_job(path))
 shown = change_on("cogging", {"T_cog": 0.0025, "phase_cog": -1.0}, {"eta_g": 0.68}, sys.argv[1])
-print(json.dumps({"cosim": cosim.__file__, "examples": str(examples), "loaded": loaded, "shown": shown}))
+print(json.dumps({"cosim": cosim.__file__, "controllers": cosim_controllers.outer.__file__,
+                  "top_level_controllers": importlib.util.find_spec("controllers") is not None,
+                  "examples": str(examples), "loaded": loaded, "shown": shown}))
 """
 
 
@@ -207,6 +209,8 @@ def test_advice_from_a_non_editable_install_is_the_checkouts(tmp_path):
     installed = json.loads(ran.stdout)
     venv_root = (tmp_path / "venv").resolve()
     assert Path(installed["cosim"]).resolve().is_relative_to(venv_root / "lib")
+    assert Path(installed["controllers"]).resolve().is_relative_to(venv_root / "lib")
+    assert not installed["top_level_controllers"]  # issue 53: not a `controllers` package in site-packages
     assert Path(installed["examples"]).resolve() == venv_root / "share" / "cosim" / "examples"
     assert {e.shown_in for e in EFFECTS.values()} - {""} <= set(installed["loaded"])  # every job advice names
     here = change_on("cogging", {"T_cog": 0.0025, "phase_cog": -1.0}, {"eta_g": 0.68}, tmp_path / "checkout")

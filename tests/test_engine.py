@@ -121,7 +121,7 @@ def test_compiled_is_the_default_and_reports_compile_time(master_dir, tmp_path):
 
 BAD_CTL = '''
 import numpy as np
-from controllers.base import Controller
+from cosim.controller import Controller
 
 
 def _bad(t, u, y, x, p):

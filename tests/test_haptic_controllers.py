@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from controllers.haptic import ADAPTIVE_B_USER1, AdaptiveWall, UserIntent, VirtualWall
+from cosim_controllers.haptic import ADAPTIVE_B_USER1, AdaptiveWall, UserIntent, VirtualWall
 from cosim.haptic.margins import adaptive_damping
 
 FMUS = __import__("pathlib").Path(__file__).resolve().parent.parent / "fmus"

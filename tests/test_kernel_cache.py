@@ -87,8 +87,8 @@ def test_one_cached_loop_runs_two_fmu_layouts_as_a_fresh_compile_does(third_part
 def test_precompile_leaves_nothing_for_a_run_to_compile(third_party_fmu, gripper_fmus, tmp_path):
     """After ``precompile`` a run with events and one without (the gripper) use its versions of the loop: numba
     compiles no other (the tables' types are those a run passes)."""
-    from controllers.foc import FOC
-    from controllers.outer import OuterLoop
+    from cosim_controllers.foc import FOC
+    from cosim_controllers.outer import OuterLoop
     from cosim.master.ckernel import run_chunk
     from cosim.master.compiled import precompile
 

@@ -205,7 +205,7 @@ path = "{third_party_fmu("BouncingBall", 3)}"
 [fmus.ft]
 path = "{third_party_fmu("Feedthrough", 3)}"
 [controllers.replay]
-class = "controllers.playback:Playback"
+class = "cosim_controllers.playback:Playback"
 rate = 10
 parameters = {{ file = "u.csv", column = "u" }}
 [[connections]]

@@ -39,7 +39,7 @@ CTL_PY = textwrap.dedent(
     '''
     import math
     import numpy as np
-    from controllers.base import Controller
+    from cosim.controller import Controller
 
     def _sine(t, u, y, x, p):
         y[0] = p[0] * math.sin(2.0 * math.pi * p[1] * t)

@@ -91,7 +91,7 @@ def test_typed_variables_route_and_keep_their_dtype(tmp_path, third_party_fmu):
 def _replay(tmp_path, *inputs):
     """A Playback controller at 10 Hz (u = 2.6 from 0 s, -0.4 from 0.2 s) driving ``inputs`` with ``round``."""
     (tmp_path / "u.csv").write_text("time,u\n0,2.6\n0.2,-0.4\n")
-    text = '[controllers.replay]\nclass = "controllers.playback:Playback"\nrate = 10\n'
+    text = '[controllers.replay]\nclass = "cosim_controllers.playback:Playback"\nrate = 10\n'
     text += 'parameters = { file = "u.csv", column = "u" }\n'
     return "\n" + text + "".join(f'[[connections]]\nfrom = "replay.y"\nto = "{i}"\nround = true\n' for i in inputs)
 

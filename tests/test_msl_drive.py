@@ -14,7 +14,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.integrate import solve_ivp
 
-from controllers.dc_drive import DcCurrentPI, DcSpeedPI
+from cosim_controllers.dc_drive import DcCurrentPI, DcSpeedPI
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "msl_drive"

@@ -22,10 +22,10 @@ from test_campaign import GRID, ROOT, job_path  # noqa: F401
 from test_controllers import _all_controller_classes, required_parameters
 from test_master_support import EXAMPLES, gripper_dir, gripper_overrides, master_dir, osc_config  # noqa: F401
 
-from controllers.dc_drive import DcCurrentPI, DcSpeedPI
-from controllers.foc import FOC
-from controllers.haptic import AdaptiveWall, UserIntent, VirtualWall
-from controllers.outer import ImpactSummary, OuterLoop
+from cosim_controllers.dc_drive import DcCurrentPI, DcSpeedPI
+from cosim_controllers.foc import FOC
+from cosim_controllers.haptic import AdaptiveWall, UserIntent, VirtualWall
+from cosim_controllers.outer import ImpactSummary, OuterLoop
 from cosim.cli import main
 from cosim.errors import OutputWarning, ParameterError
 from cosim.master import read_results

@@ -86,7 +86,7 @@ def test_summary_controller_of_the_wrong_type(tmp_path, capsys, gripper_dir):  #
     assert "--set summary.controller: summary.controller: must be a string; got [1]" in err
 
 
-@pytest.mark.parametrize("spec", [":FOC", ".foc:FOC", "controllers.foc:", "a b:FOC"])
+@pytest.mark.parametrize("spec", [":FOC", ".foc:FOC", "cosim_controllers.foc:", "a b:FOC"])
 def test_malformed_controller_class(tmp_path, capsys, gripper_dir, spec):  # noqa: F811
     err = _run(capsys, gripper_dir, f'controllers.foc.class="{spec}"', out=tmp_path / "o")
     assert "controllers.foc.class" in err
@@ -94,7 +94,7 @@ def test_malformed_controller_class(tmp_path, capsys, gripper_dir, spec):  # noq
 
 
 def test_controller_module_with_a_syntax_error(tmp_path, capsys, gripper_dir):  # noqa: F811
-    (tmp_path / "bad.py").write_text("from controllers.foc import FOC\nx = (\n")
+    (tmp_path / "bad.py").write_text("from cosim_controllers.foc import FOC\nx = (\n")
     err = _run(capsys, gripper_dir, f'controllers.foc.class="{tmp_path / "bad.py"}:FOC"', out=tmp_path / "o")
     assert f"has a syntax error at {tmp_path / 'bad.py'}:2" in err
 

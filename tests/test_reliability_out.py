@@ -33,7 +33,7 @@ FAULTY_PY = textwrap.dedent('''
     import os
     import signal
 
-    from controllers.base import Controller
+    from cosim.controller import Controller
 
     def _hold(t, u, y, x, p):
         y[0] = u[0]

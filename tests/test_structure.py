@@ -1,20 +1,22 @@
 """The package's structure: no import cycle among the modules of cosim/ and controllers/ (imports inside
-functions count, since they hide a cycle rather than remove it), and no function over 120 lines."""
+functions count, since they hide a cycle rather than remove it), no function over 120 lines, and an install
+that holds every package of the checkout."""
 
 import ast
 import graphlib
+import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("cosim", "controllers")
+PACKAGES = {"cosim": "cosim", "cosim_controllers": "controllers"}  # import name -> folder of the checkout
 
 
 def _modules():
     """Dotted name -> file of every module of the packages (a package is its ``__init__.py``)."""
     modules = {}
-    for package in PACKAGES:
-        for path in sorted((ROOT / package).rglob("*.py")):
-            parts = path.relative_to(ROOT).with_suffix("").parts
+    for package, folder in PACKAGES.items():
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            parts = (package, *path.relative_to(ROOT / folder).with_suffix("").parts)
             modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
     return modules
 
@@ -56,3 +58,14 @@ def test_no_function_longer_than_120_lines():
                 if length > 120:
                     long.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({length} lines)")
     assert not long, "functions longer than 120 lines: " + "; ".join(long)
+
+
+def test_pyproject_installs_every_package_of_the_checkout():
+    """pyproject.toml lists its packages by hand (the shipped controllers' folder is installed under another
+    name): a package folder added to cosim/ and not listed there would be missing from every non-editable install."""
+    setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"]
+    folders = {package: (ROOT / folder) for package, folder in setuptools["package-dir"].items()}
+    on_disk = {".".join(("cosim", *init.parent.relative_to(ROOT / "cosim").parts))
+               for init in (ROOT / "cosim").rglob("__init__.py")}
+    assert set(setuptools["packages"]) == on_disk | set(folders)
+    assert all((folder / "__init__.py").is_file() for folder in folders.values())

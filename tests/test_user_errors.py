@@ -41,9 +41,9 @@ def test_fmu_that_is_not_a_zip_set_on_the_command_line_comes_first(tmp_path, cap
 
 
 def test_controller_class_that_cannot_load_hides_its_follow_on_problems(tmp_path, capsys, gripper_dir):  # noqa: F811
-    err = _run(capsys, tmp_path, *gripper_overrides(gripper_dir), "controllers.outer.class=controllers.outr:OuterLoop")
+    err = _run(capsys, tmp_path, *gripper_overrides(gripper_dir), "controllers.outer.class=cosim_controllers.outr:OuterLoop")
     assert "1 problem in" in err and "summary" not in err and "plot.panels" not in err
-    assert "controller module 'controllers.outr' not found" in err and "did you mean 'controllers.outer'?" in err
+    assert "controller module 'cosim_controllers.outr' not found" in err and "did you mean 'cosim_controllers.outer'?" in err
 
 
 @pytest.mark.parametrize("item, meant", [
@@ -64,8 +64,8 @@ def test_set_key_of_an_fmu_parameter_not_in_the_file_is_suggested(tmp_path, caps
 
 
 def test_controller_class_case_slip(tmp_path, capsys, gripper_dir):  # noqa: F811
-    err = _run(capsys, tmp_path, *gripper_overrides(gripper_dir), "controllers.foc.class=controllers.foc:Foc")
-    assert "module 'controllers.foc' has no class 'Foc'; did you mean 'FOC'?" in err
+    err = _run(capsys, tmp_path, *gripper_overrides(gripper_dir), "controllers.foc.class=cosim_controllers.foc:Foc")
+    assert "module 'cosim_controllers.foc' has no class 'Foc'; did you mean 'FOC'?" in err
 
 
 @pytest.mark.parametrize("source, model, meant", [

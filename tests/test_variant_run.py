@@ -26,7 +26,7 @@ def test_toml_text_reads_back_with_tomllib():
             "fmus": {"plant": {"path": 'a "quoted" \\ back\\slashed\nnew-line \u00e9 \x7f.fmu',
                                "parameters": {"k": 2.0, "n": 3, "inf": float("inf")},
                                "start": {"motor.phi": -0.25}}},
-            "controllers": {"play": {"class": "controllers.playback:Playback", "rate": 1000.0,
+            "controllers": {"play": {"class": "cosim_controllers.playback:Playback", "rate": 1000.0,
                                      "parameters": {"file": "inputs.csv", "column": "i_ref"}}},
             "connections": [{"from": "play.y", "to": "plant.i_ref", "gain": 0.5}, {"from": "a.y", "to": "b.u"}],
             "record": {"rate": 100.0, "signals": ["plant.F_g", "plant.phi"]},

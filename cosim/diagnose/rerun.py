@@ -2,7 +2,7 @@
 
 The diagnosis fits and scores on the lowered Modelica equations (CVODES); the baseline's and the winner's FMUs are
 then re-run as any ``cosim run`` would run them (the FMU's generated C code, the master's implicit solver, the
-measured inputs played by :class:`controllers.playback.Playback`), so the reported gap before and after is that of
+measured inputs played by :class:`cosim_controllers.playback.Playback`), so the reported gap before and after is that of
 the FMUs a user gets. Each run's config is built in code (:func:`rerun_data`, :func:`cosim.config.config_from_data`)
 and written to ``OUT/rerun/`` (``baseline.toml``, ``<effect>.toml``, with the played inputs ``inputs.csv`` and
 paths relative to the folder): ``cosim run`` on them repeats the check.
@@ -46,7 +46,7 @@ def rerun_data(fmu, parameters, inputs_csv, input_names, outputs, rate, stop, rt
         "fmus": {"plant": {"path": Path(fmu).as_posix(), "parameters": {
             k: float(v) if isinstance(v, numbers.Real) and not isinstance(v, bool) else v
             for k, v in parameters.items()}}},
-        "controllers": {f"play_{name}": {"class": "controllers.playback:Playback", "rate": float(rate),
+        "controllers": {f"play_{name}": {"class": "cosim_controllers.playback:Playback", "rate": float(rate),
                                          "parameters": {"file": Path(inputs_csv).as_posix(), "column": name}}
                         for name in input_names},
         "connections": [{"from": f"play_{name}.y", "to": f"plant.{name}"} for name in input_names],

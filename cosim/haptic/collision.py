@@ -1,8 +1,8 @@
 """Virtual-wall contacts simulated by the co-simulation master, measured beside the margins' prediction.
 
 Two scenarios per user x grasp position, both run through ``cosim run`` machinery (a generated config: the
-Haptic FMU with the Table I row, `controllers.haptic.VirtualWall` or `AdaptiveWall` at the loop rate, and
-`controllers.haptic.UserIntent`):
+Haptic FMU with the Table I row, `cosim_controllers.haptic.VirtualWall` or `AdaptiveWall` at the loop rate, and
+`cosim_controllers.haptic.UserIntent`):
 
 * ``step``: the stylus rests at the wall surface (states start at phi_wall) and a motor-torque step of
   ``tau_step`` pushes it in; phi/tau_step then has the shape of K G/(1 + K G), the closed loop whose phase
@@ -90,10 +90,10 @@ def collision_config_data(params, scenario="collision", B=0.0, adaptive=False, K
         raise FileNotFoundError(f"{fmu} does not exist; build the Haptic FMUs first (cosim build)")
     wall = {"phi_wall": phi_wall, "K": K}
     if adaptive:
-        wall_class = "controllers.haptic:AdaptiveWall"
+        wall_class = "cosim_controllers.haptic:AdaptiveWall"
         wall["position"] = int(params.position)
     else:
-        wall_class = "controllers.haptic:VirtualWall"
+        wall_class = "cosim_controllers.haptic:VirtualWall"
         wall["B"] = B
     start = {}
     if scenario == "step":
@@ -111,7 +111,7 @@ def collision_config_data(params, scenario="collision", B=0.0, adaptive=False, K
         "solver": {"method": "rk4", "substeps": _substeps(params, rate)},
         "fmus": {"plant": plant},
         "controllers": {"wall": {"class": wall_class, "rate": float(rate), "parameters": wall},
-                        "intent": {"class": "controllers.haptic:UserIntent", "rate": float(rate),
+                        "intent": {"class": "cosim_controllers.haptic:UserIntent", "rate": float(rate),
                                    "parameters": intent}},
         "connections": [{"from": a, "to": b} for a, b in (("plant.phi", "wall.phi"), ("wall.tau", "plant.tau"),
                                                            ("intent.phi_ref", "plant.phi_ref"),

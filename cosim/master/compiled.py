@@ -19,7 +19,7 @@ import warnings
 
 import numpy as np
 
-from controllers.base import Controller
+from cosim.controller import Controller
 from cosim.errors import EventError, FmiCallError, SimulationTerminated
 from cosim.fmi import FmuInstance, check
 from cosim.jit import compile_kernel, kernel_problem, native_kernel, signals_deferred
@@ -75,7 +75,7 @@ def precompile(controller_classes=()):
     Parameters
     ----------
     controller_classes : iterable of type
-        :class:`~controllers.base.Controller` subclasses whose kernels to compile.
+        :class:`~cosim.controller.Controller` subclasses whose kernels to compile.
     """
     for cls in controller_classes:
         native_kernel(cls.kernel)
@@ -94,13 +94,13 @@ def precompile(controller_classes=()):
 
 
 def shipped_controllers():
-    """The controller classes of the project's ``controllers`` package that the compiled engine runs (those of
-    the examples), for :func:`precompile`."""
-    import controllers
+    """The controller classes of the shipped ``cosim_controllers`` package that the compiled engine runs (those
+    of the examples), for :func:`precompile`."""
+    import cosim_controllers
 
     found = []
-    for info in pkgutil.iter_modules(controllers.__path__):
-        module = importlib.import_module(f"controllers.{info.name}")
+    for info in pkgutil.iter_modules(cosim_controllers.__path__):
+        module = importlib.import_module(f"cosim_controllers.{info.name}")
         found.extend(c for c in vars(module).values() if isinstance(c, type) and issubclass(c, Controller)
                      and c.__module__ == module.__name__ and c.kernel is not Controller.kernel
                      and c.step is Controller.step)

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from controllers.base import Controller
+from cosim import Controller
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from controllers.base import Controller
+from cosim import Controller
 
 
 def hold_kernel(t, u, y, x, p):
