@@ -84,7 +84,7 @@ def build(source_or_models="modelica/models.toml", model=None, *, out=None, mode
 
 def run(config, *, set=None, out=None, csv=False, force=False, progress=None):
     """Co-simulate a run config's FMUs and controllers; nothing is written unless ``out`` is given (but numba's
-    cache of the compiled controller kernels, in ``__pycache__`` beside each controller's file).
+    cache of the compiled kernels, in the user's cache folder: ``~/.cache/cosim`` on Linux).
 
     Parameters
     ----------
