@@ -89,7 +89,9 @@ def run(config, *, set=None, out=None, csv=False, force=False, progress=None):
     Parameters
     ----------
     config : path-like or Config
-        A TOML run config (docs/config.md), or a :class:`Config` built in code.
+        A TOML run config (docs/config.md), an SSP archive (``.ssp``, docs/guide/ssp.md), or a :class:`Config`
+        built in code. An SSP read by this call (the archive, or one a config names) is unpacked into a temporary
+        folder removed when the call returns or raises.
     set : dict or sequence of str, optional
         Keys changed before the run, as ``cosim run --set``: ``{"run.stop": 0.5}`` or ``["run.stop=0.5"]``.
     out : path-like, optional
@@ -106,7 +108,8 @@ def run(config, *, set=None, out=None, csv=False, force=False, progress=None):
     -------
     RunResult
         The records (:meth:`RunResult.frame`), the summary, the config, the output folder (None without ``out``)
-        and :meth:`RunResult.plot`.
+        and :meth:`RunResult.plot`. Of an SSP unpacked by this call, ``config`` names FMU and controller files
+        that are gone: run the archive again by its path (``config.path``).
 
     Raises
     ------
@@ -121,13 +124,15 @@ def run(config, *, set=None, out=None, csv=False, force=False, progress=None):
     from cosim.master.engine import engine_for
     from cosim.master.run import write_run
     from cosim.master.summary import summarize
+    from cosim.ssp.read import unpacked_archives
 
-    if not isinstance(config, Config):
-        config = Config.load(config, set)
-    elif set:
-        config = config.with_set(set)
-    if out is None:
-        result = engine_for(config).run(progress=progress)
-        return replace(result, config=config, summary=summarize(result, config))
-    result, summary, files = write_run(config, out, csv=csv, progress=progress, force=force)
-    return replace(result, config=config, summary=summary, out=Path(out), files=files)
+    with unpacked_archives():  # an SSP read here is unpacked for this run only (its FMUs closed before the end)
+        if not isinstance(config, Config):
+            config = Config.load(config, set)
+        elif set:
+            config = config.with_set(set)
+        if out is None:
+            result = engine_for(config).run(progress=progress)
+            return replace(result, config=config, summary=summarize(result, config))
+        result, summary, files = write_run(config, out, csv=csv, progress=progress, force=force)
+        return replace(result, config=config, summary=summary, out=Path(out), files=files)

@@ -308,7 +308,9 @@ class Config:
         Parameters
         ----------
         path : path-like
-            The TOML file (FMU paths and controller files relative to its folder).
+            The TOML file (FMU paths and controller files relative to its folder), or an SSP archive (``.ssp``):
+            unpacked into a temporary folder kept until the process exits, as the config names its files
+            (:func:`cosim.run` of the archive's path unpacks it for that run only).
         set : dict or sequence of str, optional
             ``{"run.stop": 0.5}``, or ``["run.stop=0.5"]`` as ``cosim run --set`` takes them.
 

@@ -2,14 +2,18 @@
 an SSP written by hand after the standard's examples runs in ``cosim run`` to the numbers of FMPy stepping the same
 FMUs by hand; a bad SSP is an SspError naming the element."""
 
+import json
+import tempfile
+import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 from ssp_support import TWO_BODIES, fmpy_by_hand, hand_ssp, libcosim_ssp
 
+import cosim
 from cosim.config import load_config
-from cosim.errors import SspError
+from cosim.errors import NonFiniteError, SspError
 from cosim.master.run import run_config
 from cosim.ssp.write import export_ssp
 
@@ -160,3 +164,33 @@ def test_an_exported_ssp_with_a_controller_runs_in_cosim_like_its_config(body_fm
     third = run_config(attached, out=tmp_path / "attached")[0].data
     for name in ("a.x", "b.x", "hold.F"):
         np.testing.assert_array_equal(third[name], ours[name], err_msg=name)
+
+
+# ---- (d) what a run leaves on disk ----------------------------------------------------------------
+
+@pytest.mark.slow
+def test_a_run_of_an_ssp_leaves_no_unpacked_folder(body_fmu, tmp_path, monkeypatch):
+    """examples/ssp/held.toml exported, then run from Python: the archive's unpacked folder (and each FMU
+    instance's) is removed when the run ends, whether it ran, stopped on a fault inside the loop (a gain of 1e308
+    makes the force infinite at the first step) or failed at its load; the result holds no path into it but its
+    config's (the config is the archive's: ``config.path``)."""
+    config = tmp_path / "held.toml"
+    config.write_text((ROOT / "examples" / "ssp" / "held.toml").read_text().replace("fmus/Body.fmu", str(body_fmu)))
+    (tmp_path / "hold.py").write_text((ROOT / "examples" / "ssp" / "hold.py").read_text())
+    ssp = export_ssp(config, tmp_path / "held.ssp")
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    result = cosim.run(ssp)
+    assert abs(result.data["a.x"][-1] - 0.05) < 0.03  # it ran: held near x_set
+    assert list(scratch.iterdir()) == []
+    assert result.config.path == ssp and result.out is None and result.files == []
+    assert str(scratch) not in json.dumps(result.summary, default=str)
+    with pytest.raises(NonFiniteError, match="hold.F = inf"):
+        cosim.run(ssp, set={"controllers.hold.parameters.Kp": 1e308})
+    assert list(scratch.iterdir()) == []
+    with pytest.raises(cosim.CosimError, match="run.stp"):
+        cosim.run(ssp, set={"run.stp": 1.0})
+    assert list(scratch.iterdir()) == []
+    with zipfile.ZipFile(ssp) as zf:  # the archive itself is the user's and stays
+        assert "resources/hold.py" in zf.namelist()

@@ -53,10 +53,12 @@ def run_config(path, out=None, overrides=(), csv=False, progress=None, force=Fal
         As :func:`write_run`, which raises what it raises.
     """
     from cosim.config import load_config
+    from cosim.ssp.read import unpacked_archives
 
-    config = load_config(path, overrides)
-    return write_run(config, out if out is not None else Path("out") / config.name, csv=csv, progress=progress,
-                     force=force)
+    with unpacked_archives():  # an SSP read here is unpacked for this run only
+        config = load_config(path, overrides)
+        return write_run(config, out if out is not None else Path("out") / config.name, csv=csv, progress=progress,
+                         force=force)
 
 
 def write_run(config, out, csv=False, progress=None, force=False):

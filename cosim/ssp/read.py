@@ -20,6 +20,8 @@ unit than its variable's, is an error (give the factor with a ``LinearTransforma
 ``suppressUnitConversion="true"``).
 """
 
+import contextlib
+import contextvars
 import functools
 import math
 import tempfile
@@ -29,14 +31,16 @@ from pathlib import Path
 
 from cosim.errors import FmuFileError, SspError
 
-__all__ = ["SSD", "FMU_TYPE", "CONTROLLER_TYPE", "OSP", "SspSystem", "read_ssp", "ssp_document", "with_system"]
+__all__ = ["SSD", "FMU_TYPE", "CONTROLLER_TYPE", "OSP", "SspSystem", "read_ssp", "ssp_document", "with_system",
+           "unpacked_archives"]
 
 SSD = "SystemStructure.ssd"
 FMU_TYPE = "application/x-fmu-sharedlibrary"
 CONTROLLER_TYPE = "application/x-cosim-controller"  # a Python controller, described by a TOML resource
 OSP = "http://opensimulationplatform.com/SSP/OSPAnnotations"
 _IMPLEMENTATION = {"ModelExchange": "ME", "CoSimulation": "CS"}
-_KEEP = []  # the folders archives are unpacked into, removed when the process exits
+_KEEP = []  # the folders of archives unpacked outside unpacked_archives(), removed when the process exits
+_SCOPE = contextvars.ContextVar("cosim_ssp_unpacked", default=None)  # the open unpacked_archives() block's list
 
 
 @dataclass
@@ -86,8 +90,26 @@ class _Report:
             raise SspError(f"{n} problem{'s' if n > 1 else ''} in {self.path}:\n  - " + "\n  - ".join(self.items))
 
 
+@contextlib.contextmanager
+def unpacked_archives():
+    """Within the block, the folders SSP archives are unpacked into (by :func:`read_ssp`) are the block's: removed
+    when it ends, error or not. A run's load and run go in one block (:func:`cosim.run`, ``cosim run``): its FMUs
+    are loaded from there (each FMU instance unpacks its own copy, removed when the run closes it) and its
+    controllers imported. An archive read outside such a block stays unpacked until the process exits: the config
+    read from it names files there, and may be run any time later."""
+    folders = []
+    token = _SCOPE.set(folders)
+    try:
+        yield
+    finally:
+        _SCOPE.reset(token)
+        for folder in folders:
+            folder.cleanup()
+
+
 def _unpacked(path):
-    """The archive unpacked into a folder that lives as long as the process (the run loads its FMUs from there)."""
+    """The archive unpacked into a new folder: (its :class:`tempfile.TemporaryDirectory`, the folder); the folder
+    is removed at once when the archive cannot be unpacked."""
     from cosim.fmi import safe_extract
 
     if not path.is_file():
@@ -95,14 +117,24 @@ def _unpacked(path):
     if not zipfile.is_zipfile(path):
         raise SspError(f"{path}: not an SSP archive (a zip file holding {SSD})")
     folder = tempfile.TemporaryDirectory(prefix="cosim-ssp-")
-    _KEEP.append(folder)
     try:
         target = safe_extract(path, folder.name)
     except FmuFileError as err:
+        folder.cleanup()
         raise SspError(f"{path}: {err}") from err
+    except BaseException:
+        folder.cleanup()
+        raise
     if not (target / SSD).is_file():
+        folder.cleanup()
         raise SspError(f"{path}: the archive has no {SSD} at its root")
-    return target
+    return folder, target
+
+
+def _keep(folder):
+    """Keep an unpacked archive's folder as long as the open :func:`unpacked_archives` block, else the process."""
+    scope = _SCOPE.get()
+    (_KEEP if scope is None else scope).append(folder)
 
 
 def _fmpy_ssd(path, version):
@@ -178,6 +210,8 @@ def read_ssp(path):
     Returns
     -------
     SspSystem
+        Its tables name files of the unpacked archive (FMUs, controller files): a temporary folder kept as long as
+        the open :func:`unpacked_archives` block, else until the process exits.
 
     Raises
     ------
@@ -186,7 +220,18 @@ def read_ssp(path):
         connector, a unit mismatch...): every problem, each with its SSD line and element.
     """
     path = Path(path)
-    folder = _unpacked(path)
+    handle, folder = _unpacked(path)
+    try:
+        system = _read(path, folder)
+    except BaseException:  # nothing of the archive is used: its folder goes now
+        handle.cleanup()
+        raise
+    _keep(handle)
+    return system
+
+
+def _read(path, folder):
+    """The :class:`SspSystem` of the archive ``path`` unpacked in ``folder`` (see :func:`read_ssp`)."""
     tree = _Tree(folder, path)
     ssd = _fmpy_ssd(path, tree.root.get("version", ""))
     report = _Report(path)
