@@ -285,7 +285,7 @@ def _add_sensitivity(sub):
 def _cmd_export_ssp(args):
     from cosim.ssp.write import export_ssp
 
-    print(f"wrote {export_ssp(args.config, args.out, overrides=args.set)}")
+    print(f"wrote {export_ssp(args.config, args.out, overrides=args.set, force=args.force)}")
     return 0
 
 
@@ -299,9 +299,10 @@ def _add_export_ssp(sub):
                      "TOML resource: another tool needs an implementation of them (docs/guide/ssp.md)."),
     )
     p.add_argument("config", help="run config (.toml)")
-    p.add_argument("--out", required=True, help="the SSP archive written (.ssp), replaced when it exists")
+    p.add_argument("--out", required=True, help="the SSP archive written (.ssp); a new file unless --force")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override any config key before writing, e.g. --set run.stop=1 (repeatable)")
+    p.add_argument("--force", action="store_true", help="replace the file at --out when it exists")
     p.set_defaults(func=_cmd_export_ssp)
 
 

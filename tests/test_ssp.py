@@ -10,12 +10,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from ssp_support import TWO_BODIES, fmpy_by_hand, hand_ssp, libcosim_ssp
+from test_master_support import cli_fails
 
 import cosim
 from cosim.config import load_config
 from cosim.errors import NonFiniteError, SspError
 from cosim.master.run import run_config
-from cosim.ssp.write import export_ssp
+from cosim.ssp.write import export_ssp, write_ssp
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -166,7 +167,63 @@ def test_an_exported_ssp_with_a_controller_runs_in_cosim_like_its_config(body_fm
         np.testing.assert_array_equal(third[name], ours[name], err_msg=name)
 
 
-# ---- (d) what a run leaves on disk ----------------------------------------------------------------
+# ---- (d) what a run and an export leave on disk ----------------------------------------------------------------
+
+BALL = """
+[run]
+stop = 1.0
+
+[fmus.ball]
+path = "{fmu}"
+kind = "CS"
+parameters = {{ e = 0.5 }}
+
+[record]
+rate = 100
+signals = ["ball.h"]
+"""
+
+
+def test_export_ssp_replaces_an_existing_file_only_with_force(third_party_fmu, tmp_path, capsys):
+    """``cosim export-ssp --out`` follows ``cosim simulate --out``: an existing file is refused (named) and left as
+    it was; with ``--force`` it is replaced by the archive, and no staging file or lock is left beside it."""
+    from cosim.cli import main
+    from fmpy.ssp.ssd import read_ssd
+
+    config = tmp_path / "ball.toml"
+    config.write_text(BALL.format(fmu=third_party_fmu("BouncingBall")))
+    out = tmp_path / "out" / "ball.ssp"
+    out.parent.mkdir()
+    out.write_text("a user's file\n")
+    err = cli_fails(capsys, ["export-ssp", str(config), "--out", str(out)])
+    assert f"--out {out}: the file exists; pass --force to replace it" in err
+    assert out.read_text() == "a user's file\n"
+    assert main(["export-ssp", str(config), "--out", str(out), "--force"]) == 0
+    assert capsys.readouterr().out == f"wrote {out}\n"
+    assert [c.name for c in read_ssd(str(out)).system.elements] == ["ball"]
+    assert sorted(p.name for p in out.parent.iterdir()) == ["ball.ssp"]
+    (tmp_path / "dir.ssp").mkdir()
+    assert "dir.ssp: is a folder" in cli_fails(capsys, ["export-ssp", str(config), "--out", str(tmp_path / "dir.ssp"),
+                                                        "--force"])
+
+
+def test_an_export_that_fails_half_way_leaves_the_file_as_it_was(third_party_fmu, tmp_path):
+    """The FMU gone between the config's load and the export: the copy into the archive fails, with ``force`` the
+    existing archive is still the old one, and nothing half written is left beside it."""
+    fmu = tmp_path / "BouncingBall.fmu"
+    fmu.write_bytes(third_party_fmu("BouncingBall").read_bytes())
+    config_path = tmp_path / "ball.toml"
+    config_path.write_text(BALL.format(fmu=fmu))
+    config = load_config(config_path)
+    out = tmp_path / "out" / "ball.ssp"
+    write_ssp(config, out)
+    before = out.read_bytes()
+    fmu.unlink()
+    with pytest.raises(FileNotFoundError):
+        write_ssp(config, out, force=True)
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in out.parent.iterdir()) == ["ball.ssp"]
+
 
 @pytest.mark.slow
 def test_a_run_of_an_ssp_leaves_no_unpacked_folder(body_fmu, tmp_path, monkeypatch):

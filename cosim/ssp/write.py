@@ -45,7 +45,7 @@ def _sub(parent, tag, **attributes):
     return ET.SubElement(parent, _q(tag), {k: str(v) for k, v in attributes.items()})
 
 
-def export_ssp(config_path, out, overrides=()):
+def export_ssp(config_path, out, overrides=(), force=False):
     """Write the run config at ``config_path`` (with ``--set`` overrides) as the SSP archive ``out``.
 
     Parameters
@@ -53,27 +53,40 @@ def export_ssp(config_path, out, overrides=()):
     config_path : path-like
         The TOML run config.
     out : path-like
-        The ``.ssp`` file written (replaced when it exists).
+        The ``.ssp`` file written.
     overrides : sequence of str
         ``key=value`` items, as ``--set``.
+    force : bool, default False
+        Replace an existing file at ``out``.
 
     Returns
     -------
     pathlib.Path
         ``out``.
+
+    Raises
+    ------
+    ConfigError, SspError, BuildError
+        As :func:`cosim.config.load_config` and :func:`write_ssp`.
     """
     from cosim.config import load_config
+    from cosim.ssp.read import unpacked_archives
 
-    return write_ssp(load_config(config_path, overrides), out)
+    with unpacked_archives():  # a config naming an SSP ([system] ssp): its FMUs are copied from the unpacked archive
+        return write_ssp(load_config(config_path, overrides), out, force=force)
 
 
-def write_ssp(config, out):
-    """Write a validated config as the SSP archive ``out`` (see the module docstring).
+def write_ssp(config, out, force=False):
+    """Write a validated config as the SSP archive ``out`` (see the module docstring): staged beside ``out`` and
+    moved into place once checked (:func:`cosim.outputs.output_file`), so an error leaves no file half written
+    and an existing ``out`` as it was.
 
     Parameters
     ----------
     config : cosim.config.Config
     out : path-like
+    force : bool, default False
+        Replace an existing file at ``out``.
 
     Returns
     -------
@@ -83,37 +96,39 @@ def write_ssp(config, out):
     ------
     SspError
         ``out`` does not end in ``.ssp``.
+    ConfigError
+        ``out`` exists and ``force`` is false, is a folder, or cannot be written.
     BuildError
         The SSD written does not pass the SSP 1.0 schema (a bug of this module).
     """
+    from cosim.outputs import output_file
+
     out = Path(out)
     if out.suffix != ".ssp":
         raise SspError(f"{out}: the archive's name must end in .ssp")
-    with tempfile.TemporaryDirectory(prefix="cosim-ssp-") as tmp:
+    with output_file(out, force=force) as staged, tempfile.TemporaryDirectory(prefix="cosim-ssp-") as tmp:
         folder = Path(tmp) / "ssp"
         (folder / "resources").mkdir(parents=True)
         root = _ssd(config, folder)
         ET.indent(root)
         ET.ElementTree(root).write(folder / SSD, encoding="UTF-8", xml_declaration=True)
-        staged = Path(tmp) / out.name
         with zipfile.ZipFile(staged, "w", zipfile.ZIP_DEFLATED) as zf:
             for f in sorted(folder.rglob("*")):
                 if f.is_file():
                     zf.write(f, f.relative_to(folder).as_posix())
-        _check(staged)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        shutil.move(staged, out)
+        _check(staged, out)
     return out
 
 
-def _check(archive):
-    """FMPy's reader validates the SSD and the SSVs against the SSP 1.0 schema."""
+def _check(archive, out):
+    """FMPy's reader validates the SSD and the SSVs of ``archive`` (staged for ``out``) against the SSP 1.0
+    schema."""
     from fmpy.ssp.ssd import read_ssd
 
     try:
         read_ssd(str(archive), validate=True)
     except Exception as err:  # FMPy raises a bare Exception listing the schema errors
-        raise BuildError(f"the SSD written for {archive.name} does not pass the SSP 1.0 schema: {err}") from err
+        raise BuildError(f"the SSD written for {out.name} does not pass the SSP 1.0 schema: {err}") from err
 
 
 def _ssd(config, folder):
