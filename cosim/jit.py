@@ -7,11 +7,13 @@ cached on disk; when numba cannot compile it, the reason is kept as one line nam
 """
 
 import contextlib
+import hashlib
 import linecache
 import os
 import re
 import signal
 import threading
+import types
 import warnings
 from pathlib import Path
 
@@ -133,16 +135,34 @@ def native_kernel(fn):
     return cf
 
 
+def _call_kernel(t, u, nu, y, ny, x, nx, p, np_):
+    """The C-callable body of every kernel's cfunc; ``kernel`` is a global of each copy (:func:`_cfunc_wrapper`)."""
+    kernel(t, numba.carray(u, (nu,)), numba.carray(y, (ny,)), numba.carray(x, (nx,)), numba.carray(p, (np_,)))  # noqa: F821
+
+
 def _cfunc_wrapper(kernel):
-    carray = numba.carray
+    """A copy of :func:`_call_kernel` calling ``kernel``, compiled as a cfunc and cached on disk under a name of the
+    kernel and of its source file's content.
 
-    def wrapper(t, u, nu, y, ny, x, nx, p, np_):
-        kernel(t, carray(u, (nu,)), carray(y, (ny,)), carray(x, (nx,)), carray(p, (np_,)))
-
-    try:  # the on-disk cache keys closures on their captured values (the kernel), so wrappers do not collide
-        return numba.cfunc(KERNEL_SIGNATURE, cache=True)(wrapper)
-    except Exception:  # e.g. a kernel from a file numba cannot cache: compile uncached
-        return numba.cfunc(KERNEL_SIGNATURE)(wrapper)
+    numba keys a cached closure on its captured values pickled, and a dispatcher pickles with a random id: a
+    closure over the kernel missed the cache in every new process (compiled again, a new file in the cache each
+    run). A copy named after the kernel (module, name, and a hash of its file, so an edit of the file compiles it
+    anew: the wrapper holds the kernel's code) has an index of its own that every process finds."""
+    fn = kernel.py_func
+    try:
+        source = Path(fn.__code__.co_filename).read_bytes()
+    except OSError:  # no file to key on (e.g. a kernel typed in a notebook): compile uncached
+        source = None
+    digest = hashlib.sha256(f"{fn.__module__}.{fn.__qualname__}".encode() + (source or b"")).hexdigest()[:16]
+    name = f"_call_kernel_{digest}"
+    code = _call_kernel.__code__.replace(co_name=name, co_qualname=name)
+    wrapper = types.FunctionType(code, {"kernel": kernel, "numba": numba, "__name__": __name__}, name)
+    if source is not None:
+        try:
+            return numba.cfunc(KERNEL_SIGNATURE, cache=True)(wrapper)
+        except Exception:  # e.g. a kernel from a file numba cannot cache: compile uncached
+            pass
+    return numba.cfunc(KERNEL_SIGNATURE)(wrapper)
 
 
 def compile_kernel(fn, label="controller", warn=True):

@@ -5,6 +5,7 @@ A config names the classes it runs by such a string; :func:`load_class` imports 
 derives from the base class the caller expects.
 """
 
+import hashlib
 import importlib
 import importlib.util
 import pkgutil
@@ -80,13 +81,15 @@ def _siblings(mod_name):
 
 
 def _load_file(mod_name, base_dir, kind):
-    """The module of a ``.py`` file, loaded once per process under a key derived from its resolved path."""
+    """The module of a ``.py`` file, loaded once per process under a name derived from its resolved path."""
     path = Path(mod_name)
     if not path.is_absolute() and base_dir is not None:
         path = Path(base_dir) / path
     if not path.is_file():
         raise ImportError(f"{kind} file {str(path)!r} does not exist")
-    key = f"_cosim_{kind}_{abs(hash(str(path.resolve())))}"
+    # a name of the path that every process computes alike (``hash`` of a str changes from one process to the next):
+    # numba keys the compiled wrapper of a kernel on its module's name, so a name new at every run compiled it again
+    key = f"_cosim_{kind}_{hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:16]}"
     module = sys.modules.get(key)
     if module is None:
         s = importlib.util.spec_from_file_location(key, path)

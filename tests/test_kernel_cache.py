@@ -1,7 +1,8 @@
 """numba's on-disk cache of the compiled engine (cosim.kernel_cache, issue 54): in the user's cache directory, its
 folder changing with the loop's sources, one cached loop serving FMUs of different layouts with the same records as
-a loop compiled afresh and as the Python engine, and ``precompile`` (what ``cosim build`` runs) leaving nothing
-for a run to compile."""
+a loop compiled afresh and as the Python engine, ``precompile`` (what ``cosim build`` runs) leaving nothing
+for a run to compile, and a controller's compiled kernel found again by the next process, but not once its file
+changed."""
 
 import os
 import shutil
@@ -99,3 +100,42 @@ def test_precompile_leaves_nothing_for_a_run_to_compile(third_party_fmu, gripper
                           [f"fmus.plant.path={gripper_fmus['GripperPlant']}", "run.stop=0.01", "plot.panels=[]"])
     assert run(gripper, progress=False).engine == "compiled"
     assert len(run_chunk.signatures) == loops == 4
+
+
+RAMP = """
+from cosim import Controller
+
+
+def ramp_kernel(t, u, y, x, p):
+    y[0] = {slope} * t
+
+
+class Ramp(Controller):
+    parameters = {{}}
+    inputs = ()
+    outputs = ("y",)
+    kernel = staticmethod(ramp_kernel)
+"""
+
+
+@pytest.mark.slow
+def test_a_controllers_kernel_is_compiled_once_and_again_when_its_file_changes(third_party_fmu, tmp_path):
+    """A controller of the user's own file (y = 2 t) run in three processes sharing a cache: the second compiles
+    nothing (no file added to the cache: numba keys the engine's wrapper of the kernel on the kernel, not on an
+    id new in every process); after an edit of the file (y = 3 t), the third records the new law (the wrapper,
+    which holds the kernel's code, is not taken stale from the cache)."""
+    config = _config(tmp_path, third_party_fmu("BouncingBall"), ["h"], stop=0.5)
+    config.write_text(config.read_text().replace('signals = ["m.h"]', 'signals = ["m.h", "ramp.y"]')
+                      + '\n[controllers.ramp]\nclass = "ramp.py:Ramp"\nrate = 100\n')
+    (tmp_path / "ramp.py").write_text(RAMP.format(slope=2.0))
+    cache = tmp_path / "cache"
+    first = _child(config, tmp_path / "1.npy", cache)
+    files = sorted(cache.rglob("*"))
+    second = _child(config, tmp_path / "2.npy", cache)
+    assert sorted(cache.rglob("*")) == files
+    (tmp_path / "ramp.py").write_text(RAMP.format(slope=3.0))
+    third = _child(config, tmp_path / "3.npy", cache)
+    np.testing.assert_array_equal(first["ramp.y"], second["ramp.y"])
+    # every sample the controller took (the run's last instant, its stop, holds the sample before it)
+    np.testing.assert_allclose(first["ramp.y"][:-1], 2.0 * first["time"][:-1], rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(third["ramp.y"][:-1], 3.0 * third["time"][:-1], rtol=1e-12, atol=1e-15)

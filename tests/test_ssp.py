@@ -251,3 +251,28 @@ def test_a_run_of_an_ssp_leaves_no_unpacked_folder(body_fmu, tmp_path, monkeypat
     assert list(scratch.iterdir()) == []
     with zipfile.ZipFile(ssp) as zf:  # the archive itself is the user's and stays
         assert "resources/hold.py" in zf.namelist()
+
+
+@pytest.mark.slow
+def test_a_second_run_of_an_ssp_with_a_controller_compiles_nothing_again(body_fmu, tmp_path):
+    """The controller file of an archive is unpacked into a new temporary folder each run; numba keys its cache on
+    the file's path, so each run compiled the controller's kernels anew (seconds). Two ``cosim run`` processes of
+    the same archive, in a user cache folder of their own: the second adds no file to numba's cache."""
+    import os
+    import subprocess
+    import sys
+
+    config = tmp_path / "held.toml"
+    config.write_text((ROOT / "examples" / "ssp" / "held.toml").read_text().replace("fmus/Body.fmu", str(body_fmu)))
+    (tmp_path / "hold.py").write_text((ROOT / "examples" / "ssp" / "hold.py").read_text())
+    ssp = export_ssp(config, tmp_path / "held.ssp")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"} | {"XDG_CACHE_HOME": str(tmp_path / "c")}
+
+    def cached_files_after_a_run(n):
+        subprocess.run([sys.executable, "-m", "cosim", "run", str(ssp), "--out", str(tmp_path / f"out{n}"),
+                        "--no-progress"], check=True, env=env, capture_output=True)
+        return sorted(p for p in (tmp_path / "c" / "cosim").rglob("*") if p.is_file())
+
+    first = cached_files_after_a_run(1)
+    assert any(p.suffix == ".nbi" and "hold" in p.name for p in first)  # the controller's kernels were cached
+    assert cached_files_after_a_run(2) == first

@@ -308,8 +308,30 @@ def _controller_component(element, folder, report, where):
         return {}
     cpath, _, cls = str(table.get("class", "")).partition(":")
     if cpath.endswith(".py"):  # a controller file shipped in the archive, beside its TOML
-        table["class"] = f"{resource.parent / cpath}:{cls}"
+        source = resource.parent / cpath
+        table["class"] = f"{_kept_controller_file(source) if source.is_file() else source}:{cls}"
     return table
+
+
+def _kept_controller_file(source):
+    """A copy of an archive's controller file at a path of its content in the user's cache folder.
+
+    numba keys its cache of a compiled kernel on the source file's path and time stamp: loaded from the archive's
+    temporary folder, new at every run, the controller's kernels would be compiled again each time (seconds). The
+    copy is made once, and later runs of the same file find it and its compiled kernels."""
+    import hashlib
+    import os
+
+    from cosim.kernel_cache import user_cache_root
+
+    text = source.read_bytes()
+    kept = user_cache_root() / "cosim" / "ssp-controllers" / hashlib.sha256(text).hexdigest()[:16] / source.name
+    if not kept.is_file():
+        kept.parent.mkdir(parents=True, exist_ok=True)
+        staged = kept.with_name(f".{source.name}.{os.getpid()}")
+        staged.write_bytes(text)
+        os.replace(staged, kept)  # atomic: a run beside this one reads the whole file or none
+    return kept
 
 
 def _system_bindings(ssd_system, tree, infos, system, report):
