@@ -1,9 +1,12 @@
-"""The alternative forms of the gripper's contact and guide-friction laws (``Gripper.Forms``, issue 42 item 1),
-each lowered inside a probe model driven by a given penetration and velocity and compared with the form's
-equations written out here: the power-law coating's series balance solved by scipy's brentq, Hunt and Crossley's
-force, the Bouc-Wen and Dahl state equations integrated by scipy's solve_ivp (and Dahl's closed form at constant
-speed), the Stribeck curve in closed form; and each form that contains the baseline equals
-``Components.FingerContact`` / ``Components.RegularisedCoulomb`` at its neutral value.
+"""The alternative forms of the gripper's contact, guide-friction, drive-friction and gear-loss laws
+(``Gripper.Forms``, issue 42 item 1, issue 51 item 2), each lowered inside a probe model driven by a given
+penetration and velocity (a shaft speed and a transmitted torque) and compared with the form's equations written
+out here: the power-law coating's series balance solved by scipy's brentq, Hunt and Crossley's force, the Bouc-Wen,
+Dahl and LuGre state equations integrated by scipy's solve_ivp (and Dahl's closed form at constant speed), the
+Stribeck curve in closed form, for the guides and as the drive's steady friction torque, the gear's efficiencies
+at full sliding; and each form that contains the baseline equals ``Components.FingerContact`` /
+``Components.RegularisedCoulomb`` / ``Components.BristleFriction`` / ``Components.MeshEfficiency`` at its neutral
+value.
 """
 
 import numpy as np
@@ -24,24 +27,32 @@ TOUCH = COATED["gap0"] - COATED["t_coat"]
 CONTACTS = ("Components.FingerContact", "Forms.PowerLawCoatingContact", "Forms.HuntCrossleyContact",
             "Forms.HystereticCoatingContact")
 GUIDES = ("Components.RegularisedCoulomb", "Forms.StribeckCurveGuide", "Forms.DahlGuide")
+DRAGS = ("Components.BristleFriction", "Forms.StribeckDrag", "Forms.LuGreDrag")
+MESHES = ("Components.MeshEfficiency", "Forms.LoadExponentMeshLoss")
+PORTS = {  # the probe's ports and equations by the slot the block fills
+    "contact": "input Real x(unit = \"m\"); input Real v(unit = \"m/s\"); output Real F(unit = \"N\"); "
+               "output Real delta_c(unit = \"m\");\n      equation b.x = x; b.v = v; F = b.F; delta_c = b.delta_c;",
+    "guide": "input Real v(unit = \"m/s\"); output Real F(unit = \"N\");\n      equation b.v = v; F = b.F;",
+    "drag": "input Real w(unit = \"rad/s\"); output Real tau_f(unit = \"N.m\");\n      equation b.w = w; "
+            "tau_f = b.tau_f;",
+    "mesh": "input Real w(unit = \"rad/s\"); input Real tau_out(unit = \"N.m\"); output Real tau_f(unit = \"N.m\");"
+            "\n      equation b.w = w; b.tau_out = tau_out; tau_f = b.tau_f;",
+}
 
 
 def _probe(block, slot):
     """A probe model: the block's inputs are the probe's, its outputs the probe's."""
     name = "Probe_" + block.replace(".", "_")
-    ports = ("input Real x(unit = \"m\"); input Real v(unit = \"m/s\"); output Real F(unit = \"N\"); "
-             "output Real delta_c(unit = \"m\");\n      equation b.x = x; b.v = v; F = b.F; delta_c = b.delta_c;"
-             if slot == "contact" else
-             "input Real v(unit = \"m/s\"); output Real F(unit = \"N\");\n      equation b.v = v; F = b.F;")
-    return name, f"  model {name}\n    Gripper.{block} b;\n    {ports}\n  end {name};\n"
+    return name, f"  model {name}\n    Gripper.{block} b;\n    {PORTS[slot]}\n  end {name};\n"
 
 
 @pytest.fixture(scope="module")
 def probes(tmp_path_factory):
-    """Every block of CONTACTS and GUIDES lowered in its probe model (one copy of the package)."""
+    """Every block of CONTACTS, GUIDES, DRAGS and MESHES lowered in its probe model (one copy of the package)."""
     folder = tmp_path_factory.mktemp("forms")
     text = SOURCE.read_text(encoding="utf-8")
-    made = [(_probe(b, "contact"), b) for b in CONTACTS] + [(_probe(b, "guide"), b) for b in GUIDES]
+    made = [(_probe(b, slot), b) for blocks, slot in ((CONTACTS, "contact"), (GUIDES, "guide"), (DRAGS, "drag"),
+                                                      (MESHES, "mesh")) for b in blocks]
     end = text.rindex("end Gripper;")
     (folder / "package.mo").write_text(text[:end] + "".join(p for (_, p), _ in made) + text[end:], encoding="utf-8")
     return {block: lower(folder / "package.mo", f"Gripper.{name}") for (name, _), block in made}
@@ -170,3 +181,94 @@ def test_dahl_guide(probes):
     ref = solve_ivp(lambda t, f: [F_c / x_d * (v_of_t(t) - abs(v_of_t(t)) * f[0] / F_c)], (0.0, 0.4), [0.0],
                     t_eval=times, rtol=1e-10, atol=1e-14, max_step=1e-3).y[0]
     assert_allclose(got, ref, rtol=1e-6, atol=1e-8)
+
+
+# The drive's friction at the motor shaft: the plant's no-load drag T_c0 (0.2 A dead zone) and its bristle, a
+# breakaway 2.5 times it (the survey's static/Coulomb ratios are 1-3) and a Stribeck speed of 0.5 rad/s.
+DRAG = {"T_c": 7.88e-3, "phi_b": 1e-3, "tau_b": 1e-4, "s_ba": 0.5, "d_pre": 0.0, "w_pre": 1.0}
+T_S, W_S, D_V = 0.02, 0.5, 2e-4
+SPEEDS = (-3.0, -0.3, 0.05, 0.2, 0.6, 4.0)
+
+
+def _stribeck_torque(w):
+    """Armstrong-Helouvry's steady friction: (T_c + (T_s - T_c)*exp(-(w/w_s)^2))*sgn(w) + d_v*w."""
+    return (DRAG["T_c"] + (T_S - DRAG["T_c"]) * np.exp(-(w / W_S) ** 2)) * np.sign(w) + D_V * w
+
+
+@pytest.mark.parametrize("form", ["Forms.StribeckDrag", "Forms.LuGreDrag"])
+def test_drive_friction_forms_slide_on_the_stribeck_curve(probes, form):
+    """Run from rest at a constant motor speed for 40 of the bristle's time constants, the drive's friction torque
+    is the Stribeck curve with viscous friction in closed form, at speeds below, about and above w_s, both ways."""
+    m = probes[form]
+    p = _values(m, **DRAG, T_s=T_S, w_s=W_S, d_v=D_V)
+    for w in SPEEDS:
+        settle = 40 * (DRAG["phi_b"] * T_S / DRAG["T_c"] + abs(w) * DRAG["tau_b"]) / abs(w)
+        got = _run(m, p, lambda t: 0.0, lambda t, w=w: w, np.array([0.0, settle]))[-1, 0]
+        assert_allclose(got, _stribeck_torque(w), rtol=1e-6)
+
+
+def _speed(t):
+    """A motor speed that reverses, with a bias: 0.4*sin(2*pi*3*t) + 0.1 rad/s."""
+    return 0.4 * np.sin(2 * np.pi * 3 * t) + 0.1
+
+
+def test_stribeck_drag_contains_the_baseline(probes):
+    """At T_s = T_c and d_v = 0 the Stribeck drag is the baseline's BristleFriction along a speed that reverses
+    (with the presliding damping on)."""
+    base, m = probes["Components.BristleFriction"], probes["Forms.StribeckDrag"]
+    given = {**DRAG, "d_pre": 0.01}
+    times = np.linspace(0.0, 0.6, 121)
+    neutral = _run(m, _values(m, **given, T_s=DRAG["T_c"], w_s=W_S, d_v=0.0), lambda t: 0.0, _speed, times)
+    assert_allclose(neutral, _run(base, _values(base, **given), lambda t: 0.0, _speed, times), rtol=1e-9,
+                    atol=1e-12)
+
+
+def test_lugre_drag_follows_its_state_equation(probes):
+    """Along a speed that reverses, the LuGre drag is T_c*s + sigma_1*phi_b*ds/dt*exp(-(w/w_pre)^2) + d_v*w with
+    ds/dt = (w - |w|*s*T_c/g(w))/(phi_b + |w|*tau_b) integrated by solve_ivp here (Canudas de Wit et al. 1995 in
+    the bristle's units, its rate bounded as the baseline's)."""
+    m = probes["Forms.LuGreDrag"]
+    given = {**DRAG, "d_pre": 0.01, "w_pre": 1.0}
+    p = _values(m, **given, T_s=T_S, w_s=W_S, d_v=D_V)
+    times = np.linspace(0.0, 0.6, 121)
+    got = _run(m, p, lambda t: 0.0, _speed, times)[:, 0]
+
+    def rate(t, s):
+        w = _speed(t)
+        g = DRAG["T_c"] + (T_S - DRAG["T_c"]) * np.exp(-(w / W_S) ** 2)
+        return (w - abs(w) * s * DRAG["T_c"] / g) / (DRAG["phi_b"] + abs(w) * DRAG["tau_b"])
+    s = solve_ivp(rate, (0.0, 0.6), [0.0], t_eval=times, method="LSODA", rtol=1e-10, atol=1e-13, max_step=1e-3).y[0]
+    ds = np.array([rate(t, x) for t, x in zip(times, s)])
+    w = _speed(times)
+    expected = DRAG["T_c"] * s + 0.01 * DRAG["phi_b"] * ds * np.exp(-w ** 2) + D_V * w
+    assert_allclose(got, expected, rtol=1e-5, atol=1e-8)
+
+
+MESH = {"eta": 0.68, "phi_b": 1e-3, "tau_b": 1e-4, "s_ba": 0.5}
+
+
+@pytest.mark.parametrize("n_L", [0.6, 1.0, 1.3, 2.0])
+def test_load_exponent_mesh_efficiencies(probes, n_L):
+    """Sliding (bristle at +-1), the gear's efficiency is 1 - (1 - eta)*(|tau_out|/T_n)^(n_L - 1) driving
+    (tau_out = that times tau_in) and back-driven (tau_in = that times tau_out): eta at T_n = 0.13 N.m."""
+    m = probes["Forms.LoadExponentMeshLoss"]
+    p = _values(m, **MESH, n_L=n_L, T_n=0.13)
+    for tau_out in (0.01, 0.03, 0.13, 0.25):  # the loss fraction stays below its 0.95 cap
+        loss = (1 - MESH["eta"]) * (tau_out / 0.13) ** (n_L - 1)
+        for sign in (1.0, -1.0):
+            driving = sign * tau_out + m.output_values([sign], [sign * 2.0, sign * tau_out], p)[0]
+            back = -sign * tau_out + m.output_values([sign], [sign * 2.0, -sign * tau_out], p)[0]
+            assert_allclose(sign * tau_out / driving, 1 - loss, rtol=1e-12)
+            assert_allclose(back / (-sign * tau_out), 1 - loss, rtol=1e-12)
+
+
+def test_load_exponent_mesh_contains_the_baseline(probes):
+    """At n_L = 1 the loss torque and the bristle's rate are MeshEfficiency's, in every state of the bristle."""
+    base, m = probes["Components.MeshEfficiency"], probes["Forms.LoadExponentMeshLoss"]
+    pb, pm = _values(base, **MESH), _values(m, **MESH, n_L=1.0)
+    for s in (-1.0, -0.4, 0.0, 0.7, 1.0):
+        for w, tau_out in ((0.5, 0.02), (-2.0, 0.05), (1e-3, -0.1), (0.0, 0.0)):
+            assert_allclose(m.output_values([s], [w, tau_out], pm), base.output_values([s], [w, tau_out], pb),
+                            rtol=1e-12, atol=1e-15)
+            assert_allclose(m.derivatives([s], [w, tau_out], pm, 0.0), base.derivatives([s], [w, tau_out], pb, 0.0),
+                            rtol=1e-12, atol=1e-15)

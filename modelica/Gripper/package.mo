@@ -10,6 +10,17 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
   //   k_t = P*Psi_m, electrical power v_d*i_d + v_q*i_q.
 
   package Interfaces "Effect slots: what a block must take and give to fill a replaceable component of the models (docs/models/gripper.md); the default of each slot is today's law or a block that does nothing, cosim diagnose redeclares it with a block of Effects"
+    partial model DriveFrictionSlot "Friction of the drive at the motor shaft (the motor's and the gear's no-load drag)"
+      parameter Real T_c(unit = "N.m", min = 0) = 7.88e-3 "Coulomb friction torque level";
+      parameter Real phi_b(unit = "rad", min = 0) = 1e-3 "Presliding angle (bristle deflection at the Coulomb level)";
+      parameter Real tau_b(unit = "s", min = 0) = 1e-4 "Bristle relaxation time at high speed (bounds the state's rate)";
+      parameter Real s_ba(unit = "1", min = 0, max = 1) = 0.5 "Elastic fraction of the bristle range";
+      parameter Real d_pre(unit = "N.m.s/rad", min = 0) = 0 "Presliding damping (LuGre's sigma_1), faded out above w_pre; 0: none";
+      parameter Real w_pre(unit = "rad/s", min = 0) = 1 "Speed scale above which the presliding damping fades out";
+      input Real w(unit = "rad/s") "Shaft speed relative to the housing";
+      output Real tau_f(unit = "N.m") "Friction torque against the motion";
+    end DriveFrictionSlot;
+
     partial model MeshSlot "Gear mesh loss at the gear input"
       input Real w(unit = "rad/s") "Input shaft speed";
       input Real tau_out(unit = "N.m") "Torque passed on towards the load, in input-side units";
@@ -92,15 +103,8 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       ds := (w - alpha*abs(w)*s)/(phi_b + abs(w)*tau_b);
     end bristleRate;
 
-    model BristleFriction "Coulomb friction carried by an elasto-plastic bristle state: holds a static torque without creep or drift"
-      parameter Real T_c(unit = "N.m", min = 0) = 7.88e-3 "Coulomb friction torque level";
-      parameter Real phi_b(unit = "rad", min = 0) = 1e-3 "Presliding angle (bristle deflection at the Coulomb level)";
-      parameter Real tau_b(unit = "s", min = 0) = 1e-4 "Bristle relaxation time at high speed (bounds the state's rate)";
-      parameter Real s_ba(unit = "1", min = 0, max = 1) = 0.5 "Elastic fraction of the bristle range";
-      parameter Real d_pre(unit = "N.m.s/rad", min = 0) = 0 "Presliding damping (LuGre's sigma_1), faded out above w_pre; 0: none";
-      parameter Real w_pre(unit = "rad/s", min = 0) = 1 "Speed scale above which the presliding damping fades out";
-      input Real w(unit = "rad/s") "Shaft speed relative to the housing";
-      output Real tau_f(unit = "N.m") "Friction torque against the motion";
+    model BristleFriction "Coulomb friction carried by an elasto-plastic bristle state: holds a static torque without creep or drift (default of the slot drag)"
+      extends Gripper.Interfaces.DriveFrictionSlot;
       Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
       Real ds(unit = "1/s") "Rate of the bristle deflection";
     equation
@@ -623,6 +627,83 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
       der(F_b) = F_c/x_d*(v - abs(v)*F_b/max(F_c, 1e-9));
       F = F_b;
     end DahlGuide;
+
+    model StribeckDrag "Drive friction on a Stribeck curve, held by the baseline's elasto-plastic bristle: breakaway T_s falling to T_c above w_s, plus viscous d_v*w; T_s = T_c and d_v = 0 the baseline"
+      extends Gripper.Interfaces.DriveFrictionSlot;
+      // Source: Armstrong-Helouvry, Control of Machines with Friction (Kluwer 1991), and Armstrong-Helouvry,
+      // Dupont and Canudas de Wit, Automatica 30 (1994) 1083-1138, eq. (3) with delta = 2: in steady sliding
+      // T(w) = (T_c + (T_s - T_c)*exp(-(w/w_s)^2))*sgn(w) + d_v*w. The torque is the bristle's, T_c*s, with the
+      // bristle of Components.BristleFriction (stiffness T_c/phi_b, Dupont et al. 2002) whose plastic limit is
+      // r = g(w)/T_c instead of 1: a shaft that stops keeps the torque it slid with and takes up more load
+      // elastically up to T_s (no jump at the stop). At r = 1 the rate is BristleFriction's, exactly. The curve
+      // follows the shaft speed, which includes the bristle's presliding motion: at presliding speeds well below
+      // w_s the level is the static one. Ranges: T_s from T_c to 3*T_c (the survey's static over Coulomb levels of
+      // lubricated metal contacts, 1-3); w_s 0.01-10 rad/s at the motor shaft (the survey's 1e-5 to 1e-2 m/s of
+      // sliding speed at the 1-10 mm radii of the motor's bearings and the gear's sun); d_v from 0 to the 1e-4
+      // N.m.s/rad of a greased bearing at the motor (Harris and Kotzalas, Rolling Bearing Analysis, 2006).
+      parameter Real T_s(unit = "N.m", min = 0) = 7.88e-3 "Breakaway (static) friction torque (T_c: no Stribeck excess)";
+      parameter Real w_s(unit = "rad/s", min = 0) = 1 "Stribeck speed";
+      parameter Real d_v(unit = "N.m.s/rad", min = 0) = 0 "Viscous friction coefficient";
+      Real s(unit = "1", start = 0.0, fixed = true) "Bristle deflection over phi_b (the torque is T_c*s)";
+      Real r(unit = "1") "Plastic limit of s: the Stribeck level over T_c";
+      Real ds(unit = "1/s") "Rate of the bristle deflection";
+    equation
+      r = max((T_c + (T_s - T_c)*exp(-(w/w_s)^2))/max(T_c, 1e-9), 1e-3);
+      ds = r*Gripper.Components.bristleRate(w, s/r, r*phi_b, tau_b, s_ba);
+      der(s) = ds;
+      tau_f = T_c*s + d_pre*phi_b*ds*exp(-(w/w_pre)^2) + d_v*w;
+    end StribeckDrag;
+
+    model LuGreDrag "Drive friction of the LuGre form: a bristle that is plastic from the first motion, its level on a Stribeck curve, plus viscous d_v*w"
+      extends Gripper.Interfaces.DriveFrictionSlot;
+      // Source: Canudas de Wit, Olsson, Astrom and Lischinsky, IEEE Trans. Automatic Control 40 (1995) 419-425,
+      // eqs. (1)-(4): dz/dt = w - sigma_0*|w|*z/g(w), T = sigma_0*z + sigma_1*dz/dt + sigma_2*w, with
+      // g(w) = T_c + (T_s - T_c)*exp(-(w/w_s)^2). Written in s = z/phi_b (sigma_0 = T_c/phi_b, the baseline's
+      // bristle stiffness); sigma_1 is the slot's d_pre with BristleFriction's fade above w_pre, sigma_2 = d_v. The
+      // rate is divided by phi_b + |w|*tau_b instead of phi_b (the baseline's bound on the state's rate, Dupont et
+      // al. 2002): the same steady sliding, a non-stiff state above phi_b/tau_b = 10 rad/s. Unlike the baseline's
+      // elasto-plastic bristle, LuGre's has no elastic range: a shaft held under a load that oscillates creeps
+      // (Dupont et al. 2002). No value gives the baseline: at T_s = T_c it differs by that elastic range, and both
+      // are Coulomb's law in the limit of stiff bristles (phi_b -> 0). Ranges as Forms.StribeckDrag's.
+      parameter Real T_s(unit = "N.m", min = 0) = 7.88e-3 "Breakaway (static) friction torque";
+      parameter Real w_s(unit = "rad/s", min = 0) = 1 "Stribeck speed";
+      parameter Real d_v(unit = "N.m.s/rad", min = 0) = 0 "Viscous friction coefficient (LuGre's sigma_2)";
+      Real s(unit = "1", start = 0.0, fixed = true) "Bristle deflection over phi_b (the torque is T_c*s)";
+      Real g(unit = "N.m") "Stribeck level";
+      Real ds(unit = "1/s") "Rate of the bristle deflection";
+    equation
+      g = max(T_c + (T_s - T_c)*exp(-(w/w_s)^2), 1e-9);
+      ds = (w - abs(w)*s*T_c/g)/(phi_b + abs(w)*tau_b);
+      der(s) = ds;
+      tau_f = T_c*s + d_pre*phi_b*ds*exp(-(w/w_pre)^2) + d_v*w;
+    end LuGreDrag;
+
+    model LoadExponentMeshLoss "Gear mesh loss that grows as a power n_L of the transmitted torque (an efficiency that varies with the load), held by the baseline's bristle: n_L = 1 the baseline's constant efficiency"
+      extends Gripper.Interfaces.MeshSlot;
+      // Source: the load-dependent gear loss of ISO/TR 14179-2 (2001), whose mean mesh friction coefficient
+      // (Schlenk 1994) grows as the tooth load to the power 0.2, so the loss as the torque to the power 1.2; the
+      // load-dependent torque of rolling bearings, M_1 = f_1*P*d_m with f_1 ~ (P/C_0)^0.5 for ball bearings
+      // (Palmgren 1959; Harris and Kotzalas, Rolling Bearing Analysis, 2006), a power 1.5; a constant friction
+      // coefficient, the baseline, a power 1. n_L in [0.5, 2] spans those and a mixed-film friction coefficient
+      // that falls with the load (n_L < 1). The loss fraction is k = (1 - eta)*(|tau_out|/T_n)^(n_L - 1), so eta
+      // is the efficiency at T_n (the rated torque at which a datasheet quotes it, here the motor's 0.13 N.m);
+      // k is kept below 0.95 (n_L < 1 at a vanishing load). With k in place of 1 - eta, as
+      // Components.MeshEfficiency: N = max(|tau_in|, |tau_out|), the loss k*N*s held by the bristle s.
+      parameter Real eta(unit = "1", min = 0, max = 1) = 0.68 "Mesh efficiency at the torque T_n";
+      parameter Real phi_b(unit = "rad", min = 0) = 1e-3 "Presliding angle of the mesh bristle (input side)";
+      parameter Real tau_b(unit = "s", min = 0) = 1e-4 "Bristle relaxation time at high speed";
+      parameter Real s_ba(unit = "1", min = 0, max = 1) = 0.5 "Elastic fraction of the bristle range";
+      parameter Real n_L(unit = "1", min = 0.5, max = 2) = 1 "Power of the transmitted torque the loss grows with (1: the baseline)";
+      parameter Real T_n(unit = "N.m", min = 0) = 0.13 "Input torque at which the efficiency is eta";
+      Real s(unit = "1", start = 0.0, fixed = true) "Normalised bristle deflection, in [-1, 1]";
+      Real k(unit = "1") "Loss fraction at the transmitted torque";
+      Real N(unit = "N.m") "Transmitted load max(|tau_in|, |tau_out|)";
+    equation
+      k = min((1 - eta)*(max(abs(tau_out), 1e-12)/T_n)^(n_L - 1), 0.95);
+      N = noEvent(if s*tau_out > 0 then abs(tau_out)/(1 - k*abs(s)) else abs(tau_out));
+      der(s) = Gripper.Components.bristleRate(w, s, phi_b, tau_b, s_ba);
+      tau_f = k*N*s;
+    end LoadExponentMeshLoss;
   end Forms;
 
   package Parameters "Shared top-level parameter declarations (values and sources: docs/models/gripper.md)"
@@ -681,7 +762,7 @@ package Gripper "Electric gripper of Sec. 2-3 of the gripper paper: PMSM, 28:1 p
     output Real tau_load(unit = "N.m") "Load torque on the motor shaft, against positive rotation";
     output Real F_g(unit = "N") "Gripping force (load cell)";
     output Real x_jaw(unit = "m") "Jaw displacement, positive closing";
-    Gripper.Components.BristleFriction drag(T_c = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, d_pre = d_pre, w_pre = w_pre) "No-load drag at the motor shaft";
+    replaceable Gripper.Components.BristleFriction drag(T_c = T_c0, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba, d_pre = d_pre, w_pre = w_pre) constrainedby Gripper.Interfaces.DriveFrictionSlot "No-load drag at the motor shaft";
     replaceable Gripper.Components.MeshEfficiency mesh(eta = eta_g, phi_b = phi_b, tau_b = tau_b, s_ba = s_ba) constrainedby Gripper.Interfaces.MeshSlot "Gear efficiency by power-flow direction";
     Gripper.Components.IdealGear gear(ratio = ratio) "Planetary gear kinematics";
     Gripper.Components.RotationalDamper bearing(d = B_g) "Gear bearing damping at the output";
