@@ -10,21 +10,25 @@ constant ``tau_mech``), and the load cell is sampled at 100 Hz with Gaussian noi
 
 Effects: ``backdrive_efficiency`` (eta_b != eta_d on the release branch), ``load_dependent_friction`` (guide
 friction mu_F*F while sliding and held at rest), ``loadcell_filter`` (a discrete first-order low-pass and an
-offset, applied to the sampled force). ``none``: the baseline's physics.
+offset, applied to the sampled force). ``none``: the baseline's physics. Not among ``TRUTH_EFFECTS`` (the benchmark's
+cells), a law of another form: ``load_exponent_mesh``, a gear loss that grows as the transmitted torque to the
+power n_L, its efficiency 1 - (1 - eta)*(|tau_out|/T_N)^(n_L - 1) in both directions of power flow.
 """
 
 import json
 from pathlib import Path
 
 import numpy as np
+from scipy.optimize import brentq
 
-__all__ = ["K_T", "GAIN", "staircase", "quasi_static_force", "make_case", "TRUTH_EFFECTS", "write_job",
+__all__ = ["K_T", "GAIN", "T_N", "staircase", "load_efficiency", "quasi_static_force", "make_case", "TRUTH_EFFECTS", "write_job",
            "free_and_candidates"]
 
 K_T = 0.0393939394           # N.m/A, torque constant at the motor shaft
 RATIO, R_P = 28.0, 0.008957  # gear ratio, pinion radius [m]
 GAIN = RATIO / (2 * R_P)     # jaw force per motor torque, N per N.m (two jaws)
 F_GUIDE = 0.0785             # N, sliding guide friction per jaw (the plant's default)
+T_N = 0.13                   # N.m, gear input torque at which a load-exponent gear loss has the efficiency eta
 
 TRUTH_EFFECTS = ("none", "backdrive_efficiency", "load_dependent_friction", "loadcell_filter")
 
@@ -48,17 +52,35 @@ def staircase(levels=LEVELS, step_s=0.7, rate_hz=100.0, ramp_s=0.35):
     return np.arange(len(current)) / rate_hz, current
 
 
-def quasi_static_force(current, eta_d, T_c0, eta_b=None, mu_F=0.0):
-    """Steady force after each distinct current level, by the stick/slip rule (one value per run)."""
+def load_efficiency(tau_in, eta, n_L, driving):
+    """The gear's efficiency at the input torque ``tau_in`` [N.m] (> 0) when its loss fraction is
+    (1 - eta)*(tau_out/T_N)^(n_L - 1) of the torque passed on, tau_out: driving, tau_out = (1 - k)*tau_in, back-driven,
+    tau_in = (1 - k)*tau_out, each solved for tau_out by brentq."""
+    def loss(tau_out):
+        return (1 - eta) * (tau_out / T_N) ** (n_L - 1)
+    if driving:
+        tau_out = brentq(lambda x: x - (1 - loss(x)) * tau_in, 1e-15, tau_in, xtol=1e-15, rtol=1e-13)
+    else:  # (1 - loss(x))*x rises up to its maximum at x_top (n_L > 1), or without bound (n_L < 1)
+        x_top = T_N * (n_L * (1 - eta)) ** (-1 / (n_L - 1)) if n_L > 1 else 100 * tau_in
+        tau_out = brentq(lambda x: (1 - loss(x)) * x - tau_in, tau_in, x_top, xtol=1e-15, rtol=1e-13)
+    return 1 - loss(tau_out)
+
+
+def quasi_static_force(current, eta_d, T_c0, eta_b=None, mu_F=0.0, n_L=1.0):
+    """Steady force after each distinct current level, by the stick/slip rule (one value per run); ``n_L`` != 1: the
+    efficiencies of a load-exponent gear loss (:func:`load_efficiency`, eta_d at T_N both ways)."""
     eta_b = eta_d if eta_b is None else eta_b
     changes = np.flatnonzero(np.diff(current) != 0) + 1
     runs = np.split(current, changes)
     F, levels = 0.0, []
     for run in runs:
         i = run[0]
-        drive = eta_d * (K_T * i - T_c0) * GAIN          # rack force available when tightening
+        up, down = K_T * i - T_c0, K_T * i + T_c0
+        eff_d = eta_d if n_L == 1 or up <= 0 else load_efficiency(up, eta_d, n_L, True)
+        eff_b = eta_b if n_L == 1 or down <= 0 else load_efficiency(down, eta_d, n_L, False)
+        drive = eff_d * (K_T * i - T_c0) * GAIN          # rack force available when tightening
         f_up = (drive - F_GUIDE) / (1 + mu_F)
-        f_down = ((K_T * i + T_c0) * GAIN / eta_b + F_GUIDE) / (1 - mu_F)
+        f_down = ((K_T * i + T_c0) * GAIN / eff_b + F_GUIDE) / (1 - mu_F)
         if f_up > F:
             F = f_up
         elif f_down < F:
@@ -79,6 +101,9 @@ def make_case(effect, rng, noise=0.2, levels=LEVELS, step_s=0.7, rate_hz=100.0, 
     elif effect == "load_dependent_friction":
         truth["mu_F"] = rng.uniform(0.1, 0.25)
         kw["mu_F"] = truth["mu_F"]
+    elif effect == "load_exponent_mesh":
+        truth["n_L"] = rng.uniform(1.3, 1.7)
+        kw["n_L"] = truth["n_L"]
     F = quasi_static_force(i, truth["eta_d"], truth["T_c0"], **kw)
     # first-order approach of each new level (the mechanical transient), exact for a piecewise-constant target
     a = np.exp(-1.0 / (rate_hz * tau_mech))

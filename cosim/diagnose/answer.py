@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from cosim.diagnose.analysis import gap_shown
-from cosim.diagnose.effects import EFFECTS
+from cosim.diagnose.effects import EFFECTS, applicable
 
-__all__ = ["verdict", "answer", "why_plausible", "finding_words", "shown_words"]
+__all__ = ["verdict", "answer", "why_plausible", "finding_words", "shown_words", "forms_not_offered"]
 
 
 def verdict(job, decision, segments=(), ms_after=0.0, shown_by=()):
@@ -167,15 +167,40 @@ def _unexplained(job, samples, d, advice, candidates):
     evidence += "" if best is None else (
         f"; the best candidate, {best.effect}, removes {100 * best.score:.0f} % of the held-out gap (naming "
         f"needs {100 * job.min_gap_removed:.0f} %) with ΔBIC {best.delta_bic:.1f} (needs {job.min_delta_bic:g})")
+    left = "; ".join(f"{law}: {', '.join(names)}" for law, names in forms_not_offered(job).items())
     if advice:
         step = ("plausible but not identifiable on these data: "
                 + "; ".join(f"{a['effect']} ({a['why']})" for a in advice)
                 + ". The experiment that would show it: " + "; ".join(_shows(a) for a in advice))
+        if left:
+            step += (f". The library also holds forms of the model's laws that the job did not offer ({left}): "
+                     "list them under candidates.forms to try them")
+    elif left:
+        step = ("no candidate offered explains this gap, and a law the model has may be of another form: the "
+                f"library holds forms of the model's laws that the job did not offer ({left}); list them under "
+                "candidates.forms and run the diagnosis again")
     else:
         step = ("the library lacks the physics of this gap: check the fixed parameters and the data where the "
                 "gap is largest, then write the effect as a candidate (docs/guide/diagnose.md, the effect "
                 "library) and run the diagnosis again")
     return evidence, step
+
+
+def forms_not_offered(job):
+    """The library's forms whose slot the user's model has that the job neither offers nor has added (nor has
+    filled the slot of, in a later round), grouped by the law they replace: {law: [form, ...]}.
+
+    Parameters
+    ----------
+    job : cosim.diagnose.job.DiagnoseJob
+    """
+    source, model = job.user_model
+    filled = {EFFECTS[n].slot for n in job.adopted}
+    left = {}
+    for name in applicable(Path(source).read_text(encoding="utf-8"), model, forms=True):
+        if name not in job.effects and name not in job.adopted and EFFECTS[name].slot not in filled:
+            left.setdefault(EFFECTS[name].law, []).append(name)
+    return left
 
 
 def _shows(entry):

@@ -1,7 +1,7 @@
 """The library of candidate missing effects and the Modelica variants that add them to a baseline model.
 
 Each effect fills an *effect slot* of the baseline: a ``replaceable`` component whose default is today's law or a
-block that does nothing (``modelica/Gripper/package.mo``: mesh, guide, lfric, contact inside
+block that does nothing (``modelica/Gripper/package.mo``: drag, mesh, guide, lfric, contact inside
 ``Gripper.DrivetrainMechanics``, cog and lc in the current- and speed-driven models; ``modelica/Haptic/package.mo``:
 delay, mode in every device, hand in ``Haptic.Device7``). An effect is data: the slot, the block of
 ``Gripper.Effects``/``Haptic.Effects`` that replaces its default, how that block's parameters bind to the effect's
@@ -246,6 +246,42 @@ EFFECTS = {
         signature="friction that builds up over a distance after each reversal, not at once",
         shown_by="slide: the jaws stop and restart against the guides, current and encoder at 1 kHz",
         law="the jaw guides' friction law",
+    ),
+    "stribeck_drag": Effect(
+        name="stribeck_drag",
+        title="the drive's friction on a Stribeck curve: breakaway T_sd falling to T_c0 above w_sd, held by the "
+              "bristle",
+        parameters=(EffectParameter("T_sd", "T_c0", 0.0, 0.05, "N.m", "Breakaway friction torque of the drive",
+                                    starts=(0.02,)),
+                    EffectParameter("w_sd", 0.5, 0.01, 10.0, "rad/s", "Stribeck speed of the drive's friction")),
+        slot="drive.drag", replacement="Gripper.Forms.StribeckDrag", bindings=(("T_s", "T_sd"), ("w_s", "w_sd")),
+        signature="more friction at low motor speed: slow motion takes more current than fast",
+        shown_by="speed run: slow speeds under a PI speed loop, current and encoder at 1 kHz",
+        shown_in="diagnose_speed.toml", law="the drive's friction law (the motor-side drag)",
+    ),
+    "lugre_drag": Effect(
+        name="lugre_drag",
+        title="LuGre friction in the drive: a bristle plastic from the first motion (no elastic range), its level "
+              "on a Stribeck curve from T_sl to T_c0 above w_sl",
+        parameters=(EffectParameter("T_sl", "T_c0", 0.0, 0.05, "N.m", "Breakaway friction torque of the drive "
+                                    "(LuGre)", starts=(0.02,)),
+                    EffectParameter("w_sl", 0.5, 0.01, 10.0, "rad/s", "Stribeck speed of the drive's friction "
+                                    "(LuGre)")),
+        slot="drive.drag", replacement="Gripper.Forms.LuGreDrag", bindings=(("T_s", "T_sl"), ("w_s", "w_sl")),
+        signature="a held shaft creeps under a varying load; more friction at low motor speed",
+        shown_by="speed run: slow speeds under a PI speed loop, current and encoder at 1 kHz",
+        shown_in="diagnose_speed.toml", law="the drive's friction law (the motor-side drag)",
+    ),
+    "load_exponent_mesh": Effect(
+        name="load_exponent_mesh",
+        title="a gear loss that grows as the transmitted torque to the power n_L (an efficiency that varies with "
+              "the load; eta_g at 0.13 N.m) instead of in proportion",
+        parameters=(EffectParameter("n_L", 1.0, 0.5, 2.0, "1", "Power of the transmitted torque the gear loss "
+                                    "grows with"),),
+        slot="drive.mesh", replacement="Gripper.Forms.LoadExponentMeshLoss", bindings=_same("n_L"),
+        signature="both branches of the staircase curve: the force is not linear in the current",
+        shown_by="static current staircase, force measured", shown_in="diagnose_static.toml",
+        law="the gear mesh's loss law",
     ),
     # The haptic device + user (Haptic.Device7 and the other Haptic.Device* models).
     "hand_mass": Effect(
