@@ -19,9 +19,8 @@ import pytest
 
 from cosim.compile import lower
 from cosim.diagnose import load_diagnose_job, run_diagnosis
-from cosim.diagnose.answer import forms_not_offered
 from cosim.diagnose.fitting import Replay
-from cosim.diagnose.effects import EFFECTS, write_variant
+from cosim.diagnose.effects import EFFECTS, forms_not_offered, write_variant
 from cosim.errors import ConfigError, EffectSlotError
 from cosim.experiment import Experiment
 
@@ -161,11 +160,15 @@ def test_a_stand_in_named_first_is_dropped_when_the_later_findings_explain_it():
 
 def test_the_forms_a_job_did_not_offer(tmp_path):
     """A job on GripperCurrentDriven offering the Stribeck guide and drag: the library's other forms of the guides'
-    and the drive's friction, and the gear's load-exponent loss, are the ones not offered, by the law they replace."""
-    left = forms_not_offered(load_diagnose_job(_job_with(tmp_path, [], ["stribeck_guide", "stribeck_drag"])))
+    and the drive's friction, and the gear's load-exponent loss, are the ones not offered, by the law they replace;
+    after a round that added the back-driven efficiency, whose slot the gear's form would fill, that form is not."""
+    job = load_diagnose_job(_job_with(tmp_path, [], ["stribeck_guide", "stribeck_drag"]))
+    left = forms_not_offered(SOURCE.read_text(encoding="utf-8"), job.model, job.effects)
     assert left[DRIVE_LAW] == ["lugre_drag"] and left[GEAR_LAW] == ["load_exponent_mesh"], left
     assert left["the jaw guides' friction law"] == ["dahl_guide"], left
     assert "power_law_coating" in left["the finger contact's elastic law"], left
+    added = forms_not_offered(SOURCE.read_text(encoding="utf-8"), job.model, job.effects, ("backdrive_efficiency",))
+    assert GEAR_LAW not in added and added[DRIVE_LAW] == ["lugre_drag"], added  # its slot, drive.mesh, is filled
 
 
 def _exponent_staircase(folder, effects):

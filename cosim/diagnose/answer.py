@@ -1,6 +1,7 @@
 """The words of a diagnosis's answer: the verdict (an effect named; a gap of N noise levels no candidate explains,
-with where it is; or a baseline within the noise), the evidence behind it and the next step, and why an advised
-effect is plausible but not identifiable. The numbers come from the workflow's decision
+with where it is; or a baseline within the noise), the evidence behind it and the next step (for a gap no
+candidate explains, also the forms of the model's laws the job did not offer), and why an advised effect is
+plausible but not identifiable. The numbers come from the workflow's decision
 (:class:`~cosim.diagnose.workflow.Decision`); this module only says them (``report.md`` opens with them,
 :mod:`cosim.diagnose.report` writes it).
 """
@@ -10,9 +11,9 @@ from pathlib import Path
 import numpy as np
 
 from cosim.diagnose.analysis import gap_shown
-from cosim.diagnose.effects import EFFECTS, applicable
+from cosim.diagnose.effects import EFFECTS
 
-__all__ = ["verdict", "answer", "why_plausible", "finding_words", "shown_words", "forms_not_offered"]
+__all__ = ["verdict", "answer", "why_plausible", "finding_words", "shown_words"]
 
 
 def verdict(job, decision, segments=(), ms_after=0.0, shown_by=()):
@@ -94,7 +95,7 @@ def why_plausible(job, decision, candidate):
             f"{100 * job.min_gap_removed:.0f} %) with ΔBIC {candidate.delta_bic:.1f} (needs {job.min_delta_bic:g})")
 
 
-def answer(job, samples, decision, advice, segments, ms_after, gap_removed, candidates=()):
+def answer(job, samples, decision, advice, segments, ms_after, gap_removed, candidates=(), forms_left=None):
     """The evidence behind the verdict and the next step, one paragraph each (the report's first lines).
 
     Parameters
@@ -112,6 +113,9 @@ def answer(job, samples, decision, advice, segments, ms_after, gap_removed, cand
         The fraction of the gap above the noise the winner, refitted on every segment, removes.
     candidates : sequence of cosim.diagnose.result.Candidate, optional
         The scored ones.
+    forms_left : dict, optional
+        The library's forms for the model's slots that the job did not offer, by the law they replace
+        (:func:`~cosim.diagnose.effects.forms_not_offered`): a gap no candidate explains names them.
 
     Returns
     -------
@@ -122,7 +126,7 @@ def answer(job, samples, decision, advice, segments, ms_after, gap_removed, cand
     if d.winner is not None:
         return _named(job, d, advice, segments, ms_after, gap_removed)
     if d.gap_found:
-        return _unexplained(job, samples, d, advice, candidates)
+        return _unexplained(job, samples, d, advice, candidates, forms_left or {})
     significant = sum(r["significant"] for r in d.rows)
     evidence = (f"mean square {d.mean_square:.3g} noise levels squared (chance up to {d.chance:.3g}); "
                 f"{significant} of {len(d.rows)} segments above {job.gap_sigmas:g} noise levels")
@@ -154,8 +158,8 @@ def _named(job, d, advice, segments, ms_after, gap_removed):
     return evidence, step
 
 
-def _unexplained(job, samples, d, advice, candidates):
-    """Evidence and next step when the baseline shows a gap no candidate explains."""
+def _unexplained(job, samples, d, advice, candidates, forms_left):
+    """Evidence and next step when the baseline shows a gap no candidate explains (and the forms not offered)."""
     unit = f" {samples.units[0]}" if samples.units and samples.units[0] else ""
     significant = sum(r["significant"] for r in d.rows)
     best = max(candidates, key=lambda c: c.score, default=None)
@@ -167,7 +171,7 @@ def _unexplained(job, samples, d, advice, candidates):
     evidence += "" if best is None else (
         f"; the best candidate, {best.effect}, removes {100 * best.score:.0f} % of the held-out gap (naming "
         f"needs {100 * job.min_gap_removed:.0f} %) with ΔBIC {best.delta_bic:.1f} (needs {job.min_delta_bic:g})")
-    left = "; ".join(f"{law}: {', '.join(names)}" for law, names in forms_not_offered(job).items())
+    left = "; ".join(f"{law}: {', '.join(names)}" for law, names in forms_left.items())
     if advice:
         step = ("plausible but not identifiable on these data: "
                 + "; ".join(f"{a['effect']} ({a['why']})" for a in advice)
@@ -185,22 +189,6 @@ def _unexplained(job, samples, d, advice, candidates):
                 "library) and run the diagnosis again")
     return evidence, step
 
-
-def forms_not_offered(job):
-    """The library's forms whose slot the user's model has that the job neither offers nor has added (nor has
-    filled the slot of, in a later round), grouped by the law they replace: {law: [form, ...]}.
-
-    Parameters
-    ----------
-    job : cosim.diagnose.job.DiagnoseJob
-    """
-    source, model = job.user_model
-    filled = {EFFECTS[n].slot for n in job.adopted}
-    left = {}
-    for name in applicable(Path(source).read_text(encoding="utf-8"), model, forms=True):
-        if name not in job.effects and name not in job.adopted and EFFECTS[name].slot not in filled:
-            left.setdefault(EFFECTS[name].law, []).append(name)
-    return left
 
 
 def _shows(entry):

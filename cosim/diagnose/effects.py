@@ -24,8 +24,8 @@ from pathlib import Path
 from cosim.modelica_text import class_chain, replaceables
 from cosim.errors import ConfigError, EffectSlotError
 
-__all__ = ["EffectParameter", "Effect", "Slot", "EFFECTS", "effect_names", "applicable", "get_effect", "slots",
-           "write_variant", "variant_text"]
+__all__ = ["EffectParameter", "Effect", "Slot", "EFFECTS", "effect_names", "applicable", "forms_not_offered",
+           "get_effect", "slots", "write_variant", "variant_text"]
 
 
 @dataclass(frozen=True)
@@ -104,6 +104,20 @@ class Slot:
 
 def _same(*names):
     return tuple((n, n) for n in names)
+
+
+def _drag_form(name, block, tag, title, signature):
+    """A form of the drive's friction (slot drive.drag): its breakaway torque T_s<tag>, from the fitted T_c0, and its
+    Stribeck speed w_s<tag> fitted; shown at slow, steady motor speeds."""
+    return Effect(
+        name=name, title=title,
+        parameters=(EffectParameter(f"T_s{tag}", "T_c0", 0.0, 0.05, "N.m", f"Breakaway friction torque of the drive "
+                                    f"({name})"),
+                    EffectParameter(f"w_s{tag}", 0.5, 0.01, 10.0, "rad/s", f"Stribeck speed of the drive's friction "
+                                    f"({name})")),
+        slot="drive.drag", replacement=block, bindings=(("T_s", f"T_s{tag}"), ("w_s", f"w_s{tag}")),
+        signature=signature, shown_by="speed run: slow speeds under a PI speed loop, current and encoder at 1 kHz",
+        shown_in="diagnose_speed.toml", law="the drive's friction law (the motor-side drag)")
 
 
 EFFECTS = {
@@ -247,31 +261,15 @@ EFFECTS = {
         shown_by="slide: the jaws stop and restart against the guides, current and encoder at 1 kHz",
         law="the jaw guides' friction law",
     ),
-    "stribeck_drag": Effect(
-        name="stribeck_drag",
-        title="the drive's friction on a Stribeck curve: breakaway T_sd falling to T_c0 above w_sd, held by the "
-              "bristle",
-        parameters=(EffectParameter("T_sd", "T_c0", 0.0, 0.05, "N.m", "Breakaway friction torque of the drive",
-                                    starts=(0.02,)),
-                    EffectParameter("w_sd", 0.5, 0.01, 10.0, "rad/s", "Stribeck speed of the drive's friction")),
-        slot="drive.drag", replacement="Gripper.Forms.StribeckDrag", bindings=(("T_s", "T_sd"), ("w_s", "w_sd")),
-        signature="more friction at low motor speed: slow motion takes more current than fast",
-        shown_by="speed run: slow speeds under a PI speed loop, current and encoder at 1 kHz",
-        shown_in="diagnose_speed.toml", law="the drive's friction law (the motor-side drag)",
-    ),
-    "lugre_drag": Effect(
-        name="lugre_drag",
-        title="LuGre friction in the drive: a bristle plastic from the first motion (no elastic range), its level "
-              "on a Stribeck curve from T_sl to T_c0 above w_sl",
-        parameters=(EffectParameter("T_sl", "T_c0", 0.0, 0.05, "N.m", "Breakaway friction torque of the drive "
-                                    "(LuGre)", starts=(0.02,)),
-                    EffectParameter("w_sl", 0.5, 0.01, 10.0, "rad/s", "Stribeck speed of the drive's friction "
-                                    "(LuGre)")),
-        slot="drive.drag", replacement="Gripper.Forms.LuGreDrag", bindings=(("T_s", "T_sl"), ("w_s", "w_sl")),
-        signature="a held shaft creeps under a varying load; more friction at low motor speed",
-        shown_by="speed run: slow speeds under a PI speed loop, current and encoder at 1 kHz",
-        shown_in="diagnose_speed.toml", law="the drive's friction law (the motor-side drag)",
-    ),
+    "stribeck_drag": _drag_form(
+        "stribeck_drag", "Gripper.Forms.StribeckDrag", "d",
+        "the drive's friction on a Stribeck curve: breakaway T_sd falling to T_c0 above w_sd, held by the bristle",
+        "more friction at low motor speed: slow motion takes more current than fast"),
+    "lugre_drag": _drag_form(
+        "lugre_drag", "Gripper.Forms.LuGreDrag", "l",
+        "LuGre friction in the drive: a bristle plastic from the first motion (no elastic range), its level on a "
+        "Stribeck curve from T_sl to T_c0 above w_sl",
+        "a held shaft creeps under a varying load; more friction at low motor speed"),
     "load_exponent_mesh": Effect(
         name="load_exponent_mesh",
         title="a gear loss that grows as the transmitted torque to the power n_L (an efficiency that varies with "
@@ -402,6 +400,17 @@ def applicable(source_text, model, forms=False):
     model_slots = slots(source_text, model)
     return [name for name, effect in EFFECTS.items()
             if effect.is_form == forms and _fits(source_text, model, effect, model_slots)]
+
+
+def forms_not_offered(source_text, model, offered=(), added=()):
+    """The forms that apply to ``model`` and are neither ``offered`` nor ``added`` (earlier findings), less those
+    whose slot an ``added`` candidate fills, grouped by the law they replace: {law: [form, ...]}, library order."""
+    filled = {EFFECTS[n].slot for n in added}
+    left = {}
+    for name in applicable(source_text, model, forms=True):
+        if name not in offered and name not in added and EFFECTS[name].slot not in filled:
+            left.setdefault(EFFECTS[name].law, []).append(name)
+    return left
 
 
 # -- the variant's text -----------------------------------------------------------------------------------------

@@ -52,7 +52,7 @@ from scipy import stats
 from cosim.diagnose.advice import MAX_ADVISED, change_here, change_on, gap_locations, plausible
 from cosim.diagnose.analysis import branch_shapes, gap_shown, in_segment, rmse_per_signal, segment_table, whiteness
 from cosim.diagnose.answer import answer, verdict, why_plausible
-from cosim.diagnose.effects import EFFECTS
+from cosim.diagnose.effects import EFFECTS, forms_not_offered
 from cosim.diagnose.fitting import weighted
 from cosim.diagnose.kinds import record_slices
 from cosim.diagnose.result import Candidate, Diagnosis, ExperimentGap, RecordSummary, SegmentRow, Traces
@@ -62,6 +62,7 @@ from cosim.diagnose.tasks import (added_parameters, bic_penalty, fit_free, free_
                                   variant_of)
 from cosim.experiment import Experiment
 from cosim.parallel import map_here
+from cosim.tomldoc import read_text
 
 __all__ = ["load_samples", "estimate_noise", "split_segments",
            "score_candidates", "rivals_of", "decide", "show", "run_round", "advise", "experiment_gaps", "shown_by"]
@@ -370,7 +371,10 @@ def _diagnosis(job, samples, noise, split, scores, decision, shown, advice=()):
     gap_removed = float(1 - (ms_after - 1) / (ms_baseline - 1)) if ms_baseline > 1 else 0.0
     gaps = experiment_gaps(job, s, noise, base.outputs, shown.after)
     where = shown_by(gaps, job.min_delta_bic) if gaps and decision.winner is not None else ()
-    evidence, next_step = answer(job, s, decision, advice, segments, ms_after, gap_removed, scores.candidates)
+    source, user_model = job.user_model
+    left = forms_not_offered(read_text(source, "Modelica source"), user_model, job.effects, job.adopted) \
+        if decision.gap_found else {}
+    evidence, next_step = answer(job, s, decision, advice, segments, ms_after, gap_removed, scores.candidates, left)
     return Diagnosis(
         job=str(job.path), model=job.model, data=str(job.data_path),
         records=tuple(RecordSummary(path=str(path), parameters=trial, samples=len(r.time), compared=int(p.sum()),
