@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import brentq
 
-__all__ = ["K_T", "GAIN", "T_N", "staircase", "load_efficiency", "quasi_static_force", "make_case", "TRUTH_EFFECTS", "write_job",
-           "free_and_candidates"]
+__all__ = ["K_T", "GAIN", "T_N", "staircase", "load_efficiency", "quasi_static_force", "make_case", "TRUTH_EFFECTS",
+           "write_job", "free_and_candidates"]
 
 K_T = 0.0393939394           # N.m/A, torque constant at the motor shaft
 RATIO, R_P = 28.0, 0.008957  # gear ratio, pinion radius [m]
