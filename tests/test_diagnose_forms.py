@@ -25,7 +25,7 @@ from cosim.diagnose.effects import EFFECTS, forms_not_offered, write_variant
 from cosim.errors import ConfigError, EffectSlotError
 from cosim.experiment import Experiment
 
-from diagnose_truth import SOURCE, free_and_candidates, make_case
+from diagnose_truth import SOURCE, make_case
 from diagnose_truth import write_job as write_staircase_job
 from diagnose_truth_impact import (CONDITION, DURATION, FORCE_NOISE, I_STEP, PLAY_NOMINAL, RATE_HZ, T_STEP,
                                    measured_records, write_job)
@@ -212,33 +212,16 @@ def test_an_unexplained_gap_names_the_forms_not_offered(tmp_path):
 DRAG_SPEEDS = ((0.0, 0.0), (0.05, 0.15), (0.4, 0.4), (0.75, 1.0), (1.1, 2.5), (1.45, 0.6))
 DRAG_TRUTH = {"eta_g": 0.7, "T_c0": 7e-3, "T_sd": 0.014, "w_sd": 0.5}  # the plant's drag, breakaway 2x, w_s mid-range
 COUNT = 2 * np.pi / 2048
-SPEED_JOB = """[model]
-source = "{source}"
-name = "Gripper.GripperSpeedControlled"
-parameters = {{ gap0 = 0.015 }}
-[data]
-path = "speed.csv"
-inputs = {{ w_ref = "w_ref" }}
-[experiment]
-kind = "staircase"
-duration = 1.79
-min_hold_s = 0.1
-[compare]
-signals = [{{ output = "i_q", column = "i_q", noise = 0.002 }},
-           {{ output = "theta_m", column = "theta_m", noise = {count} }}]
-max_nfev = 20
-[decision]
-rounds = 1
-"""
 
 
 @pytest.mark.slow
 def test_a_drive_friction_of_another_form_is_named_on_a_speed_run(tmp_path):
     """The motor held at 0.15-2.5 rad/s by the speed loop, on a drive whose friction follows a Stribeck curve
     (breakaway 2 T_c0, w_s 0.5 rad/s; the StribeckDrag variant replayed, its block checked in
-    tests/test_gripper_forms.py): the current the loop takes falls with the speed, which Coulomb drag and viscous
-    damping cannot do. Offered cogging and the two drag forms, the drive's friction law is named as of another
-    form, with the breakaway torque within 3 % and the Stribeck speed within 15 %, and 90 % of the gap removed.
+    tests/test_gripper_forms.py), diagnosed by the shipped speed job: the current the loop takes falls with the
+    speed, which Coulomb drag and viscous damping cannot do. Offered cogging and the two drag forms, the drive's
+    friction law is named as of another form, with the breakaway torque within 3 % and the Stribeck speed within
+    15 %, and 90 % of the gap removed.
     Which of the two forms is named the held-out segments decide by the transients (their steady curves are one):
     measured, lugre_drag, the Stribeck form's second fold stopping at another minimum (eta_g 0.37, w_s 0.91)."""
     t = np.round(np.arange(0, 1.8, 1e-3), 6)
@@ -253,10 +236,10 @@ def test_a_drive_friction_of_another_form_is_named_on_a_speed_run(tmp_path):
     rng = np.random.default_rng(DRIVE_SEED)
     pd.DataFrame({"time": t, "w_ref": w_ref, "i_q": current + rng.normal(0, 0.01, len(t)),
                   "theta_m": np.floor(theta / COUNT) * COUNT}).to_csv(tmp_path / "speed.csv", index=False)
-    job = tmp_path / "job.toml"
-    job.write_text(SPEED_JOB.format(source=SOURCE.as_posix(), count=COUNT) +
-                   free_and_candidates(0.68, 7.88e-3, ["cogging", "stribeck_drag", "lugre_drag"], 2), encoding="utf-8")
-    d = run_diagnosis(load_diagnose_job(job), progress=False, build=False)
+    job = load_diagnose_job(EXAMPLES / "diagnose_speed.toml", [  # the shipped speed job on these data
+        f"data.path={(tmp_path / 'speed.csv').as_posix()}", f"experiment.duration={t[-1]}",
+        'candidates.effects=["cogging"]', 'candidates.forms=["stribeck_drag", "lugre_drag"]', "decision.rounds=1"])
+    d = run_diagnosis(job, progress=False, build=False)
     assert d.findings in (["stribeck_drag"], ["lugre_drag"]), d.verdict
     assert d.verdict.startswith(f"{DRIVE_LAW} is of another form: {d.findings[0]}"), d.verdict
     tag = {"stribeck_drag": "d", "lugre_drag": "l"}[d.findings[0]]  # T_sd, w_sd or T_sl, w_sl
