@@ -307,3 +307,48 @@ def test_a_matrix_output_of_a_function_assigned_element_by_element(tmp_path):
     m = lower(path, "T.M")
     assert dict(zip([o.name for o in m.outputs], m.output_values([], []))) == {
         "y[1,1]": 1.0, "y[1,2]": 2.0, "y[2,1]": 3.0, "y[2,2]": 4.0}
+
+
+FIRST_DIFFERENCE = """
+  model M
+    function firstDifference "the MSL's Matrices.isEqual, a while loop that ends early by moving its index"
+      input Real a[:];
+      input Real b[:];
+      output Integer k;
+    protected
+      Integer i = 1;
+    algorithm
+      k := 0;
+      while i <= size(a, 1) loop
+        if abs(a[i] - b[i]) > 0 then
+          k := i;
+          i := size(a, 1);
+        end if;
+        i := i + 1;
+      end while;
+    end firstDifference;
+    parameter Real t[4] = {T};
+    Real x(start = 0, fixed = true);
+  equation
+    der(x) = firstDifference(t, {0, 1, 1, 0});
+  end M;"""
+
+
+def _first_difference(t, b=(0, 1, 1, 0)):
+    differ = np.flatnonzero(np.asarray(t, dtype=float) != b)
+    return int(differ[0]) + 1 if differ.size else 0
+
+
+@pytest.mark.parametrize("t", [[0, 1, 1, 0], [0.5, 1, 1, 0], [0, 1, 0.5, 0], [0, 1, 1, 2]])
+def test_a_while_loop_that_leaves_early_reads_no_element_past_its_end(tmp_path, t):
+    """rumoca unrolls the while loop into guarded passes; the guard of the pass after the end (i = 5) is false,
+    and the pass's a[5] is not evaluated (it stopped the build: a subscript outside the array). Where the loop's
+    course was decided on the parameters' values, those parameters are constants of the FMU; an element the
+    result follows at run time stays tunable, and a new value of it gives the result of the new table."""
+    path = write_package(tmp_path, FIRST_DIFFERENCE.replace("{T}", "{" + ", ".join(map(str, t)) + "}"))
+    m = lower(path, "T.M")
+    assert _call(m.ode, [0.0], [], _defaults(m), 0.0) == pytest.approx([_first_difference(t)])
+    tuned = list(t)
+    for p in m.parameters:
+        tuned[int(p.name[2:-1]) - 1] = 7.0
+    assert _call(m.ode, [0.0], [], [7.0] * len(m.parameters), 0.0) == pytest.approx([_first_difference(tuned)])

@@ -164,6 +164,7 @@ class _Translator:
         self.call_serials = itertools.count()
         self.tables = tables.Registry()  # the MSL table blocks' table objects (external C functions lowered)
         self.function_asserts = []  # (failed, "file:line: message") of asserts inside inlined functions
+        self.structural = set()  # parameter elements whose build-time values the lowering decided on
 
     def where(self, node_id):
         prov = self.provenance[node_id] if node_id < len(self.provenance) else None
@@ -244,11 +245,7 @@ class _Translator:
         elif kind == "builtin":
             return self._builtin(i, body["builtin"], ctx)
         elif kind == "conditional":
-            args = [self.expr(j, ctx) for j in self.operands[i]]
-            result = args[-1]
-            for c, e in reversed(list(zip(args[:-1:2], args[1:-1:2]))):
-                result = ca.if_else(c, e, result)
-            return result
+            return self._conditional(i, ctx)
         elif kind == "call":
             return self._call(i, body, ctx)
         elif kind == "runtime_quotient_owner" and body.get("builtin") in integer_events.QUOTIENT_MODES:
@@ -257,6 +254,36 @@ class _Translator:
             return ctx["defs"][body["definition_ordinal"]]
         what = body.get("operator") or body.get("builtin") if isinstance(body, dict) else None
         self.unsupported(f"the construct {kind}{' ' + what if what else ''}", self.provenance[i])
+
+    def _conditional(self, i, ctx):
+        """An if-expression, evaluated as Modelica does: a branch whose condition is constant false is not
+        evaluated, nor those after one constant true. A branch that cannot be evaluated (a subscript out of
+        range, as in the guarded passes rumoca makes of a ``while`` loop) is left out when the parameters'
+        bindings show it is not taken; otherwise its error stands."""
+        operands = self.operands[i]
+        arms = []  # (condition, or None for the last branch reached; branch node)
+        for c_node, e_node in list(zip(operands[:-1:2], operands[1:-1:2])) + [(None, operands[-1])]:
+            c = None if c_node is None else self.expr(c_node, ctx)
+            if c is not None and c.is_constant():
+                if float(ca.evalf(c)) == 0.0:
+                    continue
+                c = None
+            arms.append((c, e_node))
+            if c is None:
+                break
+        values, reached = [], ca.SX(1)
+        for c, e_node in arms:
+            try:
+                values.append((c, self.expr(e_node, ctx)))
+            except UnsupportedConstructError:
+                if self.at_build_time(reached if c is None else ca.logic_and(reached, c)) != 0.0:
+                    raise
+            if c is not None:
+                reached = ca.logic_and(reached, ca.logic_not(c))
+        result = None
+        for c, value in reversed(values):
+            result = value if result is None or c is None else ca.if_else(c, value, result)
+        return result
 
     def _coordinate(self, i, body, ctx):
         if body == "time":
@@ -375,21 +402,29 @@ class _Translator:
         return ctx
 
     def integer(self, value, node_id):
-        """An integer the build must know (a subscript, a size, a loop bound): parameters are replaced by
-        their bindings until none is left."""
+        """An integer the build must know (a subscript, a size, a loop bound), from the parameters' bindings."""
+        number = self.at_build_time(value)
+        if number is not None and number == round(number):
+            return int(round(number))
+        self.reject(f"an array size, subscript or loop range that is not an Integer known at build time ({value})",
+                    self.provenance[node_id])
+
+    def at_build_time(self, value):
+        """The number a scalar expression has at build time, its parameters replaced by their bindings until
+        none is left; None when one has no binding. Those parameters become structural (not tunable): what the
+        build decided from their values holds for those values only."""
+        used = set()
         for _ in range(len(self.element_of) + 1):
             free = ca.symvar(value)
             if not free:
-                number = float(ca.evalf(value))
-                if number == round(number):
-                    return int(round(number))
-                break
+                self.structural.update(used)
+                return float(ca.evalf(value))
             bindings = [self._binding(s.name()) for s in free]
             if any(b is None for b in bindings):
-                break
+                return None
+            used.update(s.name() for s in free)
             value = ca.substitute(value, ca.vertcat(*free), ca.vertcat(*bindings))
-        self.reject(f"an array size, subscript or loop range that is not an Integer known at build time ({value})",
-                    self.provenance[node_id])
+        return None
 
     def _binding(self, name):
         """The binding of a parameter element, None for anything else."""
@@ -457,8 +492,8 @@ class _Translator:
                        for name, s in zip(self._element_names(raw[i]), arrays.elements(der))}
         self.reader.system.asserts += self.function_asserts
         events = self.reader.read()
-        for var in variables:  # a table's data are numbers in its expressions: constants of the FMU
-            if var.name in self.tables.frozen:
+        for var in variables:  # numbers the build decided on (table data, subscripts): constants
+            if var.name in self.tables.frozen or var.name in self.structural:
                 var.tunable = False
         return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, events)
 
