@@ -75,8 +75,14 @@ def check_divisions(model, source):
                                 "in its equations", file=file, line=line)
         if not denominators:
             continue
-        values = [np.full(i.numel(), np.nan) for i in inputs]
-        values[2] = model.parameter_values  # x, u, t (and a hybrid model's memory) unknown: NaN
+        # Only those of parameters and constants: NaN for x, u, t and the memory would not do, as a condition
+        # NaN is true (a Boolean's both values in one expression, at an impossible combination, gave 0).
+        others = ca.vertcat(*(i for k, i in enumerate(inputs) if k != 2))
+        denominators = [d for d in denominators if not ca.depends_on(d, others)]
+        if not denominators:
+            continue
+        values = [np.zeros(i.numel()) for i in inputs]
+        values[2] = model.parameter_values
         found = ca.Function("denominators", inputs, [ca.vertcat(*denominators)])(*values)
         for d, v in zip(denominators, np.array(found, dtype=float).ravel()):
             if v == 0.0:

@@ -20,6 +20,8 @@ __all__ = ["lower_system"]
 
 # Which redundant state to demote first when a constraint ties states together.
 _DEMOTE_ORDER = {"never": 0, "avoid": 1, "default": 2, "prefer": 3, "always": 4}
+# Draws of the discrete values before a linear block that reads them is judged singular.
+_DISCRETE_DRAWS = 64
 
 
 def _names(expr):
@@ -135,8 +137,9 @@ class _Blocks:
         self.constraints = []   # (expression in knowns, location)
 
 
-def _causalise(equations, unknowns, state_names):
-    """Solve ``0 = equations`` for ``unknowns`` (SX symbols) in terms of everything else."""
+def _causalise(equations, unknowns, state_names, discrete=frozenset()):
+    """Solve ``0 = equations`` for ``unknowns`` (SX symbols) in terms of everything else; ``discrete``: the names
+    of the values held between events (Booleans, modes)."""
     result = _Blocks()
     index = {u.name(): u for u in unknowns}
     exprs = [e for e, _ in equations]
@@ -178,12 +181,14 @@ def _causalise(equations, unknowns, state_names):
         pending = remaining
     if result.constraints or not pending:
         return result
-    _solve_blocks(result, pending, exprs, locs, index, refresh)
+    _solve_blocks(result, pending, exprs, locs, (index, discrete), refresh)
     return result
 
 
-def _solve_blocks(result, pending, exprs, locs, index, refresh):
-    """Match the remaining equations to unknowns, order their strongly connected blocks and solve each."""
+def _solve_blocks(result, pending, exprs, locs, symbols, refresh):
+    """Match the remaining equations to unknowns, order their strongly connected blocks and solve each.
+    ``symbols``: the unknowns by name, and the names of the discrete values."""
+    index, discrete = symbols
     incidence = {i: refresh(i) for i in pending}
     cols = sorted({n for ns in incidence.values() for n in ns})
     if len(cols) != len(pending):
@@ -223,7 +228,7 @@ def _solve_blocks(result, pending, exprs, locs, index, refresh):
         residual = ca.vertcat(*[exprs[pending[r]] for r in members])
         jac = ca.jacobian(residual, unknowns)
         if not ca.depends_on(jac, unknowns):
-            _check_generic_rank(jac, [locs[pending[r]] for r in members])
+            _check_generic_rank(jac, [locs[pending[r]] for r in members], discrete)
             rhs = -ca.substitute(residual, unknowns, ca.SX.zeros(unknowns.shape))
             solution = rhs / jac if unknowns.numel() == 1 else ca.solve(jac, rhs)
             for k in range(unknowns.numel()):
@@ -234,15 +239,23 @@ def _solve_blocks(result, pending, exprs, locs, index, refresh):
                 result.solved[unknowns[k].name()] = unknowns[k]
 
 
-def _check_generic_rank(jac, locations):
-    """A linear block singular at a random point of its symbols is singular everywhere (with probability 1)."""
+def _check_generic_rank(jac, locations, discrete=frozenset()):
+    """A linear block singular at a random point of its symbols is singular everywhere (with probability 1). Not
+    so for the discrete values among them: at 0.5..1.5 every Boolean is true, a combination the model may never
+    reach (LossyGear: ideal and locked). The block is singular when it is at every draw of them too, each an
+    integer of -1..3 (Booleans, the friction elements' modes)."""
     symbols = ca.symvar(jac)
-    values = np.random.default_rng(12345).uniform(0.5, 1.5, len(symbols))
-    numeric = ca.Function("block_jacobian", [ca.vertcat(*symbols)], [jac])(values) if symbols else ca.evalf(jac)
-    if np.linalg.matrix_rank(np.array(ca.DM(numeric), dtype=float)) < jac.shape[0]:
-        raise StructureError(
-            f"the linear equations at {', '.join(sorted(set(locations)))} are singular: they do not determine "
-            "their unknowns (a redundant or missing equation)", *_file_line(locations[0]))
+    rng = np.random.default_rng(12345)
+    held = np.array([s.name() in discrete for s in symbols], dtype=bool)
+    jacobian = ca.Function("block_jacobian", [ca.vertcat(*symbols)], [jac]) if symbols else (lambda _: ca.evalf(jac))
+    for draw in range(1 + (_DISCRETE_DRAWS if held.any() else 0)):
+        values = rng.uniform(0.5, 1.5, len(symbols))
+        if draw:
+            values[held] = rng.integers(-1, 4, int(held.sum()))
+        if np.linalg.matrix_rank(np.array(ca.DM(jacobian(values)), dtype=float)) == jac.shape[0]:
+            return
+    raise StructureError(f"the linear equations at {', '.join(sorted(set(locations)))} are singular: they do not "
+                         "determine their unknowns (a redundant or missing equation)", *_file_line(locations[0]))
 
 
 def _pick_state_to_demote(constraint, states, demoted):
@@ -259,10 +272,11 @@ def _reduce_index(system, equations, states, ders, algebraics, input_names):
     one of its states to an algebraic and add the constraint's time derivative (index reduction). Returns the
     blocks, the demoted states' indices and a note for each."""
     demoted, extra, reduction_notes = [], [], []
+    discrete = set() if system.events is None else {s.name() for s in hybrid.memory_symbols(system.events)}
     for _ in range(len(states) + 1):
         unknowns = ders + [z.sym for z in algebraics] + [states[k].sym for k in demoted]
         active_names = {s.name for k, s in enumerate(states) if k not in demoted}
-        blocks = _causalise(equations + extra, unknowns, active_names)
+        blocks = _causalise(equations + extra, unknowns, active_names, discrete)
         if not blocks.constraints:
             break
         progressed = False
