@@ -524,7 +524,7 @@ def event_part(events, ctx, M):
     state_relations = [r for r in events.relations if r.kind == "state"]
     z_steps = [g for s in events.steps if s.kind == "state" for g in integer_events.indicators(s)]
     z = ca.Function("z", [ctx.X, ctx.U, ctx.P, ctx.T, M, _vec(ctx.W)],
-                    [_vec([r.g for r in state_relations] + z_steps)])
+                    [_vec([_relation_indicator(r) for r in state_relations] + z_steps)])
     indicators = ca.Function("indicators", [Xm, Um, Pm, Tm, Mm],
                              [z(Xm, Um, Pm, Tm, Mm, ctx.w_value(Xm, Um, Pm, Tm, Mm))], names + ["m"], ["z"])
     return EventPart(
@@ -533,6 +533,15 @@ def event_part(events, ctx, M):
         initial=initial, next_time=_next_time(events, ctx, M), terminal=terminal,
         messages=tuple(msg for _, msg in events.asserts) + tuple(msg for _, msg in events.terminates[:1]),
     )
+
+
+def _relation_indicator(rel):
+    """A state relation's event indicator: ``g``, and exactly 0 a DBL_MIN off on the side of the relation's held
+    value, as the steps' are (integer_events.indicators). A ``g`` that starts at 0 and leaves it to the side that
+    flips the relation is then a crossing a solver sees: CVode ignores a root at its initial point (fmpy's missed
+    ``w_a < 0`` of LossyGear, whose w_a starts at 0)."""
+    above = rel.sym if rel.op in ("greater", "greater_equal") else ca.logic_not(rel.sym)
+    return rel.g + ca.if_else(above, integer_events.DBL_MIN, -integer_events.DBL_MIN)
 
 
 def _discrete_variable(v, events, ctx):

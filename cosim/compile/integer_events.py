@@ -28,7 +28,7 @@ MODES = {"floor": "floor", "integer": "floor", "ceil": "ceil"}
 QUOTIENT_MODES = {"mod": "floor", "div": "trunc", "rem": "trunc"}
 # Nodes rumoca 0.10.2 generates after a model's runtime_quotient_owner and leaves out of its wire IR.
 _OWNER_HIDDEN_NODES = 6
-_DBL_MIN = sys.float_info.min
+DBL_MIN = sys.float_info.min
 
 
 @dataclass
@@ -76,7 +76,7 @@ def indicators(step):
     lo, hi = bounds(step.mode, k)
     closed_lo = {"floor": 1, "ceil": 0}.get(step.mode, k > 0)
     closed_hi = {"floor": 0, "ceil": 1}.get(step.mode, k < 0)
-    return [step.arg - lo + closed_lo * _DBL_MIN, hi - step.arg + closed_hi * _DBL_MIN]
+    return [step.arg - lo + closed_lo * DBL_MIN, hi - step.arg + closed_hi * DBL_MIN]
 
 
 def right_limit(step, arg, T, tolerance, initial):
