@@ -4,6 +4,7 @@ against closed forms of the hand-written equations."""
 
 import numpy as np
 import pytest
+from fmpy.fmi1 import FMICallException
 
 from cosim.compile import build_fmu
 from modelica_support import simulate, write_package
@@ -25,6 +26,11 @@ MODELS = """
   equation
     der(x) = if x < 0 then -1 else -2;
   end FromZero;
+  model Chatter "a sliding mode: x reaches 0 and then crosses it at every step"
+    Real x(start = 0.5, fixed = true);
+  equation
+    der(x) = if x > 0 then -1 else 1;
+  end Chatter;
 """
 
 FMI_TYPES = ["ModelExchange", "CoSimulation"]
@@ -63,3 +69,13 @@ def test_a_relation_whose_argument_starts_at_zero_flips_as_soon_as_the_argument_
     # root at its initial point: Model Exchange gave x = -2t, and Co-Simulation saw the event one step late.
     r = simulate(fmu("FromZero"), fmi_type, ["x"], 1.0)
     np.testing.assert_allclose(r["x"], -r["time"], atol=1e-9)
+
+
+def test_chattering_under_model_exchange_is_an_error_of_the_fmu_not_an_endless_run(fmu):
+    # x' = -1 above 0 and +1 below: x = 0.5 - t reaches 0 at t = 0.5, then crosses it at every step. fmpy's CVode
+    # went on from event to event without end (the MSL's Rotational.Examples.Friction: 11 minutes, 4.8 GB of
+    # rows); the FMU refuses the 100th event in a row within 1e-8 s of the last, as its Co-Simulation does.
+    with pytest.raises(FMICallException, match="EnterEventMode"):
+        simulate(fmu("Chatter"), "ModelExchange", ["x"], 1.0)
+    with pytest.raises(FMICallException, match="DoStep"):
+        simulate(fmu("Chatter"), "CoSimulation", ["x"], 1.0)

@@ -236,7 +236,7 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
 
 fmi2Status fmi2EnterEventMode(fmi2Component c) {
     ((Fmu2 *)c)->mode = MODE_EVENT;
-    return fmi2OK;
+    return status(model_count_event(((Fmu2 *)c)->model));
 }
 
 fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {

@@ -109,7 +109,7 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
     ((Fmu3 *)instance)->mode = MODE_EVENT;
-    return fmi3OK;
+    return status(model_count_event(((Fmu3 *)instance)->model));
 }
 
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance) {

@@ -56,6 +56,8 @@ void model_reset(Model *s) {
     memcpy(s->m, M_START, N_M * sizeof(double));
     memset(s->x_set, 0, sizeof s->x_set);
     memset(s->z_side, 0, sizeof s->z_side);
+    s->last_event = -INFINITY;
+    s->events_in_a_row = 0;
     s->cs_step = CS_STEP;
     s->cs_method = CS_METHOD;
     model_touch(s);
@@ -458,9 +460,21 @@ static int internal_step(Model *s, double t_end, double next_event, int *event) 
     return CORE_OK;
 }
 
+/* An event at s->t: an error when it is the MAX_EVENTS_IN_A_ROW-th in a row each within CHATTER_WINDOW of the
+ * last (chattering), in model_do_step and at an importer's event mode alike: an importer's solver would otherwise
+ * go on from event to event without end (fmpy's CVode on the MSL's Rotational.Examples.Friction). */
+int model_count_event(Model *s) {
+    s->events_in_a_row = s->t - s->last_event < CHATTER_WINDOW ? s->events_in_a_row + 1 : 0;
+    s->last_event = s->t;
+    if (s->events_in_a_row < MAX_EVENTS_IN_A_ROW) return CORE_OK;
+    logf_(s, 1, "t = %.17g: %s events in a row, each within 1e-8 s of the last (chattering)", s->t,
+          "MAX_EVENTS_IN_A_ROW (100)");
+    return CORE_ERROR;
+}
+
 int model_do_step(Model *s, double t_end, int *terminated) {
-    double next_event, last_event = -INFINITY;
-    int event, in_a_row = 0;
+    double next_event;
+    int event;
     *terminated = 0;
     /* the importer may have changed inputs or parameters since the last step: an event iteration at the start
      * sees the relations and edges they flipped (a converged one changes nothing) */
@@ -470,13 +484,7 @@ int model_do_step(Model *s, double t_end, int *terminated) {
         if (next_event <= s->t) next_event = INFINITY;  /* next_time is strictly later; never step backward */
         if (internal_step(s, t_end, next_event, &event)) return CORE_ERROR;
         if (!event) continue;
-        in_a_row = s->t - last_event < CHATTER_WINDOW ? in_a_row + 1 : 0;
-        last_event = s->t;
-        if (in_a_row >= MAX_EVENTS_IN_A_ROW) {
-            logf_(s, 1, "t = %.17g: %s events in a row, each within 1e-8 s of the last (chattering)", s->t,
-                  "MAX_EVENTS_IN_A_ROW (100)");
-            return CORE_ERROR;
-        }
+        if (model_count_event(s)) return CORE_ERROR;
         if (model_event_iteration(s, terminated)) return CORE_ERROR;
         if (*terminated) return CORE_OK;
         next_event = model_next_time(s);

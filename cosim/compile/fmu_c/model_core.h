@@ -26,8 +26,9 @@
 #define CS_IMPLICIT_EULER 1  /* implicit Euler, Newton with the exact Jacobian of ode w.r.t. x (stiff plants) */
 
 /* Events inside model_do_step: a state event is located to a bracket of EVENT_TOL seconds; event iteration
- * stops with an error after MAX_EVENT_PASSES passes at one instant, and model_do_step after MAX_EVENTS_IN_A_ROW
- * events each within CHATTER_WINDOW of the last (chattering). The same rules as the master's (plant.py). */
+ * stops with an error after MAX_EVENT_PASSES passes at one instant, and model_do_step (or an importer's event
+ * mode: model_count_event) after MAX_EVENTS_IN_A_ROW events each within CHATTER_WINDOW of the last
+ * (chattering). The same rules as the master's (plant.py). */
 #define EVENT_TOL 1e-10
 #define CHATTER_WINDOW (100 * EVENT_TOL)
 #define MAX_EVENT_PASSES 100
@@ -43,6 +44,8 @@ typedef struct {
     double v[N_OBS + 1], q[N_Q + 1];  /* the local variables (observe) and the calculated parameters */
     int x_set[N_X + 1];          /* state set by the importer before initialisation (x0 does not override) */
     double z_side[N_Z + 1];      /* sign of each indicator when continuous time last began (0: not known) */
+    double last_event;           /* time of the last event (model_count_event), -inf before the first */
+    int events_in_a_row;         /* events since the last that was over CHATTER_WINDOW after its predecessor */
     int fresh_xdot, fresh_y, fresh_z, fresh_v, fresh_q;  /* cached results valid for the current t, x, u, p, m */
     double cs_step;              /* internal step of model_do_step, s (value reference VR_CS: _cs_step) */
     int cs_method;               /* CS_RK4 or CS_IMPLICIT_EULER (value reference VR_CS + 1: _cs_method) */
@@ -84,6 +87,7 @@ int model_event_iteration(Model *s, int *terminated);
  * iteration at each; a hybrid model also iterates its events at the start (inputs may have changed).
  * s->t == t_end on return unless *terminated (then s->t is the instant terminate() fired). */
 int model_do_step(Model *s, double t_end, int *terminated);
+int model_count_event(Model *s);
 
 /* sensitivity = d(unknown)/d(known) seed at the current point, exact (CasADi forward mode). known: value
  * references of states and inputs; unknown: state derivatives, outputs, states. */
