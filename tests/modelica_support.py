@@ -6,12 +6,26 @@ import textwrap
 import fmpy
 import numpy as np
 
+from cosim.compile import build_fmu
+
 
 def write_package(folder, body):
     """``folder/T.mo`` holding ``package T`` around ``body`` (dedented; its first line is line 2 of the file)."""
     path = folder / "T.mo"
     path.write_text("package T\n" + textwrap.dedent(body).strip("\n") + "\nend T;\n")
     return path
+
+
+def fmu_builder(package):
+    """``get(name)``: the FMU of the package's model ``T.<name>``, built on first use into the package's folder."""
+    built = {}
+
+    def get(name):
+        if name not in built:
+            built[name] = build_fmu(package, f"T.{name}", out_dir=package.parent / "fmus")
+        return built[name]
+
+    return get
 
 
 def simulate(fmu_path, fmi_type, outputs, stop_time, **options):

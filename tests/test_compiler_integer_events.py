@@ -10,7 +10,7 @@ import pytest
 
 from cosim.compile import build_fmu, lower
 from cosim.errors import ModelicaError
-from modelica_support import away, event_instants, simulate, write_package
+from modelica_support import away, event_instants, fmu_builder, simulate, write_package
 
 MSL = Path("/work/shared/msl/ModelicaStandardLibrary-4.1.0")
 
@@ -124,14 +124,7 @@ def package(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def fmu(package):
-    built = {}
-
-    def get(name):
-        if name not in built:
-            built[name] = build_fmu(package, f"T.{name}", out_dir=package.parent / "fmus")
-        return built[name]
-
-    return get
+    return fmu_builder(package)
 
 
 def integral_of_piecewise_constant(t, edges, values):

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from cosim.compile import build_fmu
-from modelica_support import simulate, write_package
+from modelica_support import fmu_builder, simulate, write_package
 
 MODELS = """
   model Modes "a linear pair singular only where p and q are both true, which q = not p never lets happen"
@@ -38,15 +37,7 @@ FMI_TYPES = ["ModelExchange", "CoSimulation"]
 
 @pytest.fixture(scope="module")
 def fmu(tmp_path_factory):
-    package = write_package(tmp_path_factory.mktemp("modes"), MODELS)
-    built = {}
-
-    def get(name):
-        if name not in built:
-            built[name] = build_fmu(package, f"T.{name}", out_dir=package.parent / "fmus")
-        return built[name]
-
-    return get
+    return fmu_builder(write_package(tmp_path_factory.mktemp("modes"), MODELS))
 
 
 @pytest.mark.parametrize("fmi_type", FMI_TYPES)
