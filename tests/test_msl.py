@@ -82,6 +82,7 @@ VERIFIED = [
     "Modelica.Mechanics.Rotational.Examples.EddyCurrentBrake",
     "Modelica.Mechanics.Rotational.Examples.First",
     "Modelica.Mechanics.Rotational.Examples.FirstGrounded",
+    "Modelica.Mechanics.Rotational.Examples.LossyGearDemo1",
     "Modelica.Mechanics.Rotational.Examples.RollingWheel",
     "Modelica.Mechanics.Translational.Examples.Accelerate",
     "Modelica.Mechanics.Translational.Examples.Damper",
