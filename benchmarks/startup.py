@@ -9,7 +9,10 @@ phase; the whole process is timed from outside. Prints min and median over the r
 * ``precompiled``: what ``cosim build`` leaves (a new cache folder per run, filled by
   ``cosim.master.compiled.precompile`` with the shipped controllers first): a new user's first run.
 
-    python benchmarks/startup.py [--config examples/gripper_impact.toml] [--runs 3] [--cache warm]
+    python benchmarks/startup.py [--config examples/gripper_impact.toml] [--runs 3] [--cache warm] [--validation]
+
+``--validation`` measures the three caches one after the other (precompiled, warm, fresh) and writes the table
+into docs/validation.md (section ``startup``).
 """
 
 import argparse
@@ -72,28 +75,27 @@ def one_run(config, out, cache=None):
     return phases
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--config", default="examples/gripper_impact.toml")
-    parser.add_argument("--runs", type=int, default=3)
-    parser.add_argument("--cache", choices=("warm", "fresh", "precompiled"), default="warm",
-                        help="what numba's cache holds when a run starts (see above)")
-    args = parser.parse_args()
-    runs = []
+def measure(config, runs, cache):
+    """The phases of ``runs`` fresh processes of ``cosim run config``, numba's cache holding ``cache`` at each start."""
+    measured = []
     with tempfile.TemporaryDirectory(prefix="cosim-startup-") as out:
-        if args.cache == "warm":
-            one_run(args.config, out)  # warm-up: numba's cache
+        if cache == "warm":
+            one_run(config, out)  # warm-up: numba's cache
         else:  # once, copied into each run's new folder
             filled = f"{out}/precompiled"
             os.makedirs(filled)
-            if args.cache == "precompiled":
+            if cache == "precompiled":
                 subprocess.run([sys.executable, "-c", PRECOMPILE], check=True,
                                env={**os.environ, "XDG_CACHE_HOME": filled, "NUMBA_CACHE_DIR": ""})
-        for i in range(args.runs):
-            cache = None if args.cache == "warm" else shutil.copytree(filled, f"{out}/cache{i}")
-            runs.append(one_run(args.config, out, cache))
-    print(f"cosim run {args.config}: {args.runs} fresh processes, cache {args.cache}, load average "
-          f"{os.getloadavg()[0]:.1f}")
+        for i in range(runs):
+            folder = None if cache == "warm" else shutil.copytree(filled, f"{out}/cache{i}")
+            measured.append(one_run(config, out, folder))
+    return measured
+
+
+def report(config, cache, runs):
+    """Print the phases' min and median."""
+    print(f"cosim run {config}: {len(runs)} fresh processes, cache {cache}, load average {os.getloadavg()[0]:.1f}")
     print(f"{'phase':<16}{'min s':>8}{'median s':>10}")
     for phase in (*PHASES, "whole process"):
         values = [r[phase] for r in runs]
@@ -101,6 +103,36 @@ def main():
     interpreter = [r["whole process"] - sum(r[p] for p in PHASES) for r in runs]
     print(f"{'interpreter':<16}{min(interpreter):>8.3f}{statistics.median(interpreter):>10.3f}  "
           "(start-up and exit: the whole process less the phases)")
+
+
+CACHES = {"precompiled": "precompiled (a first run after `cosim build`)", "warm": "warm (a second run)",
+          "fresh": "fresh (a first run without `cosim build`'s cache)"}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", default="examples/gripper_impact.toml")
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--cache", choices=tuple(CACHES), default="warm",
+                        help="what numba's cache holds when a run starts (see above)")
+    parser.add_argument("--validation", action="store_true",
+                        help="measure every cache and write the table into docs/validation.md")
+    args = parser.parse_args()
+    rows = []
+    for cache in CACHES if args.validation else (args.cache,):
+        runs = measure(args.config, args.runs, cache)
+        report(args.config, cache, runs)
+        median = {phase: statistics.median(r[phase] for r in runs) for phase in (*PHASES, "whole process")}
+        whole = [r["whole process"] for r in runs]
+        rows.append([CACHES[cache], f"{median['kernel_load']:.2f}", f"{median['loop']:.2f}",
+                     f"{median['plotting']:.2f}", f"{min(whole):.2f} / {median['whole process']:.2f}"])
+    if args.validation:
+        from validation import write_section
+
+        write_section("startup", ["numba's cache at the start", "kernel load, median s", "loop, median s",
+                                  "plotting, median s", "whole process, min / median s"], rows, notes=[
+            f"`cosim run {args.config}`, {args.runs} fresh processes a cache, timed from outside; the phases are "
+            "timed inside the process (benchmarks/startup.py)."])
 
 
 if __name__ == "__main__":
