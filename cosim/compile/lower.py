@@ -2,14 +2,11 @@
 (dummy derivatives), causalisation (one-unknown equations first, then strongly connected blocks solved
 symbolically when linear and by a generated Newton rootfinder when not)."""
 
-import graphlib
-
 import casadi as ca
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
 
 from cosim.compile import events as hybrid
+from cosim.compile.causalise import causalise, depends, file_line, symbol_names
 from cosim.compile.guess import better_guess
 from cosim.compile.initial import initial_state
 from cosim.compile.model import LoweredModel, ModelVariable
@@ -20,33 +17,13 @@ __all__ = ["lower_system"]
 
 # Which redundant state to demote first when a constraint ties states together.
 _DEMOTE_ORDER = {"never": 0, "avoid": 1, "default": 2, "prefer": 3, "always": 4}
-# Draws of the discrete values before a linear block that reads them is judged singular.
-_DISCRETE_DRAWS = 64
-
-
-def _names(expr):
-    return {s.name() for s in ca.symvar(expr)}
-
-
-def _depends(expr, names):
-    return not _names(expr).isdisjoint(names)
-
-
-def _is_zero(expr):
-    expr = ca.simplify(expr)
-    return expr.is_zero() or (expr.is_constant() and float(ca.evalf(expr)) == 0.0)
 
 
 def _evaluate(expr, where):
     if not expr.is_constant() and ca.symvar(expr):
-        names = ", ".join(sorted(_names(expr)))
+        names = ", ".join(sorted(symbol_names(expr)))
         raise StructureError(f"{where}: value depends on {names}, which are not parameters with values")
     return float(ca.evalf(expr))
-
-
-def _file_line(location):
-    file, _, line = location.rpartition(":")
-    return (file, int(line)) if file and line.isdigit() else (location, None)
 
 
 class _Parameters:
@@ -65,7 +42,7 @@ class _Parameters:
             if value is None:
                 value = ca.SX(0.0)
                 self.notes.append(f"{p.location}: parameter {p.name} has no value; using 0")
-            if not structural and not _depends(value, param_names):
+            if not structural and not depends(value, param_names):
                 self.free.append(p)
             dependent[p.name] = (p, value)
         free_names = {p.name for p in self.free}
@@ -79,18 +56,18 @@ class _Parameters:
                 break
             done = {}
             for name, expr in pending.items():
-                unresolved = _names(expr) & set(pending)
+                unresolved = symbol_names(expr) & set(pending)
                 if not unresolved:
                     done[name] = expr
             if not done:
                 cycle = ", ".join(sorted(pending))
                 p = dependent[next(iter(pending))][0]
-                raise StructureError(f"parameter bindings form a cycle: {cycle}", *_file_line(p.location))
+                raise StructureError(f"parameter bindings form a cycle: {cycle}", *file_line(p.location))
             for name, expr in done.items():
                 del pending[name]
                 resolved[name] = expr
             for name in pending:
-                inner = [n for n in _names(pending[name]) if n in resolved]
+                inner = [n for n in symbol_names(pending[name]) if n in resolved]
                 if inner:
                     pending[name] = ca.substitute(
                         pending[name], ca.vertcat(*[syms[n] for n in inner]),
@@ -128,136 +105,6 @@ class _Parameters:
         return ca.substitute(expr, ca.vertcat(*self.subs_from), ca.vertcat(*self.subs_to))
 
 
-class _Blocks:
-    """Result of causalising a square system: solved expressions, nonlinear blocks, leftover constraints."""
-
-    def __init__(self):
-        self.solved = {}        # unknown name -> expression in knowns and nonlinear-block symbols
-        self.nonlinear = []     # (unknown symbols, residual expressions, locations)
-        self.constraints = []   # (expression in knowns, location)
-
-
-def _causalise(equations, unknowns, state_names, discrete=frozenset()):
-    """Solve ``0 = equations`` for ``unknowns`` (SX symbols) in terms of everything else; ``discrete``: the names
-    of the values held between events (Booleans, modes)."""
-    result = _Blocks()
-    index = {u.name(): u for u in unknowns}
-    exprs = [e for e, _ in equations]
-    locs = [loc for _, loc in equations]
-    pending = list(range(len(exprs)))
-
-    def refresh(i):
-        names = _names(exprs[i])
-        done = [n for n in names if n in result.solved]
-        if done:
-            exprs[i] = ca.substitute(exprs[i], ca.vertcat(*[index[n] for n in done]),
-                                     ca.vertcat(*[result.solved[n] for n in done]))
-            names = _names(exprs[i])
-        return [n for n in names if n in index and n not in result.solved]
-
-    progress = True
-    while progress:
-        progress = False
-        remaining = []
-        for i in pending:
-            open_unknowns = refresh(i)
-            if not open_unknowns:
-                if _is_zero(exprs[i]):
-                    continue
-                if _depends(exprs[i], state_names):
-                    result.constraints.append((exprs[i], locs[i]))
-                    continue
-                raise StructureError(
-                    f"equation has no unknown left to determine (over-determined or inconsistent): "
-                    f"0 = {exprs[i]}", *_file_line(locs[i]))
-            if len(open_unknowns) == 1:
-                u = index[open_unknowns[0]]
-                a = ca.jacobian(exprs[i], u)
-                if not ca.depends_on(a, u) and not _is_zero(a):
-                    result.solved[u.name()] = ca.simplify(-ca.substitute(exprs[i], u, 0) / a)
-                    progress = True
-                    continue
-            remaining.append(i)
-        pending = remaining
-    if result.constraints or not pending:
-        return result
-    _solve_blocks(result, pending, exprs, locs, (index, discrete), refresh)
-    return result
-
-
-def _solve_blocks(result, pending, exprs, locs, symbols, refresh):
-    """Match the remaining equations to unknowns, order their strongly connected blocks and solve each.
-    ``symbols``: the unknowns by name, and the names of the discrete values."""
-    index, discrete = symbols
-    incidence = {i: refresh(i) for i in pending}
-    cols = sorted({n for ns in incidence.values() for n in ns})
-    if len(cols) != len(pending):
-        where = "; ".join(locs[i] for i in pending[:6])
-        raise StructureError(
-            f"{len(pending)} coupled equations for {len(cols)} unknowns ({', '.join(cols[:8])}) at {where}")
-    col_of = {n: k for k, n in enumerate(cols)}
-    rows, colidx = [], []
-    for r, i in enumerate(pending):
-        for n in incidence[i]:
-            rows.append(r)
-            colidx.append(col_of[n])
-    graph = csr_matrix((np.ones(len(rows)), (rows, colidx)), shape=(len(pending), len(cols)))
-    match = maximum_bipartite_matching(graph, perm_type="column")
-    if (match < 0).any():
-        bad = [locs[pending[r]] for r in np.flatnonzero(match < 0)]
-        raise StructureError(
-            "the equations are structurally singular (some unknown is determined twice and another not at all); "
-            f"check the equations at {', '.join(bad[:6])}", *_file_line(bad[0]))
-    row_of_col = {int(c): r for r, c in enumerate(match)}
-    dep_rows, dep_cols = [], []
-    for r, i in enumerate(pending):
-        for n in incidence[i]:
-            dep_rows.append(r)
-            dep_cols.append(row_of_col[col_of[n]])
-    deps = csr_matrix((np.ones(len(dep_rows)), (dep_rows, dep_cols)), shape=(len(pending),) * 2)
-    n_comp, labels = connected_components(deps, directed=True, connection="strong")
-    order = graphlib.TopologicalSorter({c: set() for c in range(n_comp)})
-    for r, c in zip(dep_rows, dep_cols):
-        if labels[r] != labels[c]:
-            order.add(int(labels[r]), int(labels[c]))
-    for comp in order.static_order():
-        members = [r for r in range(len(pending)) if labels[r] == comp]
-        for r in members:
-            refresh(pending[r])
-        unknowns = ca.vertcat(*[index[cols[match[r]]] for r in members])
-        residual = ca.vertcat(*[exprs[pending[r]] for r in members])
-        jac = ca.jacobian(residual, unknowns)
-        if not ca.depends_on(jac, unknowns):
-            _check_generic_rank(jac, [locs[pending[r]] for r in members], discrete)
-            rhs = -ca.substitute(residual, unknowns, ca.SX.zeros(unknowns.shape))
-            solution = rhs / jac if unknowns.numel() == 1 else ca.solve(jac, rhs)
-            for k in range(unknowns.numel()):
-                result.solved[unknowns[k].name()] = ca.simplify(solution[k])
-        else:
-            result.nonlinear.append((unknowns, residual, [locs[pending[r]] for r in members]))
-            for k in range(unknowns.numel()):
-                result.solved[unknowns[k].name()] = unknowns[k]
-
-
-def _check_generic_rank(jac, locations, discrete=frozenset()):
-    """A linear block singular at a random point of its symbols is singular everywhere (with probability 1). Not
-    so for the discrete values among them: at 0.5..1.5 every Boolean is true, a combination the model may never
-    reach (LossyGear: ideal and locked). The block is singular when it is at every draw of them too, each an
-    integer of -1..3 (Booleans, the friction elements' modes)."""
-    symbols = ca.symvar(jac)
-    rng = np.random.default_rng(12345)
-    held = np.array([s.name() in discrete for s in symbols], dtype=bool)
-    jacobian = ca.Function("block_jacobian", [ca.vertcat(*symbols)], [jac]) if symbols else (lambda _: ca.evalf(jac))
-    for draw in range(1 + (_DISCRETE_DRAWS if held.any() else 0)):
-        values = rng.uniform(0.5, 1.5, len(symbols))
-        if draw:
-            values[held] = rng.integers(-1, 4, int(held.sum()))
-        if np.linalg.matrix_rank(np.array(ca.DM(jacobian(values)), dtype=float)) == jac.shape[0]:
-            return
-    raise StructureError(f"the linear equations at {', '.join(sorted(set(locations)))} are singular: they do not "
-                         "determine their unknowns (a redundant or missing equation)", *_file_line(locations[0]))
-
-
 def _pick_state_to_demote(constraint, states, demoted):
     """The state a constraint computes (state_select never/avoid first, then the last declared); None when
     every state it ties is already demoted."""
@@ -276,15 +123,15 @@ def _reduce_index(system, equations, states, ders, algebraics, input_names):
     for _ in range(len(states) + 1):
         unknowns = ders + [z.sym for z in algebraics] + [states[k].sym for k in demoted]
         active_names = {s.name for k, s in enumerate(states) if k not in demoted}
-        blocks = _causalise(equations + extra, unknowns, active_names, discrete)
+        blocks = causalise(equations + extra, unknowns, active_names, discrete)
         if not blocks.constraints:
             break
         progressed = False
         for g, loc in blocks.constraints:
-            if _depends(g, input_names):
+            if depends(g, input_names):
                 raise StructureError(
                     f"a constraint between states involves an input ({g}); it would need the input's derivative",
-                    *_file_line(loc))
+                    *file_line(loc))
             k = _pick_state_to_demote(g, states, demoted)
             if k is None:  # on states this pass already demoted (a repeated constraint): the next pass sees it
                 continue
@@ -298,7 +145,7 @@ def _reduce_index(system, equations, states, ders, algebraics, input_names):
         if not progressed:
             g, loc = blocks.constraints[0]
             raise StructureError(f"the constraint 0 = {g} between states has no state left to compute from it: the "
-                                 "equations over-determine the states", *_file_line(loc))
+                                 "equations over-determine the states", *file_line(loc))
     return blocks, demoted, reduction_notes
 
 
@@ -343,7 +190,7 @@ def lower_system(system):
     known |= set() if M is None else {m.name() for m in ca.vertsplit(M)}
     block_names = {u.name() for vs, _, _ in blocks.nonlinear for u in ca.vertsplit(vs)}
     for expr, what in ((xdot, "state derivatives"), (y, "outputs")):
-        stray = _names(expr) - known - block_names
+        stray = symbol_names(expr) - known - block_names
         if stray:
             raise StructureError(f"{system.name}: {what} still depend on {', '.join(sorted(stray))} after lowering")
     x0, x0_notes = initial_state(system, params, active, P, blocks)
@@ -354,7 +201,7 @@ def lower_system(system):
     if undefined:
         raise StructureError(f"{system.name}: the initial value of {', '.join(undefined[:6])} is not a number at the "
                              "default parameters (the initial equations or start values divide by zero there)",
-                             *_file_line(active[[s.name for s in active].index(undefined[0])].location))
+                             *file_line(active[[s.name for s in active].index(undefined[0])].location))
     start_point = [x0_values, np.array([_start(u) for u in inputs]), np.array(p_defaults), np.zeros(1)]
     start_point += [] if M is None else [np.zeros(M.shape[0])]
     start_of = {v.name: _start_at_defaults(v, params, P, p_defaults) for v in system.variables}
@@ -412,7 +259,7 @@ def _hybrid_memory(system, equations):
     for e, loc in equations:
         if ca.depends_on(e, system.events.terminal):
             raise UnsupportedConstructError("terminal() in an equation that holds in continuous time (it is "
-                                            "supported as the condition of a when-clause)", *_file_line(loc))
+                                            "supported as the condition of a when-clause)", *file_line(loc))
     pre_from, pre_to = hybrid.between_events(system.events, {v.name: v.sym for v in system.variables})
     equations = [(ca.substitute(e, ca.vertcat(*pre_from), ca.vertcat(*pre_to)), loc) for e, loc in equations]
     return (ca.vertcat(*memory) if memory else ca.SX(0, 1)), equations
@@ -435,7 +282,7 @@ def _event_part(system, params, active, outputs, observed, symbols, functions, d
     def w_value(x, u, p, t, m):
         return ca.vertcat(*[f(x, u, p, t, m)[rows] for f, rows, _ in groups if rows])
 
-    location = _file_line(system.variables[0].location)[0] if system.variables else system.name
+    location = file_line(system.variables[0].location)[0] if system.variables else system.name
     ctx = hybrid.HybridContext(X, U, P, T, W, w_value, active_names, params.substitute, *defaults, location)
     return hybrid.event_part(system.events, ctx, M)
 
