@@ -292,3 +292,59 @@ def test_an_initial_state_that_is_not_a_number_is_refused(tmp_path):
     with pytest.raises(StructureError, match="initial value of x is not a number") as err:
         lower(path, "T.M")
     assert err.value.line == 5
+
+
+_FILTER = """
+  model M
+    parameter Real f = 2;
+    parameter Real u = 0.5;
+    parameter Real c(fixed = false);
+    parameter Real r(fixed = false);
+    Real x;
+    Real y(start = 1);
+  initial equation
+    c = 1.5*f;
+    r = -sqrt(c)*f;
+    der(x) = 0;
+    der(y) = 0;
+  equation
+    der(x) = r*(x - u);
+    der(y) = r*(y^3 + y - u);
+  end M;"""
+
+
+@pytest.mark.parametrize("f, u", [(2.0, 0.5), (0.5, -3.0)])
+def test_a_parameter_computed_by_an_initial_equation_is_found_before_the_states_it_is_a_coefficient_of(
+        tmp_path, f, u):
+    """The MSL's Filter: its pole r is a parameter(fixed = false) computed by an initial equation, and its states
+    start in steady state, der(x) = r (x - u) = 0. Solved together with x from r's start 0, the Jacobian is
+    singular (the build refused a NaN); sorted, r comes first: x = u, and y^3 + y = u (one real root)."""
+    m = lower(write_package(tmp_path, _FILTER), "T.M")
+    x0 = dict(zip([s.name for s in m.states], _x0(m, f=f, u=u)[0]))
+    y = next(z.real for z in np.roots([1, 0, 1, -u]) if abs(z.imag) < 1e-12)
+    assert x0 == pytest.approx({"c": 1.5 * f, "r": -np.sqrt(1.5 * f) * f, "x": u, "y": y}, rel=1e-10, abs=1e-12)
+
+
+def test_an_initial_problem_newton_does_not_solve_is_refused(tmp_path):
+    """der(x) = x^2 + 1 = 0 has no real solution: refused with the equation's line, not the last Newton iterate."""
+    path = write_package(tmp_path, """
+  model M
+    parameter Real p = 1;
+    Real x(start = 1);
+  initial equation
+    der(x) = 0;
+  equation
+    der(x) = x^2 + p;
+  end M;""")
+    with pytest.raises(StructureError, match="not solved by Newton's method") as err:
+        lower(path, "T.M")
+    assert err.value.line == 6
+
+
+def test_fixed_starts_that_contradict_each_other_are_refused_in_a_nonlinear_initial_problem(tmp_path):
+    """The parallel capacitors' contradicting starts (2 and 3) beside a nonlinear steady state z^3 + z = v1: the
+    left-out start is checked on Newton's solution too."""
+    body = _PARALLEL.replace("parameter Real V2 = 2;", "parameter Real V2 = 3;\n    Real z(start = 1);")
+    body = body.replace("  equation\n", "  initial equation\n    der(z) = 0;\n  equation\n    der(z) = v1 - z^3 - z;\n")
+    with pytest.raises(StructureError, match="contradict each other"):
+        lower(write_package(tmp_path, body), "T.M")

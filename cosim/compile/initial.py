@@ -21,7 +21,8 @@ import casadi as ca
 import numpy as np
 
 from cosim.compile import integer_events
-from cosim.compile.newton import NEWTON_ITERATIONS, newton
+from cosim.compile.causalise import causalise
+from cosim.compile.newton import NEWTON_ITERATIONS, converged, newton
 from cosim.compile.translate import Equation
 from cosim.errors import StructureError
 
@@ -226,9 +227,14 @@ def initial_state(system, params, active, P, blocks):
         raise StructureError(f"the initial equations at {where} depend on {', '.join(sorted(stray))}, which "
                              "the lowering could not express in states and parameters", file, line)
     guess = ca.vertcat(*[starts[active.index(s)] for s in unknown_states] + guesses)
-    solution, how = _solve(V, R, guess, P, where, file, line)
+    solution, ok, how = _solve(V, R, guess, P, locations)
+    p_defaults = [params.defaults[p.name] for p in params.free]
+    if ok is not None and not float(ok(p_defaults)):
+        raise StructureError(f"the initial equations at {where} are not solved by Newton's method from the start "
+                             "values at the default parameters: give the states and loop variables they determine "
+                             "start values nearer the solution", file, line)
     if dropped:
-        _check_consistent(dropped, V, solution, P, [params.defaults[p.name] for p in params.free], where)
+        _check_consistent(dropped, V, solution, P, p_defaults, where)
         notes.append(f"fixed start values at {where} repeat what the other initial equations give; "
                      f"{len(dropped)} of them are left out")
     notes.append(f"initial equations at {where} determine {', '.join(s.name for s in unknown_states)} ({how})")
@@ -276,41 +282,43 @@ def _redundant_rows(residuals, V, optional, excess):
 
 def _check_consistent(dropped, V, solution, P, p_defaults, where):
     """Left-out fixed starts must hold at the solution (at the default parameters), else they contradict each
-    other. A nonlinear initial problem's solution is a generated iteration: not checked here."""
-    if not isinstance(solution, ca.SX):
-        return
-    at = ca.Function("redundant_starts", [P], [ca.substitute(ca.vertcat(*dropped), V, solution[:V.shape[0]]),
-                                               solution[:V.shape[0]]])
-    left, values = (np.abs(np.array(v, dtype=float)).max(initial=0.0) for v in at(p_defaults))
-    if left > 1e-9 * (1 + values):
+    other; checked on a nonlinear problem's Newton solution too."""
+    at = solution if isinstance(solution, ca.Function) else ca.Function("initial_values", [P], [solution])
+    values = np.array(at(p_defaults), dtype=float).ravel()[:V.shape[0]]
+    left = ca.Function("redundant_starts", [V, P], [ca.vertcat(*dropped)])(values, p_defaults)
+    left = np.abs(np.array(left, dtype=float)).max(initial=0.0)
+    if not left <= 1e-9 * (1 + np.abs(values).max(initial=0.0)):
         raise StructureError(f"the fixed start values at {where} contradict each other (off by {left:g} at the "
                              "default parameters): give the coupled variables starts that agree, or fix one")
 
 
-def _solve(V, R, guess, P, where, file, line):
-    """V solving ``0 = R(V, P)``: an SX expression of P when linear, else a function of P running the
-    unrolled Newton iterations."""
-    jac = ca.jacobian(R, V)
-    if not ca.depends_on(jac, V):
-        _check_rank(jac, P, where, file, line)
-        rhs = -ca.substitute(R, V, ca.SX.zeros(V.shape))
-        solution = rhs / jac if V.numel() == 1 else ca.solve(jac, rhs)
-        return ca.simplify(solution), "linear, solved symbolically"
-    solver = newton("_initial", V, R, P, damped=True)
+def _solve(V, R, guess, P, locations):
+    """V solving ``0 = R(V, P)``, sorted into blocks as the model's equations are (:mod:`cosim.compile.causalise`):
+    a parameter computed by an initial equation (a filter's pole) is found before the states whose equations it
+    is a coefficient of, not iterated together with them from its start (a pole 0: a singular Jacobian). An SX
+    expression of P when every block is linear (with None), else a function of P running the unrolled Newton
+    iterations of each nonlinear block in turn from the start values, with a function of P that is 1 where every
+    block's iterations converged."""
+    unknowns = ca.vertsplit(V)
+    blocks = causalise(list(zip(ca.vertsplit(R), locations)), unknowns, set())
+    values = ca.vertcat(*[blocks.solved[v.name()] for v in unknowns])
+    if not blocks.nonlinear:
+        return ca.simplify(values), None, "linear, solved symbolically"
+    start = dict(zip([v.name() for v in unknowns], ca.vertsplit(guess)))
     Pm = ca.MX.sym("p", P.shape[0])
-    guess_m = ca.Function("initial_guess", [P], [guess])(Pm)
-    solved = solver(guess_m, ca.repmat(Pm, 1, NEWTON_ITERATIONS))
-    return ca.Function("initial_newton", [Pm], [solved]), (
-        f"nonlinear, {NEWTON_ITERATIONS} damped Newton iterations from the start values")
-
-
-def _check_rank(jac, P, where, file, line):
-    """A linear initial problem singular at random parameters is singular (with probability 1)."""
-    values = np.random.default_rng(12345).uniform(0.5, 1.5, P.shape[0])
-    numeric = np.array(ca.Function("initial_jacobian", [P], [jac])(values), dtype=float)
-    if np.linalg.matrix_rank(numeric) < jac.shape[0]:
-        raise StructureError(f"the initial equations at {where} are singular: they do not determine the states "
-                             "they mention (a steady state that any constant shift also satisfies?)", file, line)
+    context, context_m, ok = P, Pm, []
+    for k, (vs, residual, _) in enumerate(blocks.nonlinear):
+        guess_k = ca.vertcat(*[start[u.name()] for u in ca.vertsplit(vs)])
+        block_guess = ca.Function(f"initial_guess{k}", [P], [guess_k])
+        solved = newton(f"_initial{k}", vs, residual, context, damped=True)(
+            block_guess(Pm), ca.repmat(context_m, 1, NEWTON_ITERATIONS))
+        ok.append(converged(f"_initial{k}", vs, residual, context)(solved, context_m))
+        context, context_m = ca.vertcat(context, vs), ca.vertcat(context_m, solved)
+    solution = ca.Function("initial_values", [context], [values])(context_m)
+    how = (f"{len(blocks.nonlinear)} nonlinear block(s), {NEWTON_ITERATIONS} damped Newton iterations each from the "
+           "start values")
+    return (ca.Function("initial_newton", [Pm], [solution]),
+            ca.Function("initial_converged", [Pm], [ca.mmin(ca.vertcat(*ok))]), how)
 
 
 def _function(system, params, P, X0):
