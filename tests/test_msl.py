@@ -38,6 +38,8 @@ FAST = [
 VERIFIED = [
     "Modelica.Blocks.Examples.BusUsage",
     "Modelica.Blocks.Examples.CompareSincExpSine",
+    "Modelica.Blocks.Examples.FilterWithDifferentiation",
+    "Modelica.Blocks.Examples.FilterWithRiseTime",
     "Modelica.Blocks.Examples.InverseModel",
     "Modelica.Blocks.Examples.LogicalNetwork1",
     "Modelica.Blocks.Examples.Modulation",
