@@ -9,10 +9,13 @@ states than equations (an equation on an algebraic variable, on ``der()`` of an 
 without a state of its own takes the first state it depends on that is not fixed. The other states keep their
 start values (a start without ``fixed = true`` is a guess the initial equations may override).
 
-Linear equations are solved symbolically (``x0`` is an SX function, as before). Nonlinear ones are solved by
-Newton's method from the start values, damped (a step that does not lower the residual is halved), written as
-CasADi expressions (:mod:`cosim.compile.newton`), so that ``x0`` stays a CasADi function of ``p`` that C code can
-be generated for. Inputs take their start values and ``time`` is 0.
+The equations are sorted into blocks as the model's are (:mod:`cosim.compile.causalise`): a parameter computed by
+an initial equation is known before the states it is a coefficient of. Linear blocks are solved symbolically
+(``x0`` is an SX function when all are). Nonlinear ones are solved in turn by Newton's method from the start
+values, damped (a step that does not lower the residual is halved), written as CasADi expressions
+(:mod:`cosim.compile.newton`), so that ``x0`` stays a CasADi function of ``p`` that C code can be generated for;
+iterations that do not converge at the default parameters are refused. Inputs take their start values and
+``time`` is 0.
 """
 
 import dataclasses
@@ -194,7 +197,8 @@ def initial_state(system, params, active, P, blocks):
     Raises
     ------
     StructureError
-        The initial equations do not determine as many states as there are equations, or they are singular.
+        The initial equations do not determine as many states as there are equations, they are singular, or
+        Newton's iterations do not solve them at the default parameters.
     """
     starts, notes = _starts(active, params)
     n_equations = len(system.initial_equations)
