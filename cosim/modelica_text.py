@@ -8,6 +8,7 @@ declare replaceable, and the modifiers of a redeclared short class (``redeclare 
 :func:`check_redeclares` rejects them with file and line (docs/compiler.md).
 """
 
+import functools
 import re
 
 from cosim.errors import ConfigError, UnsupportedConstructError
@@ -21,8 +22,12 @@ _REPLACEABLE = re.compile(r"\breplaceable\s+([\w.]+)\s+(\w+)\s*(\((?:[^()]|\([^(
 _EXTENDS = re.compile(r"^\s*extends\s+([\w.]+)", re.M)
 
 
+@functools.lru_cache(maxsize=512)
 def find_class(text, name):
-    """The text of class ``name`` (full name, e.g. ``Gripper.Components.PMSM``) in ``text``, or None."""
+    """The text of class ``name`` (full name, e.g. ``Gripper.Components.PMSM``) in ``text``, or None. Kept for the
+    same text and name: a diagnosis looks the same classes up thousands of times (the library's slots and
+    declarations on every variant it writes), each a search of the whole package (3 % of an impact case's time,
+    docs/dev/diagnose-rounds.md)."""
     body = text
     for part in name.split("."):
         match = re.search(rf"^( *){_KINDS} {re.escape(part)}\b.*?^\1end {re.escape(part)};", body, re.S | re.M)
