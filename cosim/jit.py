@@ -136,8 +136,9 @@ def native_kernel(fn):
 
 
 def _call_kernel(t, u, nu, y, ny, x, nx, p, np_):
-    """The C-callable body of every kernel's cfunc; ``kernel`` is a global of each copy (:func:`_cfunc_wrapper`)."""
-    kernel(t, numba.carray(u, (nu,)), numba.carray(y, (ny,)), numba.carray(x, (nx,)), numba.carray(p, (np_,)))  # noqa: F821
+    """The C-callable body of every kernel's cfunc; ``kernel`` and ``carray`` are globals of each copy
+    (:func:`_cfunc_wrapper`)."""
+    kernel(t, carray(u, (nu,)), carray(y, (ny,)), carray(x, (nx,)), carray(p, (np_,)))  # noqa: F821
 
 
 def _cfunc_wrapper(kernel):
@@ -156,7 +157,7 @@ def _cfunc_wrapper(kernel):
     digest = hashlib.sha256(f"{fn.__module__}.{fn.__qualname__}".encode() + (source or b"")).hexdigest()[:16]
     name = f"_call_kernel_{digest}"
     code = _call_kernel.__code__.replace(co_name=name, co_qualname=name)
-    wrapper = types.FunctionType(code, {"kernel": kernel, "numba": numba, "__name__": __name__}, name)
+    wrapper = types.FunctionType(code, {"kernel": kernel, "carray": numba.carray, "__name__": __name__}, name)
     if source is not None:
         try:
             return numba.cfunc(KERNEL_SIGNATURE, cache=True)(wrapper)

@@ -247,7 +247,11 @@ def test_end_to_end_a_gap_without_a_candidate(tmp_path):
     lines = (tmp_path / "out" / "report.md").read_text().splitlines()
     assert lines[2] == f"**{s['verdict']}**"
     assert lines[4].startswith("- **evidence**: the baseline's residual is")
-    assert lines[5].startswith("- **next step**: the library lacks the physics of this gap")
+    # nothing offered, and the plant's laws have forms in the library (the drive's drag and gear loss among them):
+    # the next step names them (issue 51 item 2) rather than saying the library lacks the physics
+    assert lines[5].startswith("- **next step**: no candidate offered explains this gap, and a law the model has "
+                               "may be of another form")
+    assert all(form in lines[5] for form in ("stribeck_drag", "lugre_drag", "load_exponent_mesh", "candidates.forms"))
 
 
 def test_a_residual_above_chance_without_a_significant_segment_is_a_diffuse_gap():
