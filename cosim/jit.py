@@ -12,7 +12,6 @@ import linecache
 import os
 import re
 import signal
-import threading
 import types
 import warnings
 from pathlib import Path
@@ -20,6 +19,7 @@ from pathlib import Path
 import numba
 
 from cosim.fmi.native import KERNEL_SIGNATURE
+from cosim.signals import handlers
 
 __all__ = ["compile_kernel", "kernel_problem", "native_kernel", "numba_problem", "signals_deferred"]
 
@@ -41,16 +41,11 @@ def signals_deferred():
     numba compiles (and loads from its cache) through llvmlite, which calls back into Python by ctypes: a
     KeyboardInterrupt raised in such a callback is printed as "Exception ignored" and lost, so a Ctrl-C during a
     kernel's compilation would leave a long run going. Only in the main thread (where handlers can be set)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
     noted = []
-    previous = {s: signal.signal(s, lambda signum, frame: noted.append(signum)) for s in _DEFERRED}
     try:
-        yield
+        with handlers(_DEFERRED, lambda signum, frame: noted.append(signum)) as previous:
+            yield
     finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
         if noted:
             handler = previous[noted[0]]
             if callable(handler):

@@ -4,7 +4,6 @@
 import contextlib
 import signal
 import sys
-import threading
 from pathlib import Path
 
 from cosim.errors import RunStopped
@@ -12,6 +11,7 @@ from cosim.master.engine import Interrupt, engine_for
 from cosim.master.output import write_results
 from cosim.master.summary import summarize
 from cosim.outputs import output_folder
+from cosim.signals import handlers
 
 __all__ = ["run", "run_config", "write_run", "interrupt_on_signals", "SignalsHeld"]
 
@@ -112,19 +112,11 @@ def interrupt_on_signals():
     instead of killing the process: a run stops as on Ctrl-C and keeps what was recorded, and every command's
     ``finally`` clauses run (staging and unpacked FMU folders removed). Only in the main thread (signal handlers
     cannot be set elsewhere); elsewhere the block runs as it is."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
     def interrupt(signum, frame):
         raise Interrupt(signum)
 
-    previous = {s: signal.signal(s, interrupt) for s in (signal.SIGTERM, signal.SIGHUP)}
-    try:
+    with handlers((signal.SIGTERM, signal.SIGHUP), interrupt):
         yield
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
 
 
 class SignalsHeld:
@@ -143,15 +135,14 @@ class SignalsHeld:
     def __init__(self, out):
         self.out = out
         self.signum = None
-        self._previous = {}
+        self._held = contextlib.ExitStack()
 
     def __enter__(self):
         return self
 
     def start(self):
         """Hold the signals from now on (only in the main thread, where handlers can be set)."""
-        if threading.current_thread() is threading.main_thread():
-            self._previous = {s: signal.signal(s, self._note) for s in self.SIGNALS}
+        self._held.enter_context(handlers(self.SIGNALS, self._note))
 
     def _note(self, signum, frame):
         if self.signum is None:
@@ -160,8 +151,7 @@ class SignalsHeld:
                   file=sys.stderr)
 
     def __exit__(self, exc_type, exc, tb):
-        for s, handler in self._previous.items():
-            signal.signal(s, handler)
+        self._held.close()
         if self.signum is not None and exc_type is None:
             print(f"cosim: the results are written in {self.out}", file=sys.stderr)
             raise Interrupt(self.signum)
