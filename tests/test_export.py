@@ -20,7 +20,7 @@ from cosim.compile.export import export_fmu
 from cosim.compile.model import DiscreteVariable, EventPart, LoweredModel, ModelVariable
 from cosim.errors import ModelicaError
 from fmus.reference import bounce_times
-from modelica_support import write_package
+from modelica_support import fmu_builder, simulate, write_package
 
 MODELS = Path(__file__).resolve().parent / "models" / "export" / "ExportTests.mo"
 G = 9.81
@@ -446,3 +446,67 @@ def test_an_assert_inside_a_function_that_always_fails_refuses_the_build(tmp_pat
     with pytest.raises(ModelicaError, match="fails whatever the values: Cut-off") as err:
         build_fmu(write_package(tmp_path, body), "T.M", out_dir=tmp_path / "out")
     assert err.value.line == 6
+
+
+_BRANCHES = """
+  function root
+    input Real u;
+    output Real r;
+  algorithm
+    assert(u >= 0, "root needs u >= 0");
+    r := sqrt(u);
+  end root;
+  model Rise
+    parameter Real b = 0;
+    Real s(start = -1, fixed = true);
+    Real y = if s >= 0 then root(s - b) else 0;
+    Real z(start = 0, fixed = true);
+  equation
+    der(s) = 1;
+    der(z) = y;
+  end Rise;
+  model Sampled
+    Real x = cos(time);
+    discrete Real d(start = 1, fixed = true);
+  equation
+    when sample(0, 0.1) then
+      d = root(x);
+    end when;
+  end Sampled;"""
+
+
+@pytest.fixture(scope="module")
+def branch_fmu(tmp_path_factory):
+    return fmu_builder(write_package(tmp_path_factory.mktemp("branches"), _BRANCHES))
+
+
+def test_an_assert_in_a_function_called_in_an_untaken_branch_does_not_fire(branch_fmu):
+    """s = t - 1: root(s) is called only once s >= 0, so its assert(u >= 0) holds; before, it fired at t = 0.
+    The untaken branch's NaN reaches neither y, nor z = 2/3 (t - 1)^1.5, nor the Jacobian at t = 0."""
+    r = simulate(branch_fmu("Rise"), "ModelExchange", ["y", "z"], 2.0)
+    t = r["time"]
+    assert np.max(np.abs(r["y"] - np.sqrt(np.maximum(t - 1, 0)))) < 1e-7
+    assert np.max(np.abs(r["z"] - 2 / 3 * np.maximum(t - 1, 0) ** 1.5)) < 1e-7
+    _, model, vr = _open(branch_fmu("Rise"))
+    assert model.getDirectionalDerivative([vr["der(z)"]], [vr["s"]], [1.0]) == [0.0]
+    model.terminate()
+    model.freeInstance()
+
+
+def test_an_assert_in_a_function_called_in_a_taken_branch_fires_with_its_message(branch_fmu):
+    """root(s - 0.5) fails as soon as its branch is taken, at s = 0 (t = 1)."""
+    messages = []
+    with pytest.raises(FMICallException, match="fmi3UpdateDiscreteStates"):
+        simulate(branch_fmu("Rise"), "ModelExchange", ["y"], 2.0, start_values={"b": 0.5},
+                 logger=lambda env, status, category, message: messages.append(message.decode()))
+    assert messages[-1].startswith("t = 1") and messages[-1].endswith("T.mo:6: root needs u >= 0")
+
+
+def test_an_assert_in_a_function_called_in_a_when_clause_fires_when_the_clause_does(branch_fmu):
+    """d = root(cos t) at the samples of 0.1: cos t < 0 from pi/2, so the first failing sample is t = 1.6 (not the
+    crossing at pi/2). Before, an assert in a when-clause's function was left out."""
+    messages = []
+    with pytest.raises(FMICallException, match="fmi3UpdateDiscreteStates"):
+        simulate(branch_fmu("Sampled"), "ModelExchange", ["d"], 2.0,
+                 logger=lambda env, status, category, message: messages.append(message.decode()))
+    assert messages[-1].startswith("t = 1.6") and messages[-1].endswith("T.mo:6: root needs u >= 0")

@@ -168,6 +168,7 @@ class EventReader:
         self._transactions()
         self._actions()
         system = self.system
+        system.asserts += self.tr.guards.checks()
         listed = self.storage.get("relations", [])
         if any(r is None and "relation" in entry and not integer_events.generated_floor_relation(entry, self.tr.nodes)
                for r, entry in zip(system.relations, listed)):
@@ -197,17 +198,24 @@ class EventReader:
         for owner in self.storage.get("discrete_value_owners", []):
             for t, target in enumerate(owner["targets"]):
                 var = self.tr.variables_by_index[target]
-                branches = [(self.active(b["activation"]), self.tr.expr(b["values"][t]["value"]))
-                            for b in owner["branches"]]
+                branches = [(self.active(b["activation"]), b["values"][t]["value"]) for b in owner["branches"]]
+                branches = [(active, self._when_value(active, node)) for active, node in branches]
                 self._add_branches(var, branches)
 
     def _discrete_reals(self):
         grouped = {}
         for eq in self.storage.get("discrete_real_equations", []):
-            var, value = self._solve_discrete(eq)
-            grouped.setdefault(var.name, (var, []))[1].append((self.active(eq["activation"]), value))
+            active = self.active(eq["activation"])
+            with self.tr.guards.under(active):
+                var, value = self._solve_discrete(eq)
+            grouped.setdefault(var.name, (var, []))[1].append((active, value))
         for var, branches in grouped.values():
             self._add_branches(var, branches)
+
+    def _when_value(self, active, node):
+        """A value assigned when ``active``: the asserts of the functions it calls hold only then."""
+        with self.tr.guards.under(active):
+            return self.tr.expr(node)
 
     def _solve_discrete(self, eq):
         """A discrete Real equation ``d = expr`` (rumoca writes it as the residual ``d - expr``)."""
@@ -244,7 +252,7 @@ class EventReader:
                 for definition in step["definitions"]:
                     var = self.tr.variables_by_index[definition["target"]["variable"]]
                     previous = values.get(var.name, self.system.pre[var.name])
-                    values[var.name] = ca.if_else(active, self.tr.expr(definition["value"]), previous)
+                    values[var.name] = ca.if_else(active, self._when_value(active, definition["value"]), previous)
             self.system.assignments.update(values)
 
     def _actions(self):
@@ -254,7 +262,7 @@ class EventReader:
             active = self.action_active(action)
             if kind == "reinitialize":
                 state = self.tr.variables_by_index[body["state"]]
-                self.system.reinits.append((state.name, active, self.tr.expr(body["value"]), location))
+                self.system.reinits.append((state.name, active, self._when_value(active, body["value"]), location))
             elif kind in ("assert", "terminate"):
                 message = f"{self.tr.where(body['message']) or location}: {self._text(body['message'])}"
                 (self.system.asserts if kind == "assert" else self.system.terminates).append((active, message))

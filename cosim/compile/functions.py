@@ -75,7 +75,7 @@ class _Frame:
                 raise ModelicaError(f"the assert in function {self.function['name']} fails whatever the values: "
                                     f"{text}", file or where, int(line) if line.isdigit() else None)
             return
-        self.tr.function_asserts.append((ca.logic_not(holds), message))
+        self.tr.guards.add_assert(ca.logic_not(holds), message)
 
     def run_for(self, body, binders):
         """Unroll a ``for`` statement: the loop-carried values are rebound before every pass of the body."""

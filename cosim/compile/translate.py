@@ -12,6 +12,7 @@ from cosim.compile import arrays, integer_events, tables
 from cosim.compile.der_expressions import promote_der_arguments
 from cosim.compile.events import EventReader, Relation
 from cosim.compile.functions import inline
+from cosim.compile.guards import Guards
 from cosim.errors import UnsupportedConstructError
 
 __all__ = ["Variable", "Equation", "DaeSystem", "translate"]
@@ -163,7 +164,7 @@ class _Translator:
         self.parametric = set()  # names of parameter and constant elements
         self.call_serials = itertools.count()
         self.tables = tables.Registry()  # the MSL table blocks' table objects (external C functions lowered)
-        self.function_asserts = []  # (failed, "file:line: message") of asserts inside inlined functions
+        self.guards = Guards()  # the if-branch and when-clause conditions around what is translated, and the asserts
         self.structural = set()  # parameter elements whose build-time values the lowering decided on
 
     def where(self, node_id):
@@ -210,9 +211,7 @@ class _Translator:
     # -- expressions ---------------------------------------------------------
     def expr(self, node_id, ctx=None):
         key = (node_id, None if ctx is None else ctx["serial"])
-        if key not in self.memo:
-            self.memo[key] = self._expr(node_id, ctx)
-        return self.memo[key]
+        return self.guards.memoised(self.memo, key, lambda: self._expr(node_id, ctx))
 
     def _expr(self, i, ctx):
         node = self.nodes[i]
@@ -259,27 +258,27 @@ class _Translator:
         """An if-expression, evaluated as Modelica does: a branch whose condition is constant false is not
         evaluated, nor those after one constant true. A branch that cannot be evaluated (a subscript out of
         range, as in the guarded passes rumoca makes of a ``while`` loop) is left out when the parameters'
-        bindings show it is not taken; otherwise its error stands."""
+        bindings show it is not taken; otherwise its error stands. Each condition and branch is translated under
+        the conditions that reach it, so that an assert in a function it calls holds only there."""
         operands = self.operands[i]
-        arms = []  # (condition, or None for the last branch reached; branch node)
+        values, reached = [], ca.SX(1)
         for c_node, e_node in list(zip(operands[:-1:2], operands[1:-1:2])) + [(None, operands[-1])]:
-            c = None if c_node is None else self.expr(c_node, ctx)
+            with self.guards.under(reached):
+                c = None if c_node is None else self.expr(c_node, ctx)
             if c is not None and c.is_constant():
                 if float(ca.evalf(c)) == 0.0:
                     continue
                 c = None
-            arms.append((c, e_node))
+            taken = reached if c is None else c if reached.is_one() else ca.logic_and(reached, c)
+            try:
+                with self.guards.under(taken):
+                    values.append((c, self.expr(e_node, ctx)))
+            except UnsupportedConstructError:
+                if self.at_build_time(taken) != 0.0:
+                    raise
             if c is None:
                 break
-        values, reached = [], ca.SX(1)
-        for c, e_node in arms:
-            try:
-                values.append((c, self.expr(e_node, ctx)))
-            except UnsupportedConstructError:
-                if self.at_build_time(reached if c is None else ca.logic_and(reached, c)) != 0.0:
-                    raise
-            if c is not None:
-                reached = ca.logic_and(reached, ca.logic_not(c))
+            reached = ca.logic_and(reached, ca.logic_not(c))
         result = None
         for c, value in reversed(values):
             result = value if result is None or c is None else ca.if_else(c, value, result)
@@ -385,13 +384,14 @@ class _Translator:
     def _call(self, i, body, ctx):
         owner = body["owner"]
         key = ("call", owner, None if ctx is None else ctx["serial"])
-        if key not in self.memo:
-            args = [self.expr(j, ctx) for j in self.operands[owner]]
-            if self.storage["functions"][body["function"]].get("external"):
-                self.memo[key] = tables.call(self, self.storage["functions"][body["function"]], args, self.where(i))
-            else:
-                self.memo[key] = inline(self, body["function"], args)
-        return self.memo[key][body["output"]]
+        return self.guards.memoised(self.memo, key, lambda: self._inline(i, body, ctx))[body["output"]]
+
+    def _inline(self, i, body, ctx):
+        args = [self.expr(j, ctx) for j in self.operands[body["owner"]]]
+        function = self.storage["functions"][body["function"]]
+        if function.get("external"):
+            return tables.call(self, function, args, self.where(i))
+        return inline(self, body["function"], args)
 
     def context(self, parent=None, **values):
         """A fresh evaluation context (function arguments, definitions, loop binders) with its own memo serial:
@@ -481,8 +481,9 @@ class _Translator:
             ))
         self.variables_by_index = variables
         self.reader = EventReader(self, [v for v in variables if v.role in ("discrete_real", "discrete_value")])
-        for node in list(self.relation_nodes):
-            self.expr(node)
+        with self.guards.under(ca.SX(0)):  # the asserts in them hold where the equations reach them
+            for node in list(self.relation_nodes):
+                self.expr(node)
         variables = [element for var in variables if var.kind != "string" for element in _elements(var)]
         equations = [e for op in storage["continuous_equation_operations"] for e in self._equations(op)]
         initial = [e for op in storage.get("initialization_equation_operations", [])
@@ -490,7 +491,6 @@ class _Translator:
         equations += [Equation(d, self.location(raw[i])) for i in computed for d in arrays.elements(self.der_syms[i])]
         derivatives = {name: s for i, der in self.der_syms.items()
                        for name, s in zip(self._element_names(raw[i]), arrays.elements(der))}
-        self.reader.system.asserts += self.function_asserts
         events = self.reader.read()
         for var in variables:  # numbers the build decided on (table data, subscripts): constants
             if var.name in self.tables.frozen or var.name in self.structural:
