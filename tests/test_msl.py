@@ -83,6 +83,7 @@ VERIFIED = [
     "Modelica.Electrical.Analog.Examples.ThyristorBehaviourTest",
     "Modelica.Mechanics.Rotational.Examples.Backlash",
     "Modelica.Mechanics.Rotational.Examples.EddyCurrentBrake",
+    "Modelica.Mechanics.Rotational.Examples.ElasticBearing",
     "Modelica.Mechanics.Rotational.Examples.First",
     "Modelica.Mechanics.Rotational.Examples.FirstGrounded",
     "Modelica.Mechanics.Rotational.Examples.LossyGearDemo1",

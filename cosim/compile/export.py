@@ -243,6 +243,7 @@ def _data_header(model, layout, functions, identifier, token, cs_step, cs_method
         _c_array("P_START", "double", [repr(float(v.start)) for v in model.parameters]),
         _c_array("U_START", "double", [repr(float(v.start)) for v in model.inputs]),
         _c_array("X_START", "double", [repr(float(v.start)) for v in model.states]),
+        _c_array("X_NOMINAL", "double", [repr(float(v.nominal or 1.0)) for v in model.states]),
         _c_array("M_START", "double", [repr(float(v)) for v in memory_start]),
         _c_array("Y_INDEX", "int", [str(k) for k in layout.y_index]),
         _c_array("D_KIND", "int", [str(_KINDS[d.kind][1]) for d in discretes]),
@@ -283,6 +284,11 @@ def _range(variable):
             if value is not None}
 
 
+def _nominal(variable):
+    """The ``nominal`` attribute of a state that declares one (FMI 2.0 and 3.0 spell it alike)."""
+    return {} if variable.nominal is None else {"nominal": repr(float(variable.nominal))}
+
+
 def _solver_settings(variables, layout, cs_step, cs_method):
     """The embedded solver's settings as fixed parameters (an importer sets them before initialisation ends)."""
     _float(variables, "_cs_step", layout.cs, causality="parameter", variability="fixed", initial="exact",
@@ -305,7 +311,8 @@ def _variables(root, model, layout, cs_step, cs_method):
     outputs = {y.name for y in model.outputs}
     for k, x in enumerate(model.states):
         causality = "output" if x.name in outputs else "local"
-        _float(variables, x.name, layout.x + k, x, causality=causality, initial="exact", start=repr(float(x.start)))
+        _float(variables, x.name, layout.x + k, x, causality=causality, initial="exact", start=repr(float(x.start)),
+               **_nominal(x))
     for k, x in enumerate(model.states):
         _float(variables, f"der({x.name})", layout.dx + k, derivative=str(layout.x + k))
     for k, j in enumerate(layout.y_index):
@@ -461,7 +468,7 @@ def _build_description(identifier):
 # ---- FMI 2.0: the same layout and value references; variables are ScalarVariables, referred to by index ----
 
 _KINDS_2 = {"real": "Real", "integer": "Integer", "boolean": "Boolean", "enumeration": "Integer"}
-_TYPE_ATTRS_2 = ("unit", "start", "derivative", "min", "max")
+_TYPE_ATTRS_2 = ("unit", "start", "derivative", "min", "max", "nominal")
 
 
 def _scalar(variables, index, name, vr, vtype="Real", variable=None, **attrs):
@@ -495,7 +502,8 @@ def _variables_2(model, layout, cs_step, cs_method):
     outputs = {y.name for y in model.outputs}
     for k, x in enumerate(model.states):
         _scalar(variables, index, x.name, layout.x + k, variable=x,
-                causality="output" if x.name in outputs else "local", initial="exact", start=repr(float(x.start)))
+                causality="output" if x.name in outputs else "local", initial="exact", start=repr(float(x.start)),
+                **_nominal(x))
     for k, x in enumerate(model.states):
         _scalar(variables, index, f"der({x.name})", layout.dx + k, derivative=str(index[layout.x + k]))
     for k, j in enumerate(layout.y_index):

@@ -218,7 +218,8 @@ def lower_system(system):
                   for _, _, start, interval in system.events.clocks]
     return LoweredModel(
         name=system.name,
-        states=tuple(ModelVariable(s.name, s.unit, s.description, float(v)) for s, v in zip(active, x0_values)),
+        states=tuple(ModelVariable(s.name, s.unit, s.description, float(v), nominal=s.nominal)
+                     for s, v in zip(active, x0_values)),
         inputs=tuple(ModelVariable(u.name, u.unit, u.description, _start(u), u.kind) for u in inputs),
         outputs=tuple(ModelVariable(v.name, v.unit, v.description, _start(v)) for v in outputs),
         parameters=tuple(ModelVariable(p.name, p.unit, p.description, params.defaults[p.name], min=p.bounds[0],

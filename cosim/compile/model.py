@@ -25,6 +25,9 @@ class ModelVariable:
         ``real``, or for an input: ``integer``, ``boolean`` or ``enumeration`` (its value passed as a float).
     min, max : float or None
         A parameter's physical range as declared (``min``/``max`` attributes; None: unbounded on that side).
+    nominal : float or None
+        A state's magnitude as declared (``nominal``; None: not declared): the importer's solver scales its
+        absolute tolerance by it (a state of 1e-4 rad/s integrated with an absolute error of 1e-8 is wrong by 1e-4).
     """
 
     name: str
@@ -34,6 +37,7 @@ class ModelVariable:
     kind: str = "real"
     min: float = None
     max: float = None
+    nominal: float = None
 
 
 @dataclass(frozen=True)

@@ -77,6 +77,8 @@ class Variable:
         The start attribute and the declaration binding, as expressions.
     bounds : tuple
         The ``min`` and ``max`` attributes as numbers (None: not declared, or not a constant).
+    nominal : float or None
+        The ``nominal`` attribute's magnitude (None: not declared, not a constant, or zero).
     """
 
     name: str
@@ -93,6 +95,7 @@ class Variable:
     causality: str = "local"
     location: str = ""
     bounds: tuple = (None, None)
+    nominal: float = None
 
 
 @dataclass
@@ -478,6 +481,7 @@ class _Translator:
                 causality=a.get("causality") or "local",
                 location=self.flat.locate(_span_of(v.get("declaration"))),
                 bounds=(self._bound(a.get("min")), self._bound(a.get("max"))),
+                nominal=abs(self._bound(a.get("nominal")) or 0.0) or None,
             ))
         self.variables_by_index = variables
         self.reader = EventReader(self, [v for v in variables if v.role in ("discrete_real", "discrete_value")])
@@ -498,8 +502,8 @@ class _Translator:
         return DaeSystem(self.flat.name, variables, derivatives, self.time, equations, initial, events)
 
     def _bound(self, node):
-        """A ``min`` or ``max`` attribute as a float; None when absent or not one constant (an array's, a
-        parameter's)."""
+        """A ``min``, ``max`` or ``nominal`` attribute as a float; None when absent or not one constant (an array's,
+        a parameter's)."""
         if node is None:
             return None
         value = self.expr(node)

@@ -308,9 +308,8 @@ fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], s
 }
 
 fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx) {
-    size_t i;
-    (void)c;
-    for (i = 0; i < nx; i++) x_nominal[i] = 1.0;
+    if (nx != N_X) return refuse(c, "fmi2GetNominalsOfContinuousStates with a wrong count");
+    if (N_X) memcpy(x_nominal, X_NOMINAL, N_X * sizeof(double));
     return fmi2OK;
 }
 

@@ -222,9 +222,8 @@ fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 
 
 fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 nominals[],
                                              size_t nContinuousStates) {
-    size_t i;
-    (void)instance;
-    for (i = 0; i < nContinuousStates; i++) nominals[i] = 1.0;
+    if (nContinuousStates != N_X) return refuse(instance, "fmi3GetNominalsOfContinuousStates with a wrong count");
+    if (N_X) memcpy(nominals, X_NOMINAL, N_X * sizeof(double));
     return fmi3OK;
 }
 
