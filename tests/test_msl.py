@@ -79,6 +79,7 @@ VERIFIED = [
     "Modelica.Electrical.Analog.Examples.SeriesResonance",
     "Modelica.Electrical.Analog.Examples.ShowSaturatingInductor",
     "Modelica.Electrical.Analog.Examples.ShowVariableResistor",
+    "Modelica.Electrical.Analog.Examples.SimpleTriacCircuit",
     "Modelica.Electrical.Analog.Examples.SwitchWithArc",
     "Modelica.Electrical.Analog.Examples.ThyristorBehaviourTest",
     "Modelica.Mechanics.Rotational.Examples.Backlash",
