@@ -148,3 +148,33 @@ def test_a_loop_that_needs_more_than_the_first_iterations_is_solved_by_the_retry
         result = fmpy.simulate_fmu(str(fmu), stop_time=0.1, output_interval=0.1, start_values={"u": u},
                                    output=["y"])
         np.testing.assert_allclose(result["y"], np.log(u), rtol=1e-12)
+
+
+def test_a_loop_whose_newton_iterations_cycle_is_solved_by_the_damped_retry(tmp_path):
+    """0.01 v + sat(v) = c with c = 2 - t, from v = 100: past c = 1.01 the root c / 1.01 lies where sat is
+    linear, but a full Newton step from the outer branches jumps between v = (c - 1)/0.01 and (c + 1)/0.01 for
+    ever (the MSL's OpAmpDetailed output-current limit stopped AmplifierWithOpAmpDetailed at t = 1.28e-5 s so).
+    The retry halves a step that does not lower the residual (closed form on both branches)."""
+    path = write_package(tmp_path, """
+  function sat
+    input Real u;
+    output Real y;
+  algorithm
+    if u > 1 then
+      y := 1;
+    elseif u < -1 then
+      y := -1;
+    else
+      y := u;
+    end if;
+  end sat;
+  model M
+    Real v(start = 100);
+    Real c = 2 - time;
+  equation
+    0.01*v + sat(v) = c;
+  end M;""")
+    fmu = build_fmu(path, "T.M", out_dir=tmp_path / "out")
+    result = fmpy.simulate_fmu(str(fmu), stop_time=2.0, output_interval=0.01, output=["v", "c"])
+    c = result["c"]
+    np.testing.assert_allclose(result["v"], np.where(c > 1.01, (c - 1) / 0.01, c / 1.01), rtol=0, atol=1e-9)

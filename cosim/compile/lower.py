@@ -299,7 +299,8 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
     solved by a generated Newton iteration, from the start values (``start_of``: name -> value at the default
     parameters; a der() in a block has none and starts at 0) or, where it does not converge from them at
     ``start_point`` (numeric x, u, p, t[, m]), from the block's solution there (:mod:`cosim.compile.guess`).
-    Where the iterations did not converge, RETRY_ITERATIONS more run from where they ended; a block that still
+    Where the iterations did not converge, RETRY_ITERATIONS more run from where they ended, damped (a step that
+    does not lower the residual is halved: full steps can cycle on a piecewise-linear limiter); a block that still
     did not gives NaN, and ``loops`` says which (1 converged, 0 not, in ``loop_names`` order; None without
     blocks), so that the FMU reports an error, not a number.
     Returns the three functions, ``loops`` and notes."""
@@ -324,7 +325,7 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
         ctx_value = ca.vertcat(*margs, *solved)
         test = converged(k, vs, residual, context)
         first = solver(ca.DM(guess), ca.repmat(ctx_value, 1, NEWTON_ITERATIONS))
-        retried = newton(f"{k}_retry", vs, residual, context, iterations=RETRY_ITERATIONS)(
+        retried = newton(f"{k}_retry", vs, residual, context, damped=True, iterations=RETRY_ITERATIONS)(
             first, ca.repmat(ctx_value, 1, RETRY_ITERATIONS))
         # (solution, converged): the retry and its test evaluated only where the first iterations did not converge
         outcome = ca.if_else(test(first, ctx_value), ca.vertcat(first, 1),

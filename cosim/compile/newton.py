@@ -9,8 +9,9 @@ __all__ = ["NEWTON_ITERATIONS", "RETRY_ITERATIONS", "STEP_TOLERANCE", "newton", 
 
 # Newton iterations unrolled into the generated code.
 NEWTON_ITERATIONS = 30
-# Iterations more, run only where the first NEWTON_ITERATIONS did not converge (an exponential's slow approach
-# from far: the Z-diodes of the MSL's OvervoltageProtection need more than 30 from their start values).
+# Damped iterations more, run only where the first NEWTON_ITERATIONS did not converge (an exponential's slow
+# approach from far: the Z-diodes of the MSL's OvervoltageProtection need more than 30 from their start values;
+# full steps that cycle between the branches of a limiter, as OpAmpDetailed's output current).
 RETRY_ITERATIONS = 70
 # Converged: one more Newton step would move the unknowns by at most this, relative to their size (1 + max |v|).
 # Scale-free in the residual's units; quadratic convergence ends near 1e-16, a double root's linear one after
