@@ -49,6 +49,7 @@ VERIFIED = [
     "Modelica.Blocks.Examples.ShowLogicalSources",
     "Modelica.Blocks.Examples.SlewRateLimiter",
     "Modelica.Blocks.Examples.TotalHarmonicDistortion",
+    "Modelica.Electrical.Analog.Examples.AmplifierWithOpAmpDetailed",
     "Modelica.Electrical.Analog.Examples.CauerLowPassAnalog",
     "Modelica.Electrical.Analog.Examples.CauerLowPassOPV",
     "Modelica.Electrical.Analog.Examples.CharacteristicIdealDiodes",
