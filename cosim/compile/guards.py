@@ -45,7 +45,7 @@ class Guards:
         self.asserts.append(_Assert(failed, message, tuple(self.stack)))
 
     def memoised(self, memo, key, translate):
-        """``memo[key]``, translated by ``translate()`` the first time; a later reach extends its asserts' conditions."""
+        """``memo[key]``, translated by ``translate()`` the first time; a later reach widens its asserts' conditions."""
         if key in memo:
             self._reached_again(key)
             return memo[key]
