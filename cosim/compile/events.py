@@ -398,8 +398,11 @@ def _step_values(events, ctx, d_to_pre, rel_new):
 
 
 def _pass(events, ctx):
-    """One event-iteration pass as an SX function (x, u, p, t, m_pre, w, initial, terminal) -> (x_new, m_new,
-    status); ``terminal`` is 1 in the passes at the end of the simulation, where ``terminal()`` is true."""
+    """One event-iteration pass as an SX function (x, u, p, t, m_pre, w, initial, terminal, c) -> (x_new, m_new,
+    status, fresh); ``terminal`` is 1 in the passes at the end of the simulation, where ``terminal()`` is true.
+    ``c`` are candidate values of the relations and steps: the discrete variables, when-clauses and reinits read
+    them, and ``m_new`` holds them; ``fresh`` are the values the relations and steps take at ``w`` (the mixed
+    system of a pass is solved where ``fresh == c``, see :func:`event_part`)."""
     init = events.init
     pre_d = [events.pre[v.name] for v in events.discretes]
     d_to_pre = (ca.vertcat(*[v.sym for v in events.discretes]), ca.vertcat(*pre_d)) if pre_d else None
@@ -422,7 +425,9 @@ def _pass(events, ctx):
     state_pre = [(events.pre[n], s) for n, s in zip(ctx.states, ca.vertsplit(ctx.X)) if n in events.pre]
     subs_from = [r.sym for r in events.relations] + [c[1] for c in events.clocks] + [a for a, _ in state_pre]
     subs_from += [s.sym for s in events.steps]
-    subs_to = rel_new + ticks + [b for _, b in state_pre] + step_new
+    candidates = [ca.SX.sym(f"$cand{k}") for k in range(len(rel_new) + len(step_new))]
+    cand_rel, cand_step = candidates[:len(rel_new)], candidates[len(rel_new):]
+    subs_to = cand_rel + ticks + [b for _, b in state_pre] + cand_step
 
     def known(expr):
         expr = ctx.substitute(expr)
@@ -453,11 +458,49 @@ def _pass(events, ctx):
     m_pre = pre_d + [ca.SX.sym(f"$relpre{k}") for k in range(len(events.relations))] \
         + [h for h, _ in events.held] + [c[0] for c in events.clocks] \
         + [s.sym for s in events.steps]  # a relation on a step reads its value before this pass
-    m_new = [new[v.name] for v in events.discretes] + rel_new + held_new + counters + step_new
-    inputs = [ctx.X, ctx.U, ctx.P, ctx.T, _vec(m_pre), _vec(ctx.W), init, events.terminal]
-    outputs = [_vec(x_new), _vec(m_new), status]
+    m_new = [new[v.name] for v in events.discretes] + cand_rel + held_new + counters + cand_step
+    inputs = [ctx.X, ctx.U, ctx.P, ctx.T, _vec(m_pre), _vec(ctx.W), init, events.terminal, _vec(candidates)]
+    outputs = [_vec(x_new), _vec(m_new), status, _vec(rel_new + step_new)]
     _check_free(outputs, inputs, ctx.location)
     return ca.Function("event_pass", inputs, outputs)
+
+
+def _fresh_pass(given):
+    """The pass that takes the relations' and steps' fresh values as its candidates: (x, u, p, t, m_pre, w,
+    initial, terminal) -> (x_new, m_new, status)."""
+    args = given.sx_in()
+    outputs = given.call(args)
+    fresh = outputs[3]
+    inputs = args[:8]
+    return ca.Function("event_pass", inputs, [ca.substitute(o, args[8], fresh) for o in outputs[:3]])
+
+
+def _candidate_rows(events):
+    """Rows of ``m`` that hold the relations' and the steps' values (the candidates of :func:`_mixed`)."""
+    first = len(events.discretes)
+    steps = len(events.steps)
+    end = first + len(events.relations) + len(events.held) + len(events.clocks) + steps
+    return list(range(first, first + len(events.relations))) + list(range(end - steps, end))
+
+
+def _mixed(given, ctx, rows, symbols):
+    """mixed(x, u, p, t, m_pre, c) -> (x_new, m_new, status, m_fresh): the pass with the relations and steps at
+    their candidate values, the rows ``rows`` of ``c``: the discrete variables are computed from them (and
+    ``pre()`` = ``m_pre``), the continuous unknowns from those, and ``m_fresh`` is ``m_new`` with the values the
+    relations and steps take there. Where ``m_fresh == m_new`` the candidates solve the pass's mixed system
+    (Booleans and the continuous unknowns that decide each other, as the friction elements' locked,
+    startForward and sa): the C core searches for such candidates (fmu_c/model_core.c, ``solve_mixed``)."""
+    Xm, Um, Pm, Tm, Mm = symbols
+    c = ca.MX.sym("c", Mm.shape[0])
+    cand = c[rows]
+    discrete_side = given(Xm, Um, Pm, Tm, Mm, ctx.w_value(Xm, Um, Pm, Tm, Mm), 0, 0, cand)[1]
+    w = ctx.w_value(Xm, Um, Pm, Tm, discrete_side)
+    x_new, m_new, status, fresh = given(Xm, Um, Pm, Tm, Mm, w, 0, 0, cand)
+    m_fresh = ca.vertsplit(m_new)
+    for row, value in zip(rows, ca.vertsplit(fresh)):
+        m_fresh[row] = value
+    return ca.Function("mixed", [Xm, Um, Pm, Tm, Mm, c], [x_new, m_new, status, ca.vertcat(*m_fresh)],
+                       ["x", "u", "p", "t", "m_pre", "c"], ["x_new", "m_new", "status", "m_fresh"])
 
 
 def _check_free(outputs, inputs, location):
@@ -511,7 +554,8 @@ def _reads_terminal(step):
 def event_part(events, ctx, M):
     """The :class:`EventPart` of a hybrid model (``ctx.w_value`` gives the continuous unknowns at (x,u,p,t,m))."""
     _classify(events, ctx)
-    step = _pass(events, ctx)
+    given = _pass(events, ctx)
+    step = _fresh_pass(given)
     names = ["x", "u", "p", "t"]
     Xm, Um, Pm, Tm = (ca.MX.sym(n, s.shape[0]) for n, s in zip(names, (ctx.X, ctx.U, ctx.P, ctx.T)))
     Mm = ca.MX.sym("m", M.shape[0])
@@ -535,11 +579,13 @@ def event_part(events, ctx, M):
                     [_vec([_relation_indicator(r) for r in state_relations] + z_steps)])
     indicators = ca.Function("indicators", [Xm, Um, Pm, Tm, Mm],
                              [z(Xm, Um, Pm, Tm, Mm, ctx.w_value(Xm, Um, Pm, Tm, Mm))], names + ["m"], ["z"])
+    rows = _candidate_rows(events)
     return EventPart(
         discretes=tuple(_discrete_variable(v, events, ctx) for v in events.discretes),
         n_memory=M.shape[0], n_indicators=len(state_relations) + len(z_steps), indicators=indicators, update=update,
         initial=initial, next_time=_next_time(events, ctx, M), terminal=terminal,
         messages=tuple(msg for _, msg in events.asserts) + tuple(msg for _, msg in events.terminates[:1]),
+        mixed=_mixed(given, ctx, rows, (Xm, Um, Pm, Tm, Mm)) if rows else None, candidates=tuple(rows),
     )
 
 

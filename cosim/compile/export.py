@@ -166,7 +166,8 @@ def _c_functions(model):
     cosim_update, cosim_terminal, cosim_initial, cosim_next_time (cosim_terminal: the update with terminal()
     true; one that changes nothing when the model does not use terminal()), then the derivatives
     (:func:`_derivative_functions`), then cosim_observe (the local variables), cosim_loops (which nonlinear
-    loops converged) and, last, cosim_calculated (the dependent parameters), all f(x, u, p, t, m)."""
+    loops converged), cosim_calculated (the dependent parameters), all f(x, u, p, t, m), and, last,
+    cosim_mixed(x, u, p, t, m_pre, c) (:func:`_mixed`)."""
     events = model.events
     memory = 0 if events is None else None  # a continuous model's functions get an empty memory argument
     ode, out = _named(model.ode, "cosim_ode", memory), _named(model.out, "cosim_out", memory)
@@ -178,7 +179,19 @@ def _c_functions(model):
                       _terminal_pass(events), _named(events.initial, "cosim_initial"),
                       _named(events.next_time, "cosim_next_time")]
     return functions + _derivative_functions(ode, out) + [_named(model.observe, "cosim_observe", memory),
-                                                         _loops(model, memory), _calculated(model, memory)]
+                                                         _loops(model, memory), _calculated(model, memory),
+                                                         _mixed(model)]
+
+
+def _mixed(model):
+    """cosim_mixed(x, u, p, t, m_pre, c): the event pass with the relations and steps at candidate values
+    (``EventPart.mixed``); for a model without it one that keeps x and m (the C core never calls it then)."""
+    events = model.events
+    if events is not None and events.mixed is not None:
+        return _named(events.mixed, "cosim_mixed")
+    sym, (x, u, p, t, m) = _symbols(model.ode, None if events else 0)
+    c = sym.sym("c", m.numel())
+    return ca.Function("cosim_mixed", [x, u, p, t, m, c], [x, m, sym(0.0), m])
 
 
 def _calculated(model, memory):
@@ -228,6 +241,7 @@ def _data_header(model, layout, functions, identifier, token, cs_step, cs_method
         "N_X": len(model.states), "N_U": len(model.inputs), "N_P": len(model.parameters),
         "N_Y": len(model.outputs), "N_M": n_memory, "N_D": len(discretes),
         "N_Z": events.n_indicators if events else 0, "N_MSG": len(messages), "N_LOOPS": len(model.loop_names),
+        "N_CAND": len(events.candidates) if events and events.mixed is not None else 0,
         "VR_P": layout.p, "VR_U": layout.u, "VR_X": layout.x, "VR_DX": layout.dx, "VR_Y": layout.y,
         "VR_D": layout.d, "VR_Z": layout.z, "VR_CS": layout.cs, "N_VR": layout.end,
         "N_OBS": len(model.observed), "N_V": len(layout.v_index), "N_Q": len(model.dependent),
@@ -245,6 +259,7 @@ def _data_header(model, layout, functions, identifier, token, cs_step, cs_method
         _c_array("X_START", "double", [repr(float(v.start)) for v in model.states]),
         _c_array("X_NOMINAL", "double", [repr(float(v.nominal or 1.0)) for v in model.states]),
         _c_array("M_START", "double", [repr(float(v)) for v in memory_start]),
+        _c_array("M_CAND", "int", [str(k) for k in (events.candidates if events else ())]),
         _c_array("Y_INDEX", "int", [str(k) for k in layout.y_index]),
         _c_array("D_KIND", "int", [str(_KINDS[d.kind][1]) for d in discretes]),
         _c_array("V_INDEX", "int", [str(k) for k in layout.v_index]),

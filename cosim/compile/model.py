@@ -98,6 +98,13 @@ class EventPart:
         Like ``update``, with ``terminal()`` true: the passes an importer runs when the simulation ends
         (``fmi3Terminate``), repeated like ``update`` until ``m`` settles. None when the model does not use
         ``terminal()``.
+    mixed : casadi.Function or None
+        ``mixed(x, u, p, t, m_pre, c) -> (x_new, m_new, status, m_fresh)``: the pass of ``update`` with the
+        relations and steps (rows ``candidates`` of ``m``) at the values of ``c`` instead of those they take;
+        ``m_fresh`` is ``m_new`` with the values they take there. ``m_fresh == m_new``: the pass's mixed system
+        (discrete variables and the continuous unknowns they decide) is solved. None without relations or steps.
+    candidates : tuple of int
+        The rows of ``m`` that ``mixed`` takes from ``c``.
     """
 
     discretes: tuple
@@ -109,6 +116,8 @@ class EventPart:
     next_time: object
     messages: tuple = ()
     terminal: object = None
+    mixed: object = None
+    candidates: tuple = ()
 
 
 @dataclass(frozen=True)

@@ -229,13 +229,113 @@ int model_initialize(Model *s) {
     return CORE_OK;
 }
 
+/* mixed(x, u, p, t, m_pre = s->m, c) into x_new, m_new, status and fresh; *solved when the relations and steps
+ * take there the candidate values c gave them (fresh == m_new in the rows M_CAND). */
+static int mixed_at(Model *s, const double *c, double *x_new, double *m_new, double *status, double *fresh,
+                    int *solved) {
+    int k;
+    s->arg[0] = s->x;
+    s->arg[1] = s->u;
+    s->arg[2] = s->p;
+    s->arg[3] = &s->t;
+    s->arg[4] = s->m;
+    s->arg[5] = c;
+    s->res[0] = x_new;
+    s->res[1] = m_new;
+    s->res[2] = status;
+    s->res[3] = fresh;
+    if (cosim_mixed(s->arg, s->res, (casadi_int *)s->iw, s->w, 0)) {
+        logf_(s, 1, "evaluation of the model equations failed at t = %.17g%s", s->t, " (mixed system of an event)");
+        return CORE_ERROR;
+    }
+    *solved = 1;
+    for (k = 0; k < N_CAND; k++)
+        if (fresh[M_CAND[k]] != m_new[M_CAND[k]]) *solved = 0;
+    return CORE_OK;
+}
+
+/* The candidates of rows M_CAND that changed among the n tried (a cycle), each with its two values. Returns how
+ * many, at most MAX_MIXED_SEARCH + 1. */
+static int cycling_rows(double tried[][N_M + 1], int n, int *rows, double *low, double *high) {
+    int k, j, count = 0;
+    for (k = 0; k < N_CAND && count <= MAX_MIXED_SEARCH; k++)
+        for (j = 1; j < n; j++)
+            if (tried[j][M_CAND[k]] != tried[0][M_CAND[k]]) {
+                rows[count] = M_CAND[k];
+                low[count] = fmin(tried[0][M_CAND[k]], tried[j][M_CAND[k]]);
+                high[count++] = fmax(tried[0][M_CAND[k]], tried[j][M_CAND[k]]);
+                break;
+            }
+    return count;
+}
+
+static int bits(unsigned v) {
+    int n = 0;
+    for (; v; v >>= 1) n += (int)(v & 1u);
+    return n;
+}
+
+/* The mixed system of one pass, when iterating the candidates cycled: each combination of the two values of
+ * the rows that changed, fewest at the higher value first (a relation false before true: a friction element
+ * stuck before it slides). Returns 1 with the pass's results when a combination is solved, 0 when none is. */
+static int search_mixed(Model *s, double tried[][N_M + 1], int n, double *x_out, double *m_out, double *st_out) {
+    int rows[MAX_MIXED_SEARCH + 1], count, ones, k, solved;
+    double low[MAX_MIXED_SEARCH + 1], high[MAX_MIXED_SEARCH + 1], c[N_M + 1], fresh[N_M + 1];
+    unsigned combo;
+    count = cycling_rows(tried, n, rows, low, high);
+    if (count > MAX_MIXED_SEARCH) return 0;
+    memcpy(c, tried[n - 1], N_M * sizeof(double));
+    for (ones = 0; ones <= count; ones++)
+        for (combo = 0; combo < (1u << count); combo++) {
+            if (bits(combo) != ones) continue;
+            for (k = 0; k < count; k++) c[rows[k]] = (combo >> k) & 1u ? high[k] : low[k];
+            if (mixed_at(s, c, x_out, m_out, st_out, fresh, &solved)) return -1;
+            if (solved) return 1;
+        }
+    return 0;
+}
+
+/* The mixed system of one pass (Modelica's event iteration at one instant, pre() held): the discrete variables
+ * and the continuous unknowns that decide each other are solved together. From the relations' and steps' values
+ * the pass gave (m_new), the candidates are iterated (each the values the last gave) until they reproduce
+ * themselves; if they cycle, search_mixed tries the combinations of the rows that changed. x_new, m_new and
+ * status become the solved pass's; when nothing solves it they stay the pass's as it was. */
+static int solve_mixed(Model *s, double *x_new, double *m_new, double *status) {
+    double tried[MAX_MIXED_ITERATIONS][N_M + 1], x_try[N_X + 1], m_try[N_M + 1], spare[N_M + 1], st = 0.0;
+    int n, j, solved, repeated = 0, found;
+    memcpy(tried[0], m_new, N_M * sizeof(double));
+    for (n = 1; n <= MAX_MIXED_ITERATIONS && !repeated; n++) {
+        if (mixed_at(s, tried[n - 1], x_try, m_try, &st, n < MAX_MIXED_ITERATIONS ? tried[n] : spare, &solved))
+            return CORE_ERROR;
+        if (solved) {
+            memcpy(x_new, x_try, N_X * sizeof(double));
+            memcpy(m_new, m_try, N_M * sizeof(double));
+            *status = st;
+            return CORE_OK;
+        }
+        for (j = 0; j < n && n < MAX_MIXED_ITERATIONS; j++)
+            if (!memcmp(tried[j], tried[n], N_M * sizeof(double))) repeated = 1;
+    }
+    found = search_mixed(s, tried, n - 1 + repeated, x_try, m_try, &st);
+    if (found < 0) return CORE_ERROR;
+    if (found) {
+        memcpy(x_new, x_try, N_X * sizeof(double));
+        memcpy(m_new, m_try, N_M * sizeof(double));
+        *status = st;
+    }
+    return CORE_OK;
+}
+
 /* One pass of event iteration with `pass` (cosim_update, or cosim_terminal at the end): pass(x, u, p, t, m_pre)
- * with m_pre the current memory. */
+ * with m_pre the current memory; a pass of cosim_update that changes m is then solved as a mixed system. */
 static int event_pass_with(Model *s, casadi_fn pass, EventFlags *flags) {
     double x_new[N_X + 1], m_new[N_M + 1], status = 0.0;
     int i, k;
     memset(flags, 0, sizeof *flags);
     if (call(s, pass, s->m, x_new, m_new, &status)) return CORE_ERROR;
+    if (N_CAND && pass == cosim_update && memcmp(m_new, s->m, N_M * sizeof(double))
+        && solve_mixed(s, x_new, m_new, &status))
+        return CORE_ERROR;
     for (i = 0; i < N_X; i++)
         if (x_new[i] != s->x[i]) flags->states_changed = 1;
     for (i = 0; i < N_M; i++)

@@ -33,6 +33,10 @@
 #define CHATTER_WINDOW (100 * EVENT_TOL)
 #define MAX_EVENT_PASSES 100
 #define MAX_EVENTS_IN_A_ROW 100
+/* The mixed system of an event pass (model_core.c, solve_mixed): candidates iterated at most
+ * MAX_MIXED_ITERATIONS times, then the combinations of at most MAX_MIXED_SEARCH rows that changed tried. */
+#define MAX_MIXED_ITERATIONS 20
+#define MAX_MIXED_SEARCH 12
 
 /* Logger the API layer provides: error is 0 for information, 1 for an error. */
 typedef void (*core_logger)(void *env, int error, const char *message);
