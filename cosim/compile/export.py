@@ -166,8 +166,8 @@ def _c_functions(model):
     cosim_update, cosim_terminal, cosim_initial, cosim_next_time (cosim_terminal: the update with terminal()
     true; one that changes nothing when the model does not use terminal()), then the derivatives
     (:func:`_derivative_functions`), then cosim_observe (the local variables), cosim_loops (which nonlinear
-    loops converged), cosim_calculated (the dependent parameters), all f(x, u, p, t, m), and, last,
-    cosim_mixed(x, u, p, t, m_pre, c) (:func:`_mixed`)."""
+    loops converged), cosim_mixed(x, u, p, t, m_pre, c) (:func:`_mixed`) and, last, cosim_calculated (the
+    dependent parameters), all but cosim_mixed f(x, u, p, t, m)."""
     events = model.events
     memory = 0 if events is None else None  # a continuous model's functions get an empty memory argument
     ode, out = _named(model.ode, "cosim_ode", memory), _named(model.out, "cosim_out", memory)
@@ -179,8 +179,8 @@ def _c_functions(model):
                       _terminal_pass(events), _named(events.initial, "cosim_initial"),
                       _named(events.next_time, "cosim_next_time")]
     return functions + _derivative_functions(ode, out) + [_named(model.observe, "cosim_observe", memory),
-                                                         _loops(model, memory), _calculated(model, memory),
-                                                         _mixed(model)]
+                                                         _loops(model, memory), _mixed(model),
+                                                         _calculated(model, memory)]
 
 
 def _mixed(model):

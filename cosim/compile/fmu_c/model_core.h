@@ -36,7 +36,7 @@
 /* The mixed system of an event pass (model_core.c, solve_mixed): candidates iterated at most
  * MAX_MIXED_ITERATIONS times, then the combinations of at most MAX_MIXED_SEARCH rows that changed tried. */
 #define MAX_MIXED_ITERATIONS 20
-#define MAX_MIXED_SEARCH 12
+#define MAX_MIXED_SEARCH 10
 
 /* Logger the API layer provides: error is 0 for information, 1 for an error. */
 typedef void (*core_logger)(void *env, int error, const char *message);
