@@ -234,20 +234,9 @@ int model_initialize(Model *s) {
 static int mixed_at(Model *s, const double *c, double *x_new, double *m_new, double *status, double *fresh,
                     int *solved) {
     int k;
-    s->arg[0] = s->x;
-    s->arg[1] = s->u;
-    s->arg[2] = s->p;
-    s->arg[3] = &s->t;
-    s->arg[4] = s->m;
-    s->arg[5] = c;
-    s->res[0] = x_new;
-    s->res[1] = m_new;
-    s->res[2] = status;
+    s->arg[5] = c;  /* the sixth argument and the fourth result; call() sets the others */
     s->res[3] = fresh;
-    if (cosim_mixed(s->arg, s->res, (casadi_int *)s->iw, s->w, 0)) {
-        logf_(s, 1, "evaluation of the model equations failed at t = %.17g%s", s->t, " (mixed system of an event)");
-        return CORE_ERROR;
-    }
+    if (call(s, cosim_mixed, s->m, x_new, m_new, status)) return CORE_ERROR;
     *solved = 1;
     for (k = 0; k < N_CAND; k++)
         if (fresh[M_CAND[k]] != m_new[M_CAND[k]]) *solved = 0;
