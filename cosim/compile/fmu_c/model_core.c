@@ -290,7 +290,7 @@ static int search_mixed(Model *s, double tried[][N_M + 1], int n, double *x_out,
  * themselves; if they cycle, search_mixed tries the combinations of the rows that changed. x_new, m_new and
  * status become the solved pass's; when nothing solves it they stay the pass's as it was. */
 static int solve_mixed(Model *s, double *x_new, double *m_new, double *status) {
-    double tried[MAX_MIXED_ITERATIONS][N_M + 1], x_try[N_X + 1], m_try[N_M + 1], spare[N_M + 1], st = 0.0;
+    double (*tried)[N_M + 1] = s->mixed_tried, x_try[N_X + 1], m_try[N_M + 1], spare[N_M + 1], st = 0.0;
     int n, j, solved, repeated = 0, found;
     memcpy(tried[0], m_new, N_M * sizeof(double));
     for (n = 1; n <= MAX_MIXED_ITERATIONS && !repeated; n++) {

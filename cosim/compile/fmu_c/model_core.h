@@ -53,6 +53,7 @@ typedef struct {
     int fresh_xdot, fresh_y, fresh_z, fresh_v, fresh_q;  /* cached results valid for the current t, x, u, p, m */
     double cs_step;              /* internal step of model_do_step, s (value reference VR_CS: _cs_step) */
     int cs_method;               /* CS_RK4 or CS_IMPLICIT_EULER (value reference VR_CS + 1: _cs_method) */
+    double mixed_tried[MAX_MIXED_ITERATIONS][N_M + 1];  /* candidates of an event pass's mixed system */
     core_logger log;
     void *log_env;
     const double *arg[SZ_ARG + 1];
