@@ -14,7 +14,7 @@ from cosim.errors import StructureError
 # Draws of the discrete values before a linear block that reads them is judged singular.
 _DISCRETE_DRAWS = 64
 
-__all__ = ["Blocks", "causalise", "depends", "file_line", "symbol_names"]
+__all__ = ["Blocks", "causalise", "depends", "file_line", "generic_rank", "symbol_names"]
 
 
 def symbol_names(expr):
@@ -42,13 +42,18 @@ class Blocks:
     def __init__(self):
         self.solved = {}        # unknown name -> expression in knowns and nonlinear-block symbols
         self.nonlinear = []     # (unknown symbols, residual expressions, locations)
-        self.constraints = []   # (expression in knowns, location)
+        self.constraints = []   # (expression in knowns, location, index of the equation)
 
 
-def causalise(equations, unknowns, state_names, discrete=frozenset()):
+def causalise(equations, unknowns, state_names, discrete=frozenset(), designated=None):
     """Solve ``0 = equations`` for ``unknowns`` (SX symbols) in terms of everything else; ``discrete``: the names
-    of the values held between events (Booleans, modes)."""
+    of the values held between events (Booleans, modes); ``designated``: equation index -> the name of the one
+    unknown it must determine, which no other equation may (index reduction's pairs: a constraint and the state it
+    computes, its derivative and the state's derivative). An equation left with no unknown of its own that holds
+    states is a constraint between them: it is returned, the rest unsolved."""
     result = Blocks()
+    designated = designated or {}
+    reserved = set(designated.values())
     index = {u.name(): u for u in unknowns}
     exprs = [e for e, _ in equations]
     locs = [loc for _, loc in equations]
@@ -70,15 +75,10 @@ def causalise(equations, unknowns, state_names, discrete=frozenset()):
         for i in pending:
             open_unknowns = refresh(i)
             if not open_unknowns:
-                if _is_zero(exprs[i]):
-                    continue
-                if depends(exprs[i], state_names):
-                    result.constraints.append((exprs[i], locs[i]))
-                    continue
-                raise StructureError(
-                    f"equation has no unknown left to determine (over-determined or inconsistent): "
-                    f"0 = {exprs[i]}", *file_line(locs[i]))
-            if len(open_unknowns) == 1:
+                _leftover(result, exprs[i], locs[i], i, state_names)
+                continue
+            if len(open_unknowns) == 1 and designated.get(i, open_unknowns[0]) == open_unknowns[0] and (
+                    open_unknowns[0] not in reserved or designated.get(i) == open_unknowns[0]):
                 u = index[open_unknowns[0]]
                 a = ca.jacobian(exprs[i], u)
                 if not ca.depends_on(a, u) and not _is_zero(a):
@@ -89,78 +89,130 @@ def causalise(equations, unknowns, state_names, discrete=frozenset()):
         pending = remaining
     if result.constraints or not pending:
         return result
-    _solve_blocks(result, pending, exprs, locs, (index, discrete), refresh)
+    _solve_blocks(result, pending, (exprs, locs), (index, discrete, state_names), (refresh, designated))
     return result
 
 
-def _solve_blocks(result, pending, exprs, locs, symbols, refresh):
-    """Match the remaining equations to unknowns, order their strongly connected blocks and solve each.
-    ``symbols``: the unknowns by name, and the names of the discrete values."""
-    index, discrete = symbols
-    incidence = {i: refresh(i) for i in pending}
+def _leftover(result, expr, loc, i, state_names):
+    """An equation all of whose unknowns are solved: an identity, a constraint between states, or an error."""
+    if _is_zero(expr):
+        return
+    if depends(expr, state_names):
+        result.constraints.append((expr, loc, i))
+        return
+    raise StructureError(f"equation has no unknown left to determine (over-determined or inconsistent): 0 = {expr}",
+                         *file_line(loc))
+
+
+def _matching(pending, incidence, designated, reserved):
+    """A maximum matching of the equations ``pending`` to their unknowns (a designated equation to its own one,
+    no other equation to a reserved one): {position in pending: unknown name}, and the unknowns' names."""
+    allowed = {i: ([designated[i]] if designated[i] in incidence[i] else []) if i in designated
+               else [n for n in incidence[i] if n not in reserved] for i in pending}
     cols = sorted({n for ns in incidence.values() for n in ns})
-    if len(cols) != len(pending):
-        where = "; ".join(locs[i] for i in pending[:6])
-        raise StructureError(
-            f"{len(pending)} coupled equations for {len(cols)} unknowns ({', '.join(cols[:8])}) at {where}")
     col_of = {n: k for k, n in enumerate(cols)}
-    rows, colidx = [], []
-    for r, i in enumerate(pending):
-        for n in incidence[i]:
-            rows.append(r)
-            colidx.append(col_of[n])
+    rows = [r for r, i in enumerate(pending) for _ in allowed[i]]
+    colidx = [col_of[n] for i in pending for n in allowed[i]]
     graph = csr_matrix((np.ones(len(rows)), (rows, colidx)), shape=(len(pending), len(cols)))
     match = maximum_bipartite_matching(graph, perm_type="column")
-    if (match < 0).any():
-        bad = [locs[pending[r]] for r in np.flatnonzero(match < 0)]
-        raise StructureError(
-            "the equations are structurally singular (some unknown is determined twice and another not at all); "
-            f"check the equations at {', '.join(bad[:6])}", *file_line(bad[0]))
-    row_of_col = {int(c): r for r, c in enumerate(match)}
+    return {r: cols[c] for r, c in enumerate(match) if c >= 0}, cols
+
+
+def _solve_blocks(result, pending, equations, symbols, how):
+    """Match the remaining equations to unknowns, order their strongly connected blocks and solve each. When the
+    matching leaves equations over, the blocks that do not wait on an unmatched unknown are solved, and the
+    equations over become constraints between states (index reduction follows) or, holding unknowns still,
+    a structural singularity. ``symbols``: the unknowns by name, the names of the discrete values and of the
+    states; ``how``: the refresh of an equation and the designated pairs."""
+    exprs, locs = equations
+    index, discrete, state_names = symbols
+    refresh, designated = how
+    incidence = {i: refresh(i) for i in pending}
+    match, cols = _matching(pending, incidence, designated, set(designated.values()))
+    row_of = {n: r for r, n in match.items()}
     dep_rows, dep_cols = [], []
     for r, i in enumerate(pending):
         for n in incidence[i]:
-            dep_rows.append(r)
-            dep_cols.append(row_of_col[col_of[n]])
+            if n in row_of:
+                dep_rows.append(r)
+                dep_cols.append(row_of[n])
     deps = csr_matrix((np.ones(len(dep_rows)), (dep_rows, dep_cols)), shape=(len(pending),) * 2)
     n_comp, labels = connected_components(deps, directed=True, connection="strong")
     order = graphlib.TopologicalSorter({c: set() for c in range(n_comp)})
     for r, c in zip(dep_rows, dep_cols):
         if labels[r] != labels[c]:
             order.add(int(labels[r]), int(labels[c]))
+    blocked = set()  # components that wait on an unknown no equation determines
     for comp in order.static_order():
         members = [r for r in range(len(pending)) if labels[r] == comp]
+        waits = any(r not in match or any(n not in row_of or labels[row_of[n]] in blocked
+                                          for n in incidence[pending[r]]) for r in members)
+        if waits:
+            blocked.add(comp)
+            continue
         for r in members:
             refresh(pending[r])
-        unknowns = ca.vertcat(*[index[cols[match[r]]] for r in members])
-        residual = ca.vertcat(*[exprs[pending[r]] for r in members])
-        jac = ca.jacobian(residual, unknowns)
-        if not ca.depends_on(jac, unknowns):
-            _check_generic_rank(jac, [locs[pending[r]] for r in members], discrete)
-            rhs = -ca.substitute(residual, unknowns, ca.SX.zeros(unknowns.shape))
-            solution = rhs / jac if unknowns.numel() == 1 else ca.solve(jac, rhs)
-            for k in range(unknowns.numel()):
-                result.solved[unknowns[k].name()] = ca.simplify(solution[k])
-        else:
-            result.nonlinear.append((unknowns, residual, [locs[pending[r]] for r in members]))
-            for k in range(unknowns.numel()):
-                result.solved[unknowns[k].name()] = unknowns[k]
+        _solve_block(result, [pending[r] for r in members], [match[r] for r in members], (exprs, locs),
+                     (index, discrete))
+    if len(match) == len(pending) == len(cols):
+        return
+    unmatched = [pending[r] for r in range(len(pending)) if r not in match]
+    for i in unmatched:
+        if not refresh(i):
+            _leftover(result, exprs[i], locs[i], i, state_names)
+    if not result.constraints:
+        bad = [locs[i] for i in unmatched] or [locs[i] for i in pending]
+        raise StructureError(
+            "the equations are structurally singular (some unknown is determined twice and another not at all); "
+            f"check the equations at {', '.join(bad[:6])}", *file_line(bad[0]))
 
 
-def _check_generic_rank(jac, locations, discrete=frozenset()):
-    """A linear block singular at a random point of its symbols is singular everywhere (with probability 1). Not
-    so for the discrete values among them: at 0.5..1.5 every Boolean is true, a combination the model may never
-    reach (LossyGear: ideal and locked). The block is singular when it is at every draw of them too, each an
-    integer of -1..3 (Booleans, the friction elements' modes)."""
-    symbols = ca.symvar(jac)
+def _solve_block(result, members, names, equations, symbols):
+    """Solve the equations ``members`` (indices) for the unknowns ``names``: symbolically when linear, else
+    left to Newton's method (a nonlinear block)."""
+    exprs, locs = equations
+    index, discrete = symbols
+    unknowns = ca.vertcat(*[index[n] for n in names])
+    residual = ca.vertcat(*[exprs[i] for i in members])
+    jac = ca.jacobian(residual, unknowns)
+    if not ca.depends_on(jac, unknowns):
+        _check_generic_rank(jac, [locs[i] for i in members], discrete)
+        rhs = -ca.substitute(residual, unknowns, ca.SX.zeros(unknowns.shape))
+        solution = rhs / jac if unknowns.numel() == 1 else ca.solve(jac, rhs)
+        for k in range(unknowns.numel()):
+            result.solved[unknowns[k].name()] = ca.simplify(solution[k])
+    else:
+        result.nonlinear.append((unknowns, residual, [locs[i] for i in members]))
+        for k in range(unknowns.numel()):
+            result.solved[unknowns[k].name()] = unknowns[k]
+
+
+def generic_rank(matrix, discrete=frozenset()):
+    """The rank of a matrix of expressions at random points of its symbols, which is its rank almost everywhere.
+    Not so for the discrete values among them: at 0.5..1.5 every Boolean is true, a combination the model may
+    never reach (LossyGear: ideal and locked); they are drawn too, each an integer of -1..3 (Booleans, the friction
+    elements' modes), and the largest rank seen counts. A draw where the matrix is not finite tells nothing; with
+    none finite the rank is taken as full."""
+    symbols = ca.symvar(matrix)
     rng = np.random.default_rng(12345)
     held = np.array([s.name() in discrete for s in symbols], dtype=bool)
-    jacobian = ca.Function("block_jacobian", [ca.vertcat(*symbols)], [jac]) if symbols else (lambda _: ca.evalf(jac))
+    at = ca.Function("generic_matrix", [ca.vertcat(*symbols)], [matrix]) if symbols else (lambda _: ca.evalf(matrix))
+    best, finite = 0, False
     for draw in range(1 + (_DISCRETE_DRAWS if held.any() else 0)):
         values = rng.uniform(0.5, 1.5, len(symbols))
         if draw:
             values[held] = rng.integers(-1, 4, int(held.sum()))
-        if np.linalg.matrix_rank(np.array(ca.DM(jacobian(values)), dtype=float)) == jac.shape[0]:
-            return
-    raise StructureError(f"the linear equations at {', '.join(sorted(set(locations)))} are singular: they do not "
-                         "determine their unknowns (a redundant or missing equation)", *file_line(locations[0]))
+        numbers = np.array(ca.DM(at(values)), dtype=float)
+        if np.isfinite(numbers).all():
+            finite = True
+            best = max(best, int(np.linalg.matrix_rank(numbers)))
+            if best == matrix.shape[0]:
+                break
+    return best if finite else matrix.shape[0]
+
+
+def _check_generic_rank(jac, locations, discrete=frozenset()):
+    """A linear block singular at a random point of its symbols is singular everywhere (with probability 1)."""
+    if generic_rank(jac, discrete) < jac.shape[0]:
+        raise StructureError(f"the linear equations at {', '.join(sorted(set(locations)))} are singular: they do "
+                             "not determine their unknowns (a redundant or missing equation)", *file_line(locations[0]))

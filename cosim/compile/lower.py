@@ -6,7 +6,7 @@ import casadi as ca
 import numpy as np
 
 from cosim.compile import events as hybrid
-from cosim.compile.causalise import causalise, depends, file_line, symbol_names
+from cosim.compile.causalise import causalise, depends, file_line, generic_rank, symbol_names
 from cosim.compile.guess import better_guess
 from cosim.compile.initial import initial_state
 from cosim.compile.model import LoweredModel, ModelVariable
@@ -105,48 +105,111 @@ class _Parameters:
         return ca.substitute(expr, ca.vertcat(*self.subs_from), ca.vertcat(*self.subs_to))
 
 
-def _pick_state_to_demote(constraint, states, demoted):
-    """The state a constraint computes (state_select never/avoid first, then the last declared); None when
-    every state it ties is already demoted."""
-    candidates = [k for k, s in enumerate(states) if k not in demoted and ca.depends_on(constraint, s.sym)]
-    if not candidates:
-        return None
-    return min(candidates, key=lambda k: (_DEMOTE_ORDER.get(states[k].state_select.lower(), 2), -k))
+def _pick_state_to_demote(constraints, states, demoted, fresh, discrete):
+    """The state the last of this pass's ``constraints`` computes: state_select never/avoid first, then the last
+    declared, among those that keep the pass's constraints regular in the states they demote (``fresh`` before
+    it), as the dummy derivative method asks; None when every state it ties is already demoted."""
+    g = constraints[-1]
+    candidates = [k for k, s in enumerate(states) if k not in demoted and ca.depends_on(g, s.sym)]
+    candidates.sort(key=lambda k: (_DEMOTE_ORDER.get(states[k].state_select.lower(), 2), -k))
+    rows = ca.vertcat(*constraints)
+    for k in candidates:
+        jacobian = ca.jacobian(rows, ca.vertcat(*[states[j].sym for j in fresh + [k]]))
+        if generic_rank(jacobian, discrete) == len(fresh) + 1:
+            return k
+    return candidates[0] if candidates else None
 
 
 def _reduce_index(system, equations, states, ders, algebraics, input_names):
     """Causalise ``equations`` for the state derivatives and algebraics; for each constraint between states, demote
-    one of its states to an algebraic and add the constraint's time derivative (index reduction). Returns the
-    blocks, the demoted states' indices and a note for each."""
-    demoted, extra, reduction_notes = [], [], []
+    one of its states to an algebraic and add the constraint's time derivative (index reduction by dummy
+    derivatives: the demoted state's derivative is an algebraic unknown). The constraint's equation is designated
+    to determine the demoted state (when it holds it): solved for it from the derivative instead (the pendulum's
+    ``x*vx + y*vy = 0`` for ``y``), the constraint would be left over in the states. A constraint that appears only
+    once the derivative is added (the pendulum's velocity one) is reduced in the next pass. Returns the blocks, the
+    demoted states' indices and a note for each."""
+    demoted, extra, reduction_notes, designated = [], [], [], {}
     discrete = set() if system.events is None else {s.name() for s in hybrid.memory_symbols(system.events)}
+    all_states = ca.vertcat(*[s.sym for s in states]) if states else ca.SX(0, 1)
     for _ in range(len(states) + 1):
         unknowns = ders + [z.sym for z in algebraics] + [states[k].sym for k in demoted]
         active_names = {s.name for k, s in enumerate(states) if k not in demoted}
-        blocks = causalise(equations + extra, unknowns, active_names, discrete)
+        blocks = causalise(equations + extra, unknowns, active_names, discrete, designated)
         if not blocks.constraints:
             break
-        progressed = False
-        for g, loc in blocks.constraints:
-            if depends(g, input_names):
-                raise StructureError(
-                    f"a constraint between states involves an input ({g}); it would need the input's derivative",
-                    *file_line(loc))
-            k = _pick_state_to_demote(g, states, demoted)
+        accepted, fresh = [], []
+        for g, loc, i in blocks.constraints:
+            _check_differentiable(g, loc, input_names, blocks, states)
+            jacobian = ca.jacobian(ca.vertcat(*accepted, g), all_states)
+            if accepted and generic_rank(jacobian, discrete) == len(accepted):
+                continue  # implied by the pass's others (three node voltages, two constraints): the next pass sees
+            k = _pick_state_to_demote(accepted + [g], states, demoted, fresh, discrete)
             if k is None:  # on states this pass already demoted (a repeated constraint): the next pass sees it
                 continue
-            progressed = True
+            accepted.append(g)
+            fresh.append(k)
             demoted.append(k)
-            dg = ca.mtimes(ca.jacobian(g, ca.vertcat(*[s.sym for s in states])), ca.vertcat(*ders))
-            dg += ca.jacobian(g, system.time)
+            dg = ca.mtimes(ca.jacobian(g, all_states), ca.vertcat(*ders)) + ca.jacobian(g, system.time)
+            if ca.depends_on((equations + extra)[i][0], states[k].sym) and i not in designated:
+                designated[i] = states[k].name
             extra.append((dg, loc))
             reduction_notes.append(f"{loc}: constraint 0 = {g} ties states together; {states[k].name} is computed "
                                    f"from it (index reduction)")
-        if not progressed:
-            g, loc = blocks.constraints[0]
+        if not fresh:
+            g, loc, _ = blocks.constraints[0]
             raise StructureError(f"the constraint 0 = {g} between states has no state left to compute from it: the "
                                  "equations over-determine the states", *file_line(loc))
     return blocks, demoted, reduction_notes
+
+
+def _check_differentiable(g, loc, input_names, blocks, states):
+    """A constraint is differentiated through the states only: one that involves an input (whose derivative is
+    not known) or an unknown of a nonlinear algebraic loop (not a demoted state) is refused."""
+    if depends(g, input_names):
+        raise StructureError(
+            f"a constraint between states involves an input ({g}); it would need the input's derivative",
+            *file_line(loc))
+    loop = symbol_names(ca.vertcat(*[vs for vs, _, _ in blocks.nonlinear])) if blocks.nonlinear else set()
+    inside = sorted((symbol_names(g) & loop) - {s.name for s in states})
+    if inside:
+        raise StructureError(f"the constraint 0 = {g} between states goes through the nonlinear algebraic loop in "
+                             f"{', '.join(inside[:6])}: index reduction would need the loop's derivative, which is "
+                             "not implemented", *file_line(loc))
+
+
+def _without_vanished(system, equations, states, algebraics, notes):
+    """The states and algebraic variables, a state whose derivative vanishes moved to the latter (with a note)."""
+    written = ca.vertcat(*[e.residual for e in system.equations]) if system.equations else ca.SX(0, 1)
+    vanished = _states_without_derivative(equations, [s for s in states if ca.depends_on(
+        written, system.derivatives[s.name])], system.derivatives, algebraics)
+    notes += [f"{s.location}: der({s.name}) is in no equation once the parameters are evaluated (a coefficient "
+              f"0); {s.name} is an algebraic variable" for s in vanished]
+    names = {v.name for v in vanished}
+    return [s for s in states if s.name not in names], algebraics + vanished
+
+
+def _states_without_derivative(equations, states, derivatives, algebraics):
+    """Of the ``states`` whose derivative the model writes, those whose derivative is in no equation once the
+    algebraic variables the equations fix to numbers are substituted: ``C*der(v) = i`` with a capacitance evaluated
+    to 0 (the MSL's ``Evaluate = true``) is ``i = 0``, and ``v`` an algebraic variable, as in a tool that evaluates
+    the parameter before sorting (a variable made a state for ``der()`` of an expression is left alone)."""
+    exprs = [e for e, _ in equations]
+    syms = {z.sym.name(): z.sym for z in algebraics}
+    for _ in range(len(algebraics) + 1):
+        fixed = {}
+        for e in exprs:
+            free = ca.symvar(e)
+            if len(free) == 1 and free[0].name() in syms and free[0].name() not in fixed:
+                a = ca.jacobian(e, free[0])
+                if a.is_constant() and float(ca.evalf(a)) != 0.0:
+                    fixed[free[0].name()] = -ca.substitute(e, free[0], 0) / a
+        if not fixed:
+            break
+        names = list(fixed)
+        exprs = list(ca.substitute(exprs, [ca.vertcat(*[syms.pop(n) for n in names])],
+                                   [ca.vertcat(*[fixed[n] for n in names])]))
+    used = ca.vertcat(*exprs) if exprs else ca.SX(0, 1)
+    return [s for s in states if not ca.depends_on(used, derivatives[s.name])]
 
 
 def lower_system(system):
@@ -166,6 +229,7 @@ def lower_system(system):
     equations = [(params.substitute(e.residual), e.location) for e in system.equations]
     M, equations = _hybrid_memory(system, equations)
     input_names = {u.name for u in inputs}
+    states, algebraics = _without_vanished(system, equations, states, algebraics, notes)
     ders = [system.derivatives[s.name] for s in states]
     blocks, demoted, reduction_notes = _reduce_index(system, equations, states, ders, algebraics, input_names)
     notes += reduction_notes
