@@ -31,9 +31,7 @@ MODELS = """
     x^2 + y^2 = L^2;
   end Pendulum;
   model Coupled "index 2: two inertias whose speeds a constraint ties, driven and damped"
-    parameter Real J1 = 0.5;
-    parameter Real J2 = 1.5;
-    parameter Real d = 0.8;
+    parameter Real J1 = 0.5, J2 = 1.5, d = 0.8;
     Real w1(start = 1.0, fixed = true);
     Real w2;
     Real tau "torque the coupling transmits";
