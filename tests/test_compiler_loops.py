@@ -178,3 +178,81 @@ def test_a_loop_whose_newton_iterations_cycle_is_solved_by_the_damped_retry(tmp_
     result = fmpy.simulate_fmu(str(fmu), stop_time=2.0, output_interval=0.01, output=["v", "c"])
     c = result["c"]
     np.testing.assert_allclose(result["v"], np.where(c > 1.01, (c - 1) / 0.01, c / 1.01), rtol=0, atol=1e-9)
+# A comparator with positive feedback: y = tanh(k (u + a y)) with k a = 2 > 1 has, for |u| below U_SWITCH, two
+# stable solutions (a lower and an upper branch) and an unstable one between. Its branches in closed form:
+# u = atanh(y)/k - a y; a branch ends where du/dy = 0, at |y| = sqrt(1 - 1/(k a)).
+COMPARATOR = """
+  model M
+    parameter Real k = 2;
+    parameter Real a = 1;
+    input Real u(start = -2);
+    Real y(start = -1) "on the lower branch at the start";
+    output Real out = y;
+  equation
+    y = tanh(k*(u + a*y));
+  end M;"""
+Y_FOLD = np.sqrt(1 - 1 / 2.0)
+U_SWITCH = np.arctanh(Y_FOLD) / 2 - Y_FOLD  # where the upper branch ends (-0.266); the lower ends at -U_SWITCH
+
+
+def _on_branch(u, upper):
+    """The comparator's solution on its upper or lower branch at u (scipy's brentq on the closed form u(y))."""
+    f = lambda y: np.arctanh(y) / 2 - y - u  # noqa: E731
+    return brentq(f, Y_FOLD, 1 - 1e-15) if upper else brentq(f, -1 + 1e-15, -Y_FOLD)
+
+
+def _comparator(tmp_path):
+    from fmpy.fmi3 import FMU3Slave
+
+    fmu = build_fmu(write_package(tmp_path, COMPARATOR), "T.M", out_dir=tmp_path / "out")
+    md = fmpy.read_model_description(str(fmu))
+    slave = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(str(fmu), unzipdir=str(tmp_path / "unzipped")),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="comparator")
+    slave.instantiate()
+    slave.enterInitializationMode(startTime=0.0)
+    slave.exitInitializationMode()
+    vrs = {v.name: v.valueReference for v in md.modelVariables}
+
+    def out_at(u):
+        slave.setFloat64([vrs["u"]], [u])
+        return slave.getFloat64([vrs["out"]])[0]
+
+    return slave, out_at
+
+
+def test_a_loop_with_two_solutions_follows_its_branch_from_the_last_solution(tmp_path):
+    """u swept up from -2 to 2 and back in steps of 0.05: the output stays on the lower branch up to -U_SWITCH,
+    on the upper one down to U_SWITCH (hysteresis), each value the closed form's root on that branch."""
+    slave, out_at = _comparator(tmp_path)
+    sweep = np.round(np.concatenate([np.arange(-2, 2, 0.05), np.arange(2, -2, -0.05)]), 10)
+    upper = False
+    for k, u in enumerate(sweep):
+        rising = k < len(sweep) // 2
+        upper = (upper or u > -U_SWITCH) if rising else (upper and u >= U_SWITCH)
+        assert out_at(u) == pytest.approx(_on_branch(u, upper), abs=1e-9), (u, rising)
+    # both branches were met inside the band, each from its side
+    assert out_at(0.0) == pytest.approx(_on_branch(0.0, upper=False), abs=1e-9)
+    slave.terminate()
+    slave.freeInstance()
+
+
+def test_fmu_state_and_reset_restore_the_branch_the_loop_was_on(tmp_path):
+    """Inside the band (u = 0) the output is the branch the last solution was on: the one at the saved state after
+    fmi3SetFMUState (serialised too), the start values' (lower) after fmi3Reset."""
+    slave, out_at = _comparator(tmp_path)
+    lower_0, upper_0 = _on_branch(0.0, upper=False), _on_branch(0.0, upper=True)
+    assert out_at(0.0) == pytest.approx(lower_0, abs=1e-9)
+    state = slave.getFMUState()
+    assert out_at(2.0) == pytest.approx(_on_branch(2.0, upper=True), abs=1e-9)
+    assert out_at(0.0) == pytest.approx(upper_0, abs=1e-9)
+    saved_upper = slave.serializeFMUState(slave.getFMUState())
+    slave.setFMUState(state)
+    assert out_at(0.0) == pytest.approx(lower_0, abs=1e-9)
+    slave.setFMUState(slave.deserializeFMUState(saved_upper))
+    assert out_at(0.0) == pytest.approx(upper_0, abs=1e-9)
+    slave.reset()
+    slave.enterInitializationMode(startTime=0.0)
+    slave.exitInitializationMode()
+    assert out_at(0.0) == pytest.approx(lower_0, abs=1e-9)
+    slave.terminate()
+    slave.freeInstance()

@@ -9,7 +9,7 @@ from cosim.compile import events as hybrid
 from cosim.compile.causalise import causalise, depends, file_line, generic_rank, symbol_names
 from cosim.compile.guess import better_guess
 from cosim.compile.initial import initial_state
-from cosim.compile.model import LoweredModel, ModelVariable
+from cosim.compile.model import Carried, LoweredModel, ModelVariable
 from cosim.compile.newton import NEWTON_ITERATIONS, RETRY_ITERATIONS, converged, newton
 from cosim.errors import StructureError, UnsupportedConstructError
 
@@ -271,11 +271,11 @@ def lower_system(system):
     start_of = {v.name: _start_at_defaults(v, params, P, p_defaults) for v in system.variables}
     loop_names = tuple(f"nonlinear algebraic loop in {', '.join(u.name() for u in ca.vertsplit(vs))} (equations "
                        f"at {', '.join(sorted(set(locs)))})" for vs, _, locs in blocks.nonlinear)
-    ode, out, observe, loops, guess_notes = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, start_of, M,
+    ode, out, observe, loops, carried, guess_notes = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, start_of, M,
                                                        start_point, loop_names)
     notes += guess_notes
-    notes += [f"{name} solved by Newton's method ({NEWTON_ITERATIONS} iterations from the start values)"
-              for name in loop_names]
+    notes += [f"{name} solved by Newton's method ({NEWTON_ITERATIONS} iterations; in the FMU from the loop's last "
+              "solution, from its start values at first)" for name in loop_names]
     if system.events is not None:
         notes += [f"sample(start = {start:g} s, interval = {interval:g} s) is fixed at build time (rumoca evaluates "
                   "its arguments): a parameter in them does not follow its run-time value"
@@ -291,7 +291,7 @@ def lower_system(system):
         ode=ode, out=out, observe=observe,
         observed=tuple(ModelVariable(v.name, v.unit, v.description, _start(v)) for v in observed),
         x0=x0, constants=dict(params.constants), notes=tuple(notes), **_parameter_variables(params, P),
-        loops=loops, loop_names=loop_names,
+        loops=loops, loop_names=loop_names, carried=carried,
         events=None if M is None else _event_part(system, params, active, outputs, observed, (X, U, P, T, M),
                                                   (ode, out, observe), (p_defaults, x0_values)),
     )
@@ -367,17 +367,18 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
     does not lower the residual is halved: full steps can cycle on a piecewise-linear limiter); a block that still
     did not gives NaN, and ``loops`` says which (1 converged, 0 not, in ``loop_names`` order; None without
     blocks), so that the FMU reports an error, not a number.
-    Returns the three functions, ``loops`` and notes."""
+    Returns the three functions, ``loops``, the :class:`Carried` functions (None without blocks) and notes."""
     names = ["x", "u", "p", "t"] + ([] if M is None else ["m"])
     args = [X, U, P, T] + ([] if M is None else [M])
     if not nonlinear:
         return (ca.Function("ode", args, [xdot], names, ["xdot"]),
                 ca.Function("out", args, [y], names, ["y"]),
-                ca.Function("observe", args, [obs], names, ["v"]), None, [])
+                ca.Function("observe", args, [obs], names, ["v"]), None, None, [])
     block_syms = [vs for vs, _, _ in nonlinear]
     explicit = ca.Function("explicit", [*args, *block_syms], [xdot, y, obs])
     margs = [ca.MX.sym(n, s.shape[0]) for n, s in zip(names, args)]
-    solved, flags, notes = [], [], []
+    G = ca.MX.sym("g", sum(vs.shape[0] for vs in block_syms))
+    solved, flags, guesses, notes = [], [], [], []
     context_value = np.concatenate([np.ravel(v) for v in start_point])
     for k, (vs, residual, _) in enumerate(nonlinear):
         context = ca.vertcat(*args, *block_syms[:k])
@@ -388,8 +389,10 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
         context_value = np.concatenate([context_value, at_start])
         ctx_value = ca.vertcat(*margs, *solved)
         test = converged(k, vs, residual, context)
-        first = solver(ca.DM(guess), ca.repmat(ctx_value, 1, NEWTON_ITERATIONS))
-        retried = newton(f"{k}_retry", vs, residual, context, damped=True, iterations=RETRY_ITERATIONS)(
+        offset = sum(len(g) for g in guesses)
+        first = solver(G[offset:offset + vs.shape[0]], ca.repmat(ctx_value, 1, NEWTON_ITERATIONS))
+        guesses.append(guess)
+        retried = newton(f"{k}_retry", vs, residual, context, iterations=RETRY_ITERATIONS)(
             first, ca.repmat(ctx_value, 1, RETRY_ITERATIONS))
         # (solution, converged): the retry and its test evaluated only where the first iterations did not converge
         outcome = ca.if_else(test(first, ctx_value), ca.vertcat(first, 1),
@@ -397,10 +400,16 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
         flags.append(outcome[-1])
         solved.append(ca.if_else(flags[-1], outcome[:-1], ca.DM.nan(vs.shape[0], 1)))
     xd, yy, oo = explicit(*margs, *solved)
-    return (ca.Function("ode", margs, [xd], names, ["xdot"]),
-            ca.Function("out", margs, [yy], names, ["y"]),
-            ca.Function("observe", margs, [oo], names, ["v"]),
-            ca.Function("loops", margs, [ca.vertcat(*flags)], names, ["converged"]), notes)
+    solution = ca.vertcat(*solved)
+    carried = Carried(ca.Function("ode", margs + [G], [xd, solution], names + ["g"], ["xdot", "g_new"]),
+                      ca.Function("out", margs + [G], [yy, solution], names + ["g"], ["y", "g_new"]),
+                      ca.Function("observe", margs + [G], [oo, solution], names + ["g"], ["v", "g_new"]),
+                      ca.Function("loops", margs + [G], [ca.vertcat(*flags)], names + ["g"], ["converged"]),
+                      np.concatenate(guesses))
+    start = ca.DM(carried.guess)
+    fixed = [ca.Function(f.name(), margs, [f(*margs, start)[0]], names, [f.name_out(0)])
+             for f in (carried.ode, carried.out, carried.observe, carried.loops)]
+    return (*fixed, carried, notes)
 
 
 def _start_at_defaults(var, params, P, p_defaults):

@@ -1,5 +1,7 @@
 /* The model core: see model_core.h. The CasADi functions all take (x, u, p, t, m); a continuous model has an
- * empty m, no indicators, an update that changes nothing and next_time = inf. Below the FMI-independent
+ * empty m, no indicators, an update that changes nothing and next_time = inf. Those that solve the nonlinear
+ * loops (ode, out, observe, loops, the derivatives) also take g, where the loops' Newton iterations start: the
+ * last solution (as every Modelica tool does, so that a loop with several solutions stays on its branch). Below the FMI-independent
  * services, the Co-Simulation ones: event iteration, the embedded solver, directional derivatives, the state. */
 #include <float.h>
 #include <math.h>
@@ -19,13 +21,15 @@ static void logf_(Model *s, int error, const char *format, double t, const char 
     s->log(s->log_env, error, buffer);
 }
 
-/* Evaluate f(x, u, p, t, m) into up to three results; nonzero when the generated code failed. */
-static int call(Model *s, casadi_fn f, const double *m, double *r0, double *r1, double *r2) {
+/* Evaluate f(x, u, p, t, m[, extra]) into up to three results; nonzero when the generated code failed. */
+static int call_with(Model *s, casadi_fn f, const double *m, const double *extra, double *r0, double *r1,
+                     double *r2) {
     s->arg[0] = s->x;
     s->arg[1] = s->u;
     s->arg[2] = s->p;
     s->arg[3] = &s->t;
     s->arg[4] = m;
+    s->arg[5] = extra;  /* read only by the functions with a sixth argument */
     s->res[0] = r0;
     s->res[1] = r1;
     s->res[2] = r2;
@@ -34,6 +38,11 @@ static int call(Model *s, casadi_fn f, const double *m, double *r0, double *r1, 
         return CORE_ERROR;
     }
     return CORE_OK;
+}
+
+/* f(x, u, p, t, m[, g]): the loops' last solution g the sixth argument of the functions that take it. */
+static int call(Model *s, casadi_fn f, const double *m, double *r0, double *r1, double *r2) {
+    return call_with(s, f, m, s->g, r0, r1, r2);
 }
 
 Model *model_new(core_logger log, void *log_env) {
@@ -54,6 +63,7 @@ void model_reset(Model *s) {
     memcpy(s->u, U_START, N_U * sizeof(double));
     memcpy(s->p, P_START, N_P * sizeof(double));
     memcpy(s->m, M_START, N_M * sizeof(double));
+    memcpy(s->g, G_START, N_G * sizeof(double));
     memset(s->x_set, 0, sizeof s->x_set);
     memset(s->z_side, 0, sizeof s->z_side);
     s->last_event = -INFINITY;
@@ -82,10 +92,17 @@ static int loops_failed(Model *s, const double *result, int n) {
     return 0;
 }
 
-/* The result of a model function at the current t, x, u, p, m: computed once, then kept until model_touch. */
+/* The result of a model function at the current t, x, u, p, m, g: computed once, then kept until model_touch.
+ * The loops' solutions there (f's second result, where it has one) are where their next iterations start; a loop
+ * that did not converge (NaN) keeps its last solution. */
 static const double *cached(Model *s, casadi_fn f, double *result, int n, int *fresh) {
+    double g_new[N_G + 1];
+    int k;
     if (!*fresh) {
-        if (call(s, f, s->m, result, NULL, NULL) || loops_failed(s, result, n)) return NULL;
+        if (N_G) memcpy(g_new, s->g, N_G * sizeof(double));
+        if (call(s, f, s->m, result, g_new, NULL) || loops_failed(s, result, n)) return NULL;
+        for (k = 0; k < N_G; k++)
+            if (isfinite(g_new[k])) s->g[k] = g_new[k];
         *fresh = 1;
     }
     return result;
@@ -234,9 +251,8 @@ int model_initialize(Model *s) {
 static int mixed_at(Model *s, const double *c, double *x_new, double *m_new, double *status, double *fresh,
                     int *solved) {
     int k;
-    s->arg[5] = c;  /* the sixth argument and the fourth result; call() sets the others */
-    s->res[3] = fresh;
-    if (call(s, cosim_mixed, s->m, x_new, m_new, status)) return CORE_ERROR;
+    s->res[3] = fresh;  /* the fourth result; call_with() sets the others */
+    if (call_with(s, cosim_mixed, s->m, c, x_new, m_new, status)) return CORE_ERROR;
     *solved = 1;
     for (k = 0; k < N_CAND; k++)
         if (fresh[M_CAND[k]] != m_new[M_CAND[k]]) *solved = 0;
@@ -596,15 +612,16 @@ static int seed_of(Model *s, unsigned vr, double value, double *dx, double *du) 
     return CORE_OK;
 }
 
-/* Forward derivative of f (cosim_dode or cosim_dout: f(x, u, p, t, m, dx, du)) into r. */
+/* Forward derivative of f (cosim_dode or cosim_dout: f(x, u, p, t, m, g, dx, du)) into r. */
 static int forward(Model *s, casadi_fn f, const double *dx, const double *du, double *r) {
     s->arg[0] = s->x;
     s->arg[1] = s->u;
     s->arg[2] = s->p;
     s->arg[3] = &s->t;
     s->arg[4] = s->m;
-    s->arg[5] = dx;
-    s->arg[6] = du;
+    s->arg[5] = s->g;
+    s->arg[6] = dx;
+    s->arg[7] = du;
     s->res[0] = r;
     if (f(s->arg, s->res, (casadi_int *)s->iw, s->w, 0)) {
         logf_(s, 1, "t = %.17g: evaluation of the directional derivative failed%s", s->t, "");
@@ -645,9 +662,9 @@ int model_directional(Model *s, const unsigned *unknown, size_t n_unknown, const
 
 /* ---- the state as a flat array ---- */
 
-#define N_SIZES 5
+#define N_SIZES 6
 
-size_t model_state_size(void) { return N_SIZES + 1 + 2 * N_X + N_U + N_P + N_M + N_Z + 2; }
+size_t model_state_size(void) { return N_SIZES + 1 + 2 * N_X + N_U + N_P + N_M + N_G + N_Z + 2; }
 
 static double *put(double *to, const double *from, int n) {
     if (n) memcpy(to, from, (size_t)n * sizeof(double));
@@ -660,7 +677,7 @@ static const double *take(double *to, const double *from, int n) {
 }
 
 void model_state_save(const Model *s, double *buf) {
-    const double sizes[N_SIZES] = {N_X, N_U, N_P, N_M, N_Z};
+    const double sizes[N_SIZES] = {N_X, N_U, N_P, N_M, N_Z, N_G};
     int i;
     buf = put(buf, sizes, N_SIZES);
     *buf++ = s->t;
@@ -668,6 +685,7 @@ void model_state_save(const Model *s, double *buf) {
     buf = put(buf, s->u, N_U);
     buf = put(buf, s->p, N_P);
     buf = put(buf, s->m, N_M);
+    buf = put(buf, s->g, N_G);
     for (i = 0; i < N_X; i++) *buf++ = s->x_set[i];
     buf = put(buf, s->z_side, N_Z);
     *buf++ = s->cs_step;
@@ -675,7 +693,7 @@ void model_state_save(const Model *s, double *buf) {
 }
 
 int model_state_load(Model *s, const double *buf) {
-    const double sizes[N_SIZES] = {N_X, N_U, N_P, N_M, N_Z};
+    const double sizes[N_SIZES] = {N_X, N_U, N_P, N_M, N_Z, N_G};
     int i;
     if (memcmp(buf, sizes, sizeof sizes) != 0) {
         logf_(s, 1, "t = %.17g: the FMU state was saved by another model (its sizes differ)%s", s->t, "");
@@ -687,6 +705,7 @@ int model_state_load(Model *s, const double *buf) {
     buf = take(s->u, buf, N_U);
     buf = take(s->p, buf, N_P);
     buf = take(s->m, buf, N_M);
+    buf = take(s->g, buf, N_G);
     for (i = 0; i < N_X; i++) s->x_set[i] = *buf++ != 0.0;
     buf = take(s->z_side, buf, N_Z);
     s->cs_step = *buf++;

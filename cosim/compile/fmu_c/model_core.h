@@ -46,6 +46,7 @@ typedef struct {
     double x[N_X + 1], u[N_U + 1], p[N_P + 1], m[N_M + 1];
     double xdot[N_X + 1], y[N_Y + 1], z[N_Z + 1];
     double v[N_OBS + 1], q[N_Q + 1];  /* the local variables (observe) and the calculated parameters */
+    double g[N_G + 1];           /* the nonlinear loops' last solution, where their next Newton iterations start */
     int x_set[N_X + 1];          /* state set by the importer before initialisation (x0 does not override) */
     double z_side[N_Z + 1];      /* sign of each indicator when continuous time last began (0: not known) */
     double last_event;           /* time of the last event (model_count_event), -inf before the first */
@@ -100,7 +101,7 @@ int model_directional(Model *s, const unsigned *unknown, size_t n_unknown, const
                       size_t n_known, const double *seed, double *sensitivity);
 
 /* The instance's state as model_state_size() doubles: the sizes (to check a buffer belongs to this model),
- * t, x, u, p, m, x_set, z_side, cs_step, cs_method. Serialisation is the buffer's bytes. model_state_load
+ * t, x, u, p, m, g, x_set, z_side, cs_step, cs_method. Serialisation is the buffer's bytes. model_state_load
  * fails (and changes nothing) when the sizes differ. */
 size_t model_state_size(void);
 void model_state_save(const Model *s, double *buf);
