@@ -201,29 +201,42 @@ def _on_branch(u, upper):
     return brentq(f, Y_FOLD, 1 - 1e-15) if upper else brentq(f, -1 + 1e-15, -Y_FOLD)
 
 
-def _comparator(tmp_path):
-    from fmpy.fmi3 import FMU3Slave
+class _Comparator:
+    """The comparator's FMU as a Co-Simulation instance (FMI 3.0): set the input, step 0.01 s (a step ends at an
+    accepted point), read the output."""
 
-    fmu = build_fmu(write_package(tmp_path, COMPARATOR), "T.M", out_dir=tmp_path / "out")
-    md = fmpy.read_model_description(str(fmu))
-    slave = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(str(fmu), unzipdir=str(tmp_path / "unzipped")),
-                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="comparator")
-    slave.instantiate()
-    slave.enterInitializationMode(startTime=0.0)
-    slave.exitInitializationMode()
-    vrs = {v.name: v.valueReference for v in md.modelVariables}
+    def __init__(self, tmp_path):
+        from fmpy.fmi3 import FMU3Slave
 
-    def out_at(u):
-        slave.setFloat64([vrs["u"]], [u])
-        return slave.getFloat64([vrs["out"]])[0]
+        fmu = build_fmu(write_package(tmp_path, COMPARATOR), "T.M", out_dir=tmp_path / "out")
+        md = fmpy.read_model_description(str(fmu))
+        self.slave = FMU3Slave(guid=md.guid, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="c",
+                               unzipDirectory=fmpy.extract(str(fmu), unzipdir=str(tmp_path / "unzipped")))
+        self.slave.instantiate()
+        self.vrs = {v.name: v.valueReference for v in md.modelVariables}
+        self.start()
 
-    return slave, out_at
+    def start(self):
+        self.slave.enterInitializationMode(startTime=0.0)
+        self.slave.exitInitializationMode()
+        self.time = 0.0
+
+    def out_at(self, u):
+        self.slave.setFloat64([self.vrs["u"]], [u])
+        self.slave.doStep(self.time, 0.01)
+        self.time += 0.01
+        return self.slave.getFloat64([self.vrs["out"]])[0]
+
+    def close(self):
+        self.slave.terminate()
+        self.slave.freeInstance()
 
 
 def test_a_loop_with_two_solutions_follows_its_branch_from_the_last_solution(tmp_path):
     """u swept up from -2 to 2 and back in steps of 0.05: the output stays on the lower branch up to -U_SWITCH,
     on the upper one down to U_SWITCH (hysteresis), each value the closed form's root on that branch."""
-    slave, out_at = _comparator(tmp_path)
+    comparator = _Comparator(tmp_path)
+    out_at = comparator.out_at
     sweep = np.round(np.concatenate([np.arange(-2, 2, 0.05), np.arange(2, -2, -0.05)]), 10)
     upper = False
     for k, u in enumerate(sweep):
@@ -232,27 +245,27 @@ def test_a_loop_with_two_solutions_follows_its_branch_from_the_last_solution(tmp
         assert out_at(u) == pytest.approx(_on_branch(u, upper), abs=1e-9), (u, rising)
     # both branches were met inside the band, each from its side
     assert out_at(0.0) == pytest.approx(_on_branch(0.0, upper=False), abs=1e-9)
-    slave.terminate()
-    slave.freeInstance()
+    comparator.close()
 
 
 def test_fmu_state_and_reset_restore_the_branch_the_loop_was_on(tmp_path):
     """Inside the band (u = 0) the output is the branch the last solution was on: the one at the saved state after
     fmi3SetFMUState (serialised too), the start values' (lower) after fmi3Reset."""
-    slave, out_at = _comparator(tmp_path)
+    comparator = _Comparator(tmp_path)
+    slave, out_at = comparator.slave, comparator.out_at
     lower_0, upper_0 = _on_branch(0.0, upper=False), _on_branch(0.0, upper=True)
     assert out_at(0.0) == pytest.approx(lower_0, abs=1e-9)
-    state = slave.getFMUState()
+    state, lower_time = slave.getFMUState(), comparator.time
     assert out_at(2.0) == pytest.approx(_on_branch(2.0, upper=True), abs=1e-9)
     assert out_at(0.0) == pytest.approx(upper_0, abs=1e-9)
-    saved_upper = slave.serializeFMUState(slave.getFMUState())
+    saved_upper, upper_time = slave.serializeFMUState(slave.getFMUState()), comparator.time
     slave.setFMUState(state)
+    comparator.time = lower_time
     assert out_at(0.0) == pytest.approx(lower_0, abs=1e-9)
     slave.setFMUState(slave.deserializeFMUState(saved_upper))
+    comparator.time = upper_time
     assert out_at(0.0) == pytest.approx(upper_0, abs=1e-9)
     slave.reset()
-    slave.enterInitializationMode(startTime=0.0)
-    slave.exitInitializationMode()
+    comparator.start()
     assert out_at(0.0) == pytest.approx(lower_0, abs=1e-9)
-    slave.terminate()
-    slave.freeInstance()
+    comparator.close()

@@ -360,12 +360,14 @@ def _start(var):
 
 def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, loop_names):
     """CasADi functions of (x, u, p, t), and the event memory m for a hybrid model; nonlinear blocks are
-    solved by a generated Newton iteration, from the start values (``start_of``: name -> value at the default
+    solved by a generated Newton iteration from a starting point g: in the :class:`Carried` functions an argument
+    (the FMU's last solution), in the others the start values (``start_of``: name -> value at the default
     parameters; a der() in a block has none and starts at 0) or, where it does not converge from them at
-    ``start_point`` (numeric x, u, p, t[, m]), from the block's solution there (:mod:`cosim.compile.guess`).
-    Where the iterations did not converge, RETRY_ITERATIONS more run from where they ended, damped (a step that
-    does not lower the residual is halved: full steps can cycle on a piecewise-linear limiter); a block that still
-    did not gives NaN, and ``loops`` says which (1 converged, 0 not, in ``loop_names`` order; None without
+    ``start_point`` (numeric x, u, p, t[, m]), the block's solution there (:mod:`cosim.compile.guess`), which is
+    also the Carried functions' first g. Where the iterations did not converge, RETRY_ITERATIONS more run from
+    where they ended, damped (a step that does not lower the residual is halved: full steps can cycle on a
+    piecewise-linear limiter), then both again from the start values; a block that still did not gives NaN, and
+    ``loops`` says which (1 converged, 0 not, in ``loop_names`` order; None without
     blocks), so that the FMU reports an error, not a number.
     Returns the three functions, ``loops``, the :class:`Carried` functions (None without blocks) and notes."""
     names = ["x", "u", "p", "t"] + ([] if M is None else ["m"])
@@ -388,15 +390,14 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
         notes += [note] if note else []
         context_value = np.concatenate([context_value, at_start])
         ctx_value = ca.vertcat(*margs, *solved)
-        test = converged(k, vs, residual, context)
         offset = sum(len(g) for g in guesses)
-        first = solver(G[offset:offset + vs.shape[0]], ca.repmat(ctx_value, 1, NEWTON_ITERATIONS))
         guesses.append(guess)
-        retried = newton(f"{k}_retry", vs, residual, context, iterations=RETRY_ITERATIONS)(
-            first, ca.repmat(ctx_value, 1, RETRY_ITERATIONS))
-        # (solution, converged): the retry and its test evaluated only where the first iterations did not converge
-        outcome = ca.if_else(test(first, ctx_value), ca.vertcat(first, 1),
-                             ca.vertcat(retried, test(retried, ctx_value)), True)
+        solvers = (solver, newton(f"{k}_retry", vs, residual, context, damped=True, iterations=RETRY_ITERATIONS),
+                   converged(k, vs, residual, context))
+        attempts = [_attempt(solvers, start, ctx_value) for start in (G[offset:offset + vs.shape[0]], ca.DM(guess))]
+        # from the last solution; where that did not converge, from the start values (as the code did before it
+        # carried the last solution): each evaluated only where the one before did not converge
+        outcome = ca.if_else(attempts[0][-1], attempts[0], attempts[1], True)
         flags.append(outcome[-1])
         solved.append(ca.if_else(flags[-1], outcome[:-1], ca.DM.nan(vs.shape[0], 1)))
     xd, yy, oo = explicit(*margs, *solved)
@@ -410,6 +411,17 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
     fixed = [ca.Function(f.name(), margs, [f(*margs, start)[0]], names, [f.name_out(0)])
              for f in (carried.ode, carried.out, carried.observe, carried.loops)]
     return (*fixed, carried, notes)
+
+
+def _attempt(solvers, start, ctx_value):
+    """(solution, 1 where it converged else 0) of NEWTON_ITERATIONS of the first of ``solvers`` (iterations,
+    retry iterations, convergence test) from ``start``; where they did not converge, RETRY_ITERATIONS more of the
+    retry from where they ended (evaluated only there)."""
+    solver, retry, test = solvers
+    first = solver(start, ca.repmat(ctx_value, 1, NEWTON_ITERATIONS))
+    retried = retry(first, ca.repmat(ctx_value, 1, RETRY_ITERATIONS))
+    return ca.if_else(test(first, ctx_value), ca.vertcat(first, 1), ca.vertcat(retried, test(retried, ctx_value)),
+                      True)
 
 
 def _start_at_defaults(var, params, P, p_defaults):

@@ -74,7 +74,7 @@ void model_reset(Model *s) {
 }
 
 /* Something the results depend on changed: recompute them when next asked. */
-void model_touch(Model *s) { s->fresh_xdot = s->fresh_y = s->fresh_z = s->fresh_v = s->fresh_q = 0; }
+void model_touch(Model *s) { s->fresh_xdot = s->fresh_y = s->fresh_z = s->fresh_v = s->fresh_q = s->fresh_g = 0; }
 
 /* A result of n values that is not a number where a nonlinear loop's Newton iterations did not converge (the
  * lowering makes it NaN there): an error naming the first such loop. A NaN of another cause is left as it is. */
@@ -93,16 +93,12 @@ static int loops_failed(Model *s, const double *result, int n) {
 }
 
 /* The result of a model function at the current t, x, u, p, m, g: computed once, then kept until model_touch.
- * The loops' solutions there (f's second result, where it has one) are where their next iterations start; a loop
- * that did not converge (NaN) keeps its last solution. */
+ * cosim_ode, cosim_out and cosim_observe also give the loops' solutions there (into g_last). */
 static const double *cached(Model *s, casadi_fn f, double *result, int n, int *fresh) {
-    double g_new[N_G + 1];
-    int k;
+    double *g_last = f == cosim_calculated ? NULL : s->g_last;
     if (!*fresh) {
-        if (N_G) memcpy(g_new, s->g, N_G * sizeof(double));
-        if (call(s, f, s->m, result, g_new, NULL) || loops_failed(s, result, n)) return NULL;
-        for (k = 0; k < N_G; k++)
-            if (isfinite(g_new[k])) s->g[k] = g_new[k];
+        if (call(s, f, s->m, result, g_last, NULL) || loops_failed(s, result, n)) return NULL;
+        s->fresh_g |= g_last != NULL;
         *fresh = 1;
     }
     return result;
@@ -116,6 +112,16 @@ static const double *outputs(Model *s) { return cached(s, cosim_out, s->y, N_Y, 
 static const double *observed(Model *s) { return cached(s, cosim_observe, s->v, N_OBS, &s->fresh_v); }
 
 static const double *calculated(Model *s) { return cached(s, cosim_calculated, s->q, 0, &s->fresh_q); }
+
+/* A loop that did not converge here (NaN) keeps its accepted solution. */
+int model_accept(Model *s) {
+    int k;
+    if (!N_G) return CORE_OK;
+    if (!s->fresh_g && !model_derivatives(s)) return CORE_ERROR;
+    for (k = 0; k < N_G; k++)
+        if (isfinite(s->g_last[k])) s->g[k] = s->g_last[k];
+    return CORE_OK;
+}
 
 /* An indicator exactly 0 is reported on the side it was on when continuous time began (as +-DBL_MIN): a
  * solver that locates a root exactly at 0 (CVode can) has then not yet crossed, and goes on to where the
@@ -132,11 +138,13 @@ const double *model_indicators(Model *s) {
     return s->z;
 }
 
-/* Continuous time begins: remember the side of each indicator (see model_indicators). */
+/* Continuous time begins: the point is accepted (model_accept), and the side of each indicator remembered (see
+ * model_indicators). */
 void model_settle_indicators(Model *s) {
-    const double *z = model_indicators(s);
+    const double *z;
     int k;
-    if (!z) return;
+    model_accept(s);  /* a loop that did not converge is reported by the next evaluation */
+    if (!(z = model_indicators(s))) return;
     for (k = 0; k < N_Z; k++) s->z_side[k] = z[k] > 0.0 ? 1.0 : z[k] < 0.0 ? -1.0 : 0.0;
 }
 
@@ -587,7 +595,7 @@ int model_do_step(Model *s, double t_end, int *terminated) {
     next_event = model_next_time(s);
     while (s->t < t_end) {
         if (next_event <= s->t) next_event = INFINITY;  /* next_time is strictly later; never step backward */
-        if (internal_step(s, t_end, next_event, &event)) return CORE_ERROR;
+        if (internal_step(s, t_end, next_event, &event) || model_accept(s)) return CORE_ERROR;
         if (!event) continue;
         if (model_count_event(s)) return CORE_ERROR;
         if (model_event_iteration(s, terminated)) return CORE_ERROR;

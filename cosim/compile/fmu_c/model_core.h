@@ -46,12 +46,13 @@ typedef struct {
     double x[N_X + 1], u[N_U + 1], p[N_P + 1], m[N_M + 1];
     double xdot[N_X + 1], y[N_Y + 1], z[N_Z + 1];
     double v[N_OBS + 1], q[N_Q + 1];  /* the local variables (observe) and the calculated parameters */
-    double g[N_G + 1];           /* the nonlinear loops' last solution, where their next Newton iterations start */
+    double g[N_G + 1];           /* where the nonlinear loops' Newton iterations start: their accepted solution */
+    double g_last[N_G + 1];      /* the loops' solution at the current point (where fresh_g) */
     int x_set[N_X + 1];          /* state set by the importer before initialisation (x0 does not override) */
     double z_side[N_Z + 1];      /* sign of each indicator when continuous time last began (0: not known) */
     double last_event;           /* time of the last event (model_count_event), -inf before the first */
     int events_in_a_row;         /* events since the last that was over CHATTER_WINDOW after its predecessor */
-    int fresh_xdot, fresh_y, fresh_z, fresh_v, fresh_q;  /* cached results valid for the current t, x, u, p, m */
+    int fresh_xdot, fresh_y, fresh_z, fresh_v, fresh_q, fresh_g;  /* results valid for the current t, x, u, p, m */
     double cs_step;              /* internal step of model_do_step, s (value reference VR_CS: _cs_step) */
     int cs_method;               /* CS_RK4 or CS_IMPLICIT_EULER (value reference VR_CS + 1: _cs_method) */
     double mixed_tried[MAX_MIXED_ITERATIONS][N_M + 1];  /* candidates of an event pass's mixed system */
@@ -79,6 +80,11 @@ int model_set(Model *s, unsigned int vr, int type, double value, int initialisin
 const double *model_derivatives(Model *s);
 const double *model_indicators(Model *s);
 void model_settle_indicators(Model *s);
+
+/* The current point is accepted (an integrator step completed, continuous time begins): the nonlinear loops'
+ * solutions here are where their Newton iterations start from now on. Between accepted points the results are
+ * a function of t, x, u, p, m alone: an integrator's rejected trial points do not move a loop to another branch. */
+int model_accept(Model *s);
 int model_initialize(Model *s);
 int model_event_pass(Model *s, EventFlags *flags);
 int model_terminal(Model *s);
