@@ -10,7 +10,7 @@ from cosim.compile.causalise import causalise, depends, file_line, generic_rank,
 from cosim.compile.guess import better_guess
 from cosim.compile.initial import initial_state
 from cosim.compile.model import Carried, LoweredModel, ModelVariable
-from cosim.compile.newton import NEWTON_ITERATIONS, RETRY_ITERATIONS, converged, newton
+from cosim.compile.newton import NEWTON_ITERATIONS, RETRY_ITERATIONS, chord, converged, newton
 from cosim.errors import StructureError, UnsupportedConstructError
 
 __all__ = ["lower_system"]
@@ -366,8 +366,9 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
     ``start_point`` (numeric x, u, p, t[, m]), the block's solution there (:mod:`cosim.compile.guess`), which is
     also the Carried functions' first g. Where the iterations did not converge, RETRY_ITERATIONS more run from
     where they ended, damped (a step that does not lower the residual is halved: full steps can cycle on a
-    piecewise-linear limiter), then both again from the start values; a block that still did not gives NaN, and
-    ``loops`` says which (1 converged, 0 not, in ``loop_names`` order; None without
+    piecewise-linear limiter), then the chord method from g (:func:`~cosim.compile.newton.chord`), then Newton's
+    again from the start values; a block that still did not gives NaN, and ``loops`` says which (1 converged, 0
+    not, in ``loop_names`` order; None without
     blocks), so that the FMU reports an error, not a number.
     Returns the three functions, ``loops``, the :class:`Carried` functions (None without blocks) and notes."""
     names = ["x", "u", "p", "t"] + ([] if M is None else ["m"])
@@ -392,12 +393,15 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
         ctx_value = ca.vertcat(*margs, *solved)
         offset = sum(len(g) for g in guesses)
         guesses.append(guess)
+        test = converged(k, vs, residual, context)
         solvers = (solver, newton(f"{k}_retry", vs, residual, context, damped=True, iterations=RETRY_ITERATIONS),
-                   converged(k, vs, residual, context))
+                   test)
         attempts = [_attempt(solvers, start, ctx_value) for start in (G[offset:offset + vs.shape[0]], ca.DM(guess))]
-        # from the last solution; where that did not converge, from the start values (as the code did before it
-        # carried the last solution): each evaluated only where the one before did not converge
-        outcome = ca.if_else(attempts[0][-1], attempts[0], attempts[1], True)
+        held = chord(k, vs, residual, context)(G[offset:offset + vs.shape[0]], ctx_value)
+        # from the last solution; where that did not converge, by the chord method from it, then from the start
+        # values (as the code did before it carried the last solution): each only where the one before did not
+        outcome = ca.if_else(attempts[0][-1], attempts[0], ca.if_else(
+            test(held, ctx_value), ca.vertcat(held, 1), attempts[1], True), True)
         flags.append(outcome[-1])
         solved.append(ca.if_else(flags[-1], outcome[:-1], ca.DM.nan(vs.shape[0], 1)))
     xd, yy, oo = explicit(*margs, *solved)

@@ -5,7 +5,7 @@ number."""
 
 import casadi as ca
 
-__all__ = ["NEWTON_ITERATIONS", "RETRY_ITERATIONS", "STEP_TOLERANCE", "newton", "converged"]
+__all__ = ["NEWTON_ITERATIONS", "RETRY_ITERATIONS", "STEP_TOLERANCE", "newton", "chord", "converged"]
 
 # Newton iterations unrolled into the generated code.
 NEWTON_ITERATIONS = 30
@@ -55,6 +55,23 @@ def _damped(unknowns, residual, delta):
         candidate = unknowns - delta / 2**j
         new = ca.if_else(ca.sumsqr(ca.substitute(residual, unknowns, candidate)) < before, candidate, new)
     return new
+
+
+def chord(k, unknowns, residual, context, iterations=NEWTON_ITERATIONS):
+    """A solver for ``0 = residual(unknowns, context)`` by the chord method: Newton steps with the Jacobian kept
+    from the guess, as DAE solvers keep it. A function of (guess, context) -> unknowns after ``iterations`` steps.
+
+    Where the guess is a solution on a branch that has just ended (a limiter's saturation past a Schmitt
+    trigger's threshold), Newton's method can cycle between the pieces of a piecewise-linear residual whose
+    targets each lie on the other piece; the Jacobian of the branch the guess is on leads across them, to the
+    other saturation, whose Jacobian is the same."""
+    jac = ca.jacobian(residual, unknowns)
+    held = ca.SX.sym("jacobian", *jac.shape)
+    step = ca.Function(f"chord_step{k}", [unknowns, ca.vertcat(ca.vec(held), context)],
+                       [unknowns - ca.solve(held, residual)]).fold(iterations)
+    at_guess = ca.Function(f"chord_jacobian{k}", [unknowns, context], [ca.vec(jac)])
+    g, c = ca.MX.sym("g", unknowns.shape[0]), ca.MX.sym("c", context.shape[0])
+    return ca.Function(f"chord{k}", [g, c], [step(g, ca.repmat(ca.vertcat(at_guess(g, c), c), 1, iterations))])
 
 
 def converged(k, unknowns, residual, context):

@@ -21,6 +21,28 @@ static void logf_(Model *s, int error, const char *format, double t, const char 
     s->log(s->log_env, error, buffer);
 }
 
+/* Where the loops' iterations at the current time start: the last solution at or before it (those after it
+ * belong to an integrator's rejected step, and are forgotten); the first kept when all are after it. */
+static const double *start_point(Model *s) {
+    while (s->g_count > 1 && s->g_time[s->g_count - 1] > s->t) s->g_count--;
+    return s->g[s->g_count - 1];
+}
+
+/* The loops' solutions g_new at the current time, where finite (a loop that did not converge is NaN). */
+static void keep_solution(Model *s, const double *g_new) {
+    int k, top = s->g_count - 1;
+    if (s->g_time[top] != s->t) {
+        if (s->g_count == G_CHAIN) {
+            memmove(s->g, s->g + 1, (G_CHAIN - 1) * sizeof s->g[0]);
+            memmove(s->g_time, s->g_time + 1, (G_CHAIN - 1) * sizeof(double));
+        } else top = s->g_count++;
+        memcpy(s->g[top], s->g[top - 1], N_G * sizeof(double));
+        s->g_time[top] = s->t;
+    }
+    for (k = 0; k < N_G; k++)
+        if (isfinite(g_new[k])) s->g[top][k] = g_new[k];
+}
+
 /* Evaluate f(x, u, p, t, m[, extra]) into up to three results; nonzero when the generated code failed. */
 static int call_with(Model *s, casadi_fn f, const double *m, const double *extra, double *r0, double *r1,
                      double *r2) {
@@ -40,9 +62,9 @@ static int call_with(Model *s, casadi_fn f, const double *m, const double *extra
     return CORE_OK;
 }
 
-/* f(x, u, p, t, m[, g]): the loops' last solution g the sixth argument of the functions that take it. */
+/* f(x, u, p, t, m[, g]): g the loops' starting point (start_point), read by the functions that take it. */
 static int call(Model *s, casadi_fn f, const double *m, double *r0, double *r1, double *r2) {
-    return call_with(s, f, m, s->g, r0, r1, r2);
+    return call_with(s, f, m, start_point(s), r0, r1, r2);
 }
 
 Model *model_new(core_logger log, void *log_env) {
@@ -63,7 +85,9 @@ void model_reset(Model *s) {
     memcpy(s->u, U_START, N_U * sizeof(double));
     memcpy(s->p, P_START, N_P * sizeof(double));
     memcpy(s->m, M_START, N_M * sizeof(double));
-    memcpy(s->g, G_START, N_G * sizeof(double));
+    memcpy(s->g[0], G_START, N_G * sizeof(double));
+    s->g_time[0] = -INFINITY;
+    s->g_count = 1;
     memset(s->x_set, 0, sizeof s->x_set);
     memset(s->z_side, 0, sizeof s->z_side);
     s->last_event = -INFINITY;
@@ -92,13 +116,15 @@ static int loops_failed(Model *s, const double *result, int n) {
     return 0;
 }
 
-/* The result of a model function at the current t, x, u, p, m, g: computed once, then kept until model_touch.
- * cosim_ode, cosim_out and cosim_observe also give the loops' solutions there (into g_last). */
+/* The result of a model function at the current t, x, u, p, m: computed once, then kept until model_touch.
+ * cosim_ode, cosim_out and cosim_observe also give the loops' solutions there (keep_solution). */
 static const double *cached(Model *s, casadi_fn f, double *result, int n, int *fresh) {
-    double *g_last = f == cosim_calculated ? NULL : s->g_last;
+    double g_new[N_G + 1];
+    int solves = f != cosim_calculated;
     if (!*fresh) {
-        if (call(s, f, s->m, result, g_last, NULL) || loops_failed(s, result, n)) return NULL;
-        s->fresh_g |= g_last != NULL;
+        if (call(s, f, s->m, result, solves ? g_new : NULL, NULL) || loops_failed(s, result, n)) return NULL;
+        if (solves && N_G) keep_solution(s, g_new);
+        s->fresh_g |= solves;
         *fresh = 1;
     }
     return result;
@@ -113,13 +139,14 @@ static const double *observed(Model *s) { return cached(s, cosim_observe, s->v, 
 
 static const double *calculated(Model *s) { return cached(s, cosim_calculated, s->q, 0, &s->fresh_q); }
 
-/* A loop that did not converge here (NaN) keeps its accepted solution. */
 int model_accept(Model *s) {
-    int k;
     if (!N_G) return CORE_OK;
     if (!s->fresh_g && !model_derivatives(s)) return CORE_ERROR;
-    for (k = 0; k < N_G; k++)
-        if (isfinite(s->g_last[k])) s->g[k] = s->g_last[k];
+    if (s->g_count > 1) {
+        memcpy(s->g[0], s->g[s->g_count - 1], N_G * sizeof(double));
+        s->g_time[0] = s->g_time[s->g_count - 1];
+        s->g_count = 1;
+    }
     return CORE_OK;
 }
 
@@ -627,7 +654,7 @@ static int forward(Model *s, casadi_fn f, const double *dx, const double *du, do
     s->arg[2] = s->p;
     s->arg[3] = &s->t;
     s->arg[4] = s->m;
-    s->arg[5] = s->g;
+    s->arg[5] = start_point(s);
     s->arg[6] = dx;
     s->arg[7] = du;
     s->res[0] = r;
@@ -672,7 +699,7 @@ int model_directional(Model *s, const unsigned *unknown, size_t n_unknown, const
 
 #define N_SIZES 6
 
-size_t model_state_size(void) { return N_SIZES + 1 + 2 * N_X + N_U + N_P + N_M + N_G + N_Z + 2; }
+size_t model_state_size(void) { return N_SIZES + 1 + 2 * N_X + N_U + N_P + N_M + 1 + G_CHAIN * (N_G + 2) + N_Z + 2; }
 
 static double *put(double *to, const double *from, int n) {
     if (n) memcpy(to, from, (size_t)n * sizeof(double));
@@ -693,7 +720,9 @@ void model_state_save(const Model *s, double *buf) {
     buf = put(buf, s->u, N_U);
     buf = put(buf, s->p, N_P);
     buf = put(buf, s->m, N_M);
-    buf = put(buf, s->g, N_G);
+    *buf++ = s->g_count;
+    buf = put(buf, s->g_time, G_CHAIN);
+    buf = put(buf, s->g[0], G_CHAIN * (N_G + 1));
     for (i = 0; i < N_X; i++) *buf++ = s->x_set[i];
     buf = put(buf, s->z_side, N_Z);
     *buf++ = s->cs_step;
@@ -713,7 +742,9 @@ int model_state_load(Model *s, const double *buf) {
     buf = take(s->u, buf, N_U);
     buf = take(s->p, buf, N_P);
     buf = take(s->m, buf, N_M);
-    buf = take(s->g, buf, N_G);
+    s->g_count = (int)*buf++;
+    buf = take(s->g_time, buf, G_CHAIN);
+    buf = take(s->g[0], buf, G_CHAIN * (N_G + 1));
     for (i = 0; i < N_X; i++) s->x_set[i] = *buf++ != 0.0;
     buf = take(s->z_side, buf, N_Z);
     s->cs_step = *buf++;
