@@ -7,10 +7,11 @@ import numpy as np
 
 from cosim.compile import events as hybrid
 from cosim.compile.causalise import causalise, depends, file_line, generic_rank, symbol_names
-from cosim.compile.guess import better_guess
+from cosim.compile.guess import better_guess, continued_guess
 from cosim.compile.initial import initial_state
 from cosim.compile.model import Carried, LoweredModel, ModelVariable
 from cosim.compile.newton import NEWTON_ITERATIONS, RETRY_ITERATIONS, chord, converged, newton
+from cosim.compile.translate import HOMOTOPY, Equation
 from cosim.errors import StructureError, UnsupportedConstructError
 
 __all__ = ["lower_system"]
@@ -221,6 +222,7 @@ def lower_system(system):
         The equations cannot be made explicit: over- or under-determined, structurally singular, or a
         constraint between states that involves an input (it would need the input's derivative).
     """
+    written = _actual_model(system)
     params = _Parameters(system)
     notes = list(params.notes)
     states = system.by_role("state")
@@ -232,6 +234,7 @@ def lower_system(system):
     states, algebraics = _without_vanished(system, equations, states, algebraics, notes)
     ders = [system.derivatives[s.name] for s in states]
     blocks, demoted, reduction_notes = _reduce_index(system, equations, states, ders, algebraics, input_names)
+    simplified = _homotopy_residuals(system, params, written, blocks, (states, ders, algebraics, input_names))
     notes += reduction_notes
     active = [s for k, s in enumerate(states) if k not in demoted]
     solved = blocks.solved
@@ -272,7 +275,7 @@ def lower_system(system):
     loop_names = tuple(f"nonlinear algebraic loop in {', '.join(u.name() for u in ca.vertsplit(vs))} (equations "
                        f"at {', '.join(sorted(set(locs)))})" for vs, _, locs in blocks.nonlinear)
     ode, out, observe, loops, carried, guess_notes = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, start_of, M,
-                                                       start_point, loop_names)
+                                                                start_point, (loop_names, simplified))
     notes += guess_notes
     notes += [f"{name} solved by Newton's method ({NEWTON_ITERATIONS} iterations; in the FMU from the loop's last "
               "solution, from its start values at first)" for name in loop_names]
@@ -295,6 +298,35 @@ def lower_system(system):
         events=None if M is None else _event_part(system, params, active, outputs, observed, (X, U, P, T, M),
                                                   (ode, out, observe), (p_defaults, x0_values)),
     )
+
+
+def _actual_model(system):
+    """Substitute HOMOTOPY = 1 (the actual model of each homotopy(), as at run time) into ``system``; return its
+    continuous equations as they were when they hold homotopy() (else None): the loops' starting points are
+    continued from the simplified model's solution (:func:`cosim.compile.guess.continued_guess`)."""
+    if not any(ca.depends_on(e.residual, HOMOTOPY) for e in system.equations):
+        written = None
+    else:
+        written = system.equations
+        system.equations = [Equation(ca.substitute(e.residual, HOMOTOPY, ca.SX(1)), e.location) for e in written]
+    system.initial_equations = [Equation(ca.substitute(e.residual, HOMOTOPY, ca.SX(1)), e.location)
+                                if ca.depends_on(e.residual, HOMOTOPY) else e for e in system.initial_equations]
+    for v in system.variables:
+        v.start, v.binding = (None if e is None else ca.substitute(e, HOMOTOPY, ca.SX(1)) for e in (v.start, v.binding))
+    return written
+
+
+def _homotopy_residuals(system, params, written, blocks, unknowns):
+    """Per nonlinear block of ``blocks``, its residual with homotopy() as written (a function of HOMOTOPY), or None
+    where it has none: the blocks of the equations as written, matched by their unknowns."""
+    if written is None:
+        return [None] * len(blocks.nonlinear)
+    _, equations = _hybrid_memory(system, [(params.substitute(e.residual), e.location) for e in written])
+    as_written, _, _ = _reduce_index(system, equations, *unknowns)
+    by_unknowns = {tuple(u.name() for u in ca.vertsplit(vs)): (vs, residual) for vs, residual, _ in as_written.nonlinear}
+    found = [by_unknowns.get(tuple(u.name() for u in ca.vertsplit(vs))) for vs, _, _ in blocks.nonlinear]
+    return [None if f is None or not ca.depends_on(f[1], HOMOTOPY) else ca.substitute(f[1], f[0], vs)
+            for f, (vs, _, _) in zip(found, blocks.nonlinear)]
 
 
 def _parameter_variables(params, P):
@@ -358,7 +390,7 @@ def _start(var):
     return float(ca.evalf(var.start))
 
 
-def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, loop_names):
+def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, names_simplified):
     """CasADi functions of (x, u, p, t), and the event memory m for a hybrid model; nonlinear blocks are
     solved by a generated Newton iteration from a starting point g: in the :class:`Carried` functions an argument
     (the FMU's last solution), in the others the start values (``start_of``: name -> value at the default
@@ -370,7 +402,10 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
     again from the start values; a block that still did not gives NaN, and ``loops`` says which (1 converged, 0
     not, in ``loop_names`` order; None without
     blocks), so that the FMU reports an error, not a number.
+    ``names_simplified``: the loops' names, and their residuals with homotopy() (or None), from whose simplified
+    model's solution their starting points are continued (:func:`cosim.compile.guess.continued_guess`).
     Returns the three functions, ``loops``, the :class:`Carried` functions (None without blocks) and notes."""
+    loop_names, simplified = names_simplified
     names = ["x", "u", "p", "t"] + ([] if M is None else ["m"])
     args = [X, U, P, T] + ([] if M is None else [M])
     if not nonlinear:
@@ -387,6 +422,7 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, lo
         context = ca.vertcat(*args, *block_syms[:k])
         solver = newton(k, vs, residual, context)
         guess = np.array([start_of.get(u.name(), 0.0) for u in ca.vertsplit(vs)], dtype=float)
+        guess = continued_guess(k, vs, simplified[k], context, context_value, guess)
         guess, note, at_start = better_guess(solver, vs, residual, context, context_value, guess, loop_names[k])
         notes += [note] if note else []
         context_value = np.concatenate([context_value, at_start])
