@@ -269,3 +269,16 @@ def test_fmu_state_and_reset_restore_the_branch_the_loop_was_on(tmp_path):
     comparator.start()
     assert out_at(0.0) == pytest.approx(lower_0, abs=1e-9)
     comparator.close()
+
+
+def test_homotopy_starts_a_loop_on_the_solution_its_simplified_model_continues_to(tmp_path):
+    """The comparator at u = 0 from y = 0 (its unstable middle solution is 0) with homotopy(actual, simplified =
+    1): the build continues from the simplified model's y = 1 to the upper branch, as Modelica tools initialise;
+    without homotopy() Newton's method from 0 stays at the middle solution."""
+    body = COMPARATOR.replace("input Real u(start = -2);", "input Real u(start = 0);").replace(
+        'Real y(start = -1) "on the lower branch at the start";', "Real y(start = 0);")
+    continued = body.replace("y = tanh(k*(u + a*y));", "y = homotopy(tanh(k*(u + a*y)), 1);")
+    for text, expected in ((continued, _on_branch(0.0, upper=True)), (body, 0.0)):
+        fmu = build_fmu(write_package(tmp_path, text), "T.M", out_dir=tmp_path / "out")
+        result = fmpy.simulate_fmu(str(fmu), stop_time=0.1, output_interval=0.1, output=["out"])
+        np.testing.assert_allclose(result["out"], expected, rtol=0, atol=1e-9)

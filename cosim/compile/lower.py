@@ -429,15 +429,7 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, na
         ctx_value = ca.vertcat(*margs, *solved)
         offset = sum(len(g) for g in guesses)
         guesses.append(guess)
-        test = converged(k, vs, residual, context)
-        solvers = (solver, newton(f"{k}_retry", vs, residual, context, damped=True, iterations=RETRY_ITERATIONS),
-                   test)
-        attempts = [_attempt(solvers, start, ctx_value) for start in (G[offset:offset + vs.shape[0]], ca.DM(guess))]
-        held = chord(k, vs, residual, context)(G[offset:offset + vs.shape[0]], ctx_value)
-        # from the last solution; where that did not converge, by the chord method from it, then from the start
-        # values (as the code did before it carried the last solution): each only where the one before did not
-        outcome = ca.if_else(attempts[0][-1], attempts[0], ca.if_else(
-            test(held, ctx_value), ca.vertcat(held, 1), attempts[1], True), True)
+        outcome = _block_solver(k, vs, residual, context, guess)(G[offset:offset + vs.shape[0]], ctx_value)
         flags.append(outcome[-1])
         solved.append(ca.if_else(flags[-1], outcome[:-1], ca.DM.nan(vs.shape[0], 1)))
     xd, yy, oo = explicit(*margs, *solved)
@@ -453,15 +445,36 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, na
     return (*fixed, carried, notes)
 
 
-def _attempt(solvers, start, ctx_value):
-    """(solution, 1 where it converged else 0) of NEWTON_ITERATIONS of the first of ``solvers`` (iterations,
-    retry iterations, convergence test) from ``start``; where they did not converge, RETRY_ITERATIONS more of the
-    retry from where they ended (evaluated only there)."""
-    solver, retry, test = solvers
-    first = solver(start, ca.repmat(ctx_value, 1, NEWTON_ITERATIONS))
-    retried = retry(first, ca.repmat(ctx_value, 1, RETRY_ITERATIONS))
-    return ca.if_else(test(first, ctx_value), ca.vertcat(first, 1), ca.vertcat(retried, test(retried, ctx_value)),
-                      True)
+def _block_solver(k, vs, residual, context, guess):
+    """A function of (g, context) -> (solution, 1 where it converged else 0) of block ``k``: NEWTON_ITERATIONS of
+    Newton's method from g; where they did not converge, RETRY_ITERATIONS more from where they ended, damped (a
+    step that does not lower the residual is halved: full steps can cycle on a piecewise-linear limiter), then the
+    chord method from g (:func:`~cosim.compile.newton.chord`), then both Newton attempts from the start values
+    ``guess`` (as the code did before it carried the last solution). Each fallback is a branch of a CasADi
+    conditional, evaluated only where the one before did not converge, and each attempt once."""
+    solver, test = newton(k, vs, residual, context), converged(k, vs, residual, context)
+    retry = newton(f"{k}_retry", vs, residual, context, damped=True, iterations=RETRY_ITERATIONS)
+    n = vs.shape[0]
+    v, w, g, c = ca.MX.sym("v", n), ca.MX.sym("w", n + 1), ca.MX.sym("g", n), ca.MX.sym("c", context.shape[0])
+
+    def otherwise(name, value, fallback, args):
+        """A conditional of (flag, *args): value (the last row its flag) where flag is 1, else fallback."""
+        return ca.Function.conditional(name, [ca.Function(f"{name}_else", args, [fallback])],
+                                       ca.Function(f"{name}_then", args, [value]))
+
+    retried = retry(v, ca.repmat(c, 1, RETRY_ITERATIONS))
+    retrying = otherwise(f"retry{k}", ca.vertcat(v, 1), ca.vertcat(retried, test(retried, c)), [v, c])
+
+    def newton_from(start):
+        first = solver(start, ca.repmat(c, 1, NEWTON_ITERATIONS))
+        return retrying(test(first, c), first, c)
+
+    held = chord(k, vs, residual, context)(g, c)
+    from_start = otherwise(f"held{k}", ca.vertcat(v, 1), newton_from(ca.DM(guess)), [v, g, c])(
+        test(held, c), held, g, c)
+    from_last = newton_from(g)
+    outcome = otherwise(f"fallback{k}", w, from_start, [w, g, c])(from_last[-1], from_last, g, c)
+    return ca.Function(f"solve{k}", [g, c], [outcome])
 
 
 def _start_at_defaults(var, params, P, p_defaults):
