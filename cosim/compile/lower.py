@@ -323,7 +323,8 @@ def _homotopy_residuals(system, params, written, blocks, unknowns):
         return [None] * len(blocks.nonlinear)
     _, equations = _hybrid_memory(system, [(params.substitute(e.residual), e.location) for e in written])
     as_written, _, _ = _reduce_index(system, equations, *unknowns)
-    by_unknowns = {tuple(u.name() for u in ca.vertsplit(vs)): (vs, residual) for vs, residual, _ in as_written.nonlinear}
+    by_unknowns = {tuple(u.name() for u in ca.vertsplit(vs)): (vs, residual)
+                   for vs, residual, _ in as_written.nonlinear}
     found = [by_unknowns.get(tuple(u.name() for u in ca.vertsplit(vs))) for vs, _, _ in blocks.nonlinear]
     return [None if f is None or not ca.depends_on(f[1], HOMOTOPY) else ca.substitute(f[1], f[0], vs)
             for f, (vs, _, _) in zip(found, blocks.nonlinear)]
@@ -400,8 +401,7 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, na
     where they ended, damped (a step that does not lower the residual is halved: full steps can cycle on a
     piecewise-linear limiter), then the chord method from g (:func:`~cosim.compile.newton.chord`), then Newton's
     again from the start values; a block that still did not gives NaN, and ``loops`` says which (1 converged, 0
-    not, in ``loop_names`` order; None without
-    blocks), so that the FMU reports an error, not a number.
+    not, in ``loop_names`` order; None without blocks), so that the FMU reports an error, not a number.
     ``names_simplified``: the loops' names, and their residuals with homotopy() (or None), from whose simplified
     model's solution their starting points are continued (:func:`cosim.compile.guess.continued_guess`).
     Returns the three functions, ``loops``, the :class:`Carried` functions (None without blocks) and notes."""

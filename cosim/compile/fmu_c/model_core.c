@@ -1,8 +1,9 @@
 /* The model core: see model_core.h. The CasADi functions all take (x, u, p, t, m); a continuous model has an
  * empty m, no indicators, an update that changes nothing and next_time = inf. Those that solve the nonlinear
  * loops (ode, out, observe, loops, the derivatives) also take g, where the loops' Newton iterations start: the
- * last solution (as every Modelica tool does, so that a loop with several solutions stays on its branch). Below the FMI-independent
- * services, the Co-Simulation ones: event iteration, the embedded solver, directional derivatives, the state. */
+ * last solution (as every Modelica tool does, so that a loop with several solutions stays on its branch).
+ * Below the FMI-independent services, the Co-Simulation ones: event iteration, the embedded solver, directional
+ * derivatives, the state. */
 #include <float.h>
 #include <math.h>
 #include <stdio.h>

@@ -113,8 +113,8 @@ int model_directional(Model *s, const unsigned *unknown, size_t n_unknown, const
                       size_t n_known, const double *seed, double *sensitivity);
 
 /* The instance's state as model_state_size() doubles: the sizes (to check a buffer belongs to this model),
- * t, x, u, p, m, the loops' solutions (g_count, g_time, g), x_set, z_side, cs_step, cs_method. Serialisation is the buffer's bytes. model_state_load
- * fails (and changes nothing) when the sizes differ. */
+ * t, x, u, p, m, the loops' solutions (g_count, g_time, g), x_set, z_side, cs_step, cs_method. Serialisation
+ * is the buffer's bytes. model_state_load fails (and changes nothing) when the sizes differ. */
 size_t model_state_size(void);
 void model_state_save(const Model *s, double *buf);
 int model_state_load(Model *s, const double *buf);
