@@ -16,6 +16,7 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import least_squares
 
+from cosim.compile.causalise import symbol_names
 from cosim.compile.newton import NEWTON_ITERATIONS, newton
 from cosim.compile.translate import HOMOTOPY
 from cosim.errors import LoopWarning
@@ -40,9 +41,9 @@ def continued_guess(k, unknowns, written, context, context_value, guess):
     start point, as Modelica tools initialise: of a loop with several solutions, the one the model's author
     chose (the MSL's op-amp multivibrator starts at its lower limit). ``guess`` (the start values) where the
     loop has no homotopy() (``written`` None) or a step does not converge."""
-    if written is None:
-        return guess
     extended = ca.vertcat(context, HOMOTOPY)
+    if written is None or not symbol_names(written) <= symbol_names(ca.vertcat(extended, unknowns)):
+        return guess  # none, or one that reads an unknown the run-time model solves in another block
     solver = newton(f"{k}_homotopy", unknowns, written, extended, damped=True)
     residual = ca.Function("loop_residual", [unknowns, extended], [written])
     point = guess

@@ -322,7 +322,10 @@ def _homotopy_residuals(system, params, written, blocks, unknowns):
     if written is None:
         return [None] * len(blocks.nonlinear)
     _, equations = _hybrid_memory(system, [(params.substitute(e.residual), e.location) for e in written])
-    as_written, _, _ = _reduce_index(system, equations, *unknowns)
+    try:
+        as_written, _, _ = _reduce_index(system, equations, *unknowns)
+    except StructureError:  # the blend sorts differently: the loops start from their start values
+        return [None] * len(blocks.nonlinear)
     by_unknowns = {tuple(u.name() for u in ca.vertsplit(vs)): (vs, residual)
                    for vs, residual, _ in as_written.nonlinear}
     found = [by_unknowns.get(tuple(u.name() for u in ca.vertsplit(vs))) for vs, _, _ in blocks.nonlinear]
