@@ -282,3 +282,37 @@ def test_homotopy_starts_a_loop_on_the_solution_its_simplified_model_continues_t
         fmu = build_fmu(write_package(tmp_path, text), "T.M", out_dir=tmp_path / "out")
         result = fmpy.simulate_fmu(str(fmu), stop_time=0.1, output_interval=0.1, output=["out"])
         np.testing.assert_allclose(result["out"], expected, rtol=0, atol=1e-9)
+
+
+def test_a_solve_at_an_earlier_time_starts_from_the_branch_that_was_on_then(tmp_path):
+    """Model Exchange: an integrator's trial point past the branch's end (u = 2 at t = 1) moves the loop to the
+    upper branch for later points only: a retry at t = 0.5 (a rejected step) sees the lower branch as it was,
+    the same calls giving the same numbers; after fmi3CompletedIntegratorStep at u = 2 the upper branch holds."""
+    from fmpy.fmi3 import FMU3Model
+
+    fmu = build_fmu(write_package(tmp_path, COMPARATOR), "T.M", out_dir=tmp_path / "out")
+    md = fmpy.read_model_description(str(fmu))
+    model = FMU3Model(guid=md.guid, modelIdentifier=md.modelExchange.modelIdentifier, instanceName="m",
+                      unzipDirectory=fmpy.extract(str(fmu), unzipdir=str(tmp_path / "unzipped")))
+    model.instantiate()
+    model.enterInitializationMode(startTime=0.0)
+    model.exitInitializationMode()
+    model.enterContinuousTimeMode()
+    vrs = {v.name: v.valueReference for v in md.modelVariables}
+
+    def out(t, u):
+        model.setTime(t)
+        model.setFloat64([vrs["u"]], [u])
+        return model.getFloat64([vrs["out"]])[0]
+
+    lower_0, upper_0 = _on_branch(0.0, upper=False), _on_branch(0.0, upper=True)
+    for _ in range(2):
+        assert out(1.0, 2.0) == pytest.approx(_on_branch(2.0, upper=True), abs=1e-9)
+        assert out(1.2, 0.0) == pytest.approx(upper_0, abs=1e-9)  # later than the trial point: its branch
+        assert out(0.5, 0.0) == pytest.approx(lower_0, abs=1e-9)  # earlier: the branch before it
+    out(1.0, 2.0)
+    model.completedIntegratorStep()
+    assert out(1.5, 0.0) == pytest.approx(upper_0, abs=1e-9)
+    assert out(1.2, 0.0) == pytest.approx(upper_0, abs=1e-9)  # before nothing kept now: the accepted point's
+    model.terminate()
+    model.freeInstance()

@@ -744,6 +744,7 @@ int model_state_load(Model *s, const double *buf) {
     buf = take(s->p, buf, N_P);
     buf = take(s->m, buf, N_M);
     s->g_count = (int)*buf++;
+    if (s->g_count < 1 || s->g_count > G_CHAIN) s->g_count = 1;  /* not a state of this build */
     buf = take(s->g_time, buf, G_CHAIN);
     buf = take(s->g[0], buf, G_CHAIN * (N_G + 1));
     for (i = 0; i < N_X; i++) s->x_set[i] = *buf++ != 0.0;
