@@ -10,7 +10,7 @@ from cosim.compile.causalise import causalise, depends, file_line, generic_rank,
 from cosim.compile.guess import better_guess, continued_guess
 from cosim.compile.initial import initial_state
 from cosim.compile.model import Carried, LoweredModel, ModelVariable
-from cosim.compile.newton import NEWTON_ITERATIONS, RETRY_ITERATIONS, chord, converged, newton
+from cosim.compile.newton import NEWTON_ITERATIONS, RETRY_ITERATIONS, converged, loop_solvers
 from cosim.compile.translate import HOMOTOPY, Equation
 from cosim.errors import StructureError, UnsupportedConstructError
 
@@ -400,11 +400,11 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, na
     (the FMU's last solution), in the others the start values (``start_of``: name -> value at the default
     parameters; a der() in a block has none and starts at 0) or, where it does not converge from them at
     ``start_point`` (numeric x, u, p, t[, m]), the block's solution there (:mod:`cosim.compile.guess`), which is
-    also the Carried functions' first g. Where the iterations did not converge, RETRY_ITERATIONS more run from
-    where they ended, damped (a step that does not lower the residual is halved: full steps can cycle on a
-    piecewise-linear limiter), then the chord method from g (:func:`~cosim.compile.newton.chord`), then Newton's
-    again from the start values; a block that still did not gives NaN, and ``loops`` says which (1 converged, 0
-    not, in ``loop_names`` order; None without blocks), so that the FMU reports an error, not a number.
+    also the Carried functions' first g. Where the iterations did not converge, RETRY_ITERATIONS more run from where
+    they ended, damped (a step that does not lower the residual is halved: full steps can cycle on a
+    piecewise-linear limiter), then the chord method from g (:func:`~cosim.compile.newton.loop_solvers`), then
+    Newton's again from the start values; a block that still did not gives NaN, and ``loops`` says which (1
+    converged, 0 not, in ``loop_names`` order; None without blocks), so that the FMU reports an error, not a number.
     ``names_simplified``: the loops' names, and their residuals with homotopy() (or None), from whose simplified
     model's solution their starting points are continued (:func:`cosim.compile.guess.continued_guess`).
     Returns the three functions, ``loops``, the :class:`Carried` functions (None without blocks) and notes."""
@@ -423,16 +423,18 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, na
     context_value = np.concatenate([np.ravel(v) for v in start_point])
     for k, (vs, residual, _) in enumerate(nonlinear):
         context = ca.vertcat(*args, *block_syms[:k])
-        solver = newton(k, vs, residual, context)
+        solvers = loop_solvers(k, vs, residual, context)
         guess = np.array([start_of.get(u.name(), 0.0) for u in ca.vertsplit(vs)], dtype=float)
         guess = continued_guess(k, vs, simplified[k], context, context_value, guess)
-        guess, note, at_start = better_guess(solver, vs, residual, context, context_value, guess, loop_names[k])
+        guess, note, at_start = better_guess(solvers[0], vs, residual, context, context_value, guess,
+                                             loop_names[k])
         notes += [note] if note else []
         context_value = np.concatenate([context_value, at_start])
         ctx_value = ca.vertcat(*margs, *solved)
         offset = sum(len(g) for g in guesses)
         guesses.append(guess)
-        outcome = _block_solver(k, vs, residual, context, guess)(G[offset:offset + vs.shape[0]], ctx_value)
+        outcome = _block_solver(k, solvers, converged(k, vs, residual, context), guess)(
+            G[offset:offset + vs.shape[0]], ctx_value)
         flags.append(outcome[-1])
         solved.append(ca.if_else(flags[-1], outcome[:-1], ca.DM.nan(vs.shape[0], 1)))
     xd, yy, oo = explicit(*margs, *solved)
@@ -448,17 +450,16 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, na
     return (*fixed, carried, notes)
 
 
-def _block_solver(k, vs, residual, context, guess):
+def _block_solver(k, solvers, test, guess):
     """A function of (g, context) -> (solution, 1 where it converged else 0) of block ``k``: NEWTON_ITERATIONS of
-    Newton's method from g; where they did not converge, RETRY_ITERATIONS more from where they ended, damped (a
-    step that does not lower the residual is halved: full steps can cycle on a piecewise-linear limiter), then the
-    chord method from g (:func:`~cosim.compile.newton.chord`), then both Newton attempts from the start values
-    ``guess`` (as the code did before it carried the last solution). Each fallback is a branch of a CasADi
-    conditional, evaluated only where the one before did not converge, and each attempt once."""
-    solver, test = newton(k, vs, residual, context), converged(k, vs, residual, context)
-    retry = newton(f"{k}_retry", vs, residual, context, damped=True, iterations=RETRY_ITERATIONS)
-    n = vs.shape[0]
-    v, w, g, c = ca.MX.sym("v", n), ca.MX.sym("w", n + 1), ca.MX.sym("g", n), ca.MX.sym("c", context.shape[0])
+    Newton's method from g; where they did not converge, RETRY_ITERATIONS damped ones more from where they ended, then
+    the chord method from g (``solvers``: :func:`~cosim.compile.newton.loop_solvers`; ``test``: their convergence),
+    then both Newton attempts from the start values ``guess`` (as the code did before it carried the last solution).
+    Each fallback is a branch of a CasADi conditional, evaluated only where the one before did not converge, and
+    each attempt once."""
+    solver, retry, chord = solvers
+    n, n_context = test.size1_in(0), test.size1_in(1)
+    v, w, g, c = ca.MX.sym("v", n), ca.MX.sym("w", n + 1), ca.MX.sym("g", n), ca.MX.sym("c", n_context)
 
     def otherwise(name, value, fallback, args):
         """A conditional of (flag, *args): value (the last row its flag) where flag is 1, else fallback."""
@@ -472,7 +473,7 @@ def _block_solver(k, vs, residual, context, guess):
         first = solver(start, ca.repmat(c, 1, NEWTON_ITERATIONS))
         return retrying(test(first, c), first, c)
 
-    held = chord(k, vs, residual, context)(g, c)
+    held = chord(g, c)
     from_start = otherwise(f"held{k}", ca.vertcat(v, 1), newton_from(ca.DM(guess)), [v, g, c])(
         test(held, c), held, g, c)
     from_last = newton_from(g)
