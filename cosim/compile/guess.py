@@ -1,6 +1,8 @@
 """The starting point of the Newton iterations that solve a nonlinear algebraic loop in the generated code.
 
-The code starts every solve from the loop's start values. Where the loop's unknowns carry no start value (0),
+The FMU starts a loop's first solve from its start values (later ones from its last solution), and, where the
+loop's equations hold homotopy(), from its simplified model's solution continued to the actual one
+(:func:`continued_guess`). Where the loop's unknowns carry no start value (0),
 that point can be one where Newton's method cannot move: a resistor heated through a thermal conductor has
 ``v = R_actual*i`` with ``R_actual`` guessed 0, a singular Jacobian, and every evaluation returns NaN. So the
 lowering tries the start values at the model's start point (initial states, default parameters, inputs at their
