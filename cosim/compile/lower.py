@@ -452,11 +452,11 @@ def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, na
 
 def _block_solver(k, solvers, test, guess):
     """A function of (g, context) -> (solution, 1 where it converged else 0) of block ``k``: NEWTON_ITERATIONS of
-    Newton's method from g; where they did not converge, RETRY_ITERATIONS damped ones more from where they ended, then
-    the chord method from g (``solvers``: :func:`~cosim.compile.newton.loop_solvers`; ``test``: their convergence),
-    then both Newton attempts from the start values ``guess`` (as the code did before it carried the last solution).
-    Each fallback is a branch of a CasADi conditional, evaluated only where the one before did not converge, and
-    each attempt once."""
+    Newton's method from g; where they did not converge, RETRY_ITERATIONS damped ones more from where they ended
+    (their end polished by Newton's), then the chord method from g (``solvers``:
+    :func:`~cosim.compile.newton.loop_solvers`; ``test``: their convergence), then both Newton attempts from the
+    start values ``guess`` (as the code did before it carried the last solution). Each fallback is a branch of a
+    CasADi conditional, evaluated only where the one before did not converge, and each attempt once."""
     solver, retry, chord = solvers
     n, n_context = test.size1_in(0), test.size1_in(1)
     v, w, g, c = ca.MX.sym("v", n), ca.MX.sym("w", n + 1), ca.MX.sym("g", n), ca.MX.sym("c", n_context)
@@ -467,6 +467,12 @@ def _block_solver(k, solvers, test, guess):
                                        ca.Function(f"{name}_then", args, [value]))
 
     retried = retry(v, ca.repmat(c, 1, RETRY_ITERATIONS))
+    # the damped retry's end polished by Newton's steps where those converge: it can stop within the convergence
+    # test's tolerance but not at the root (a step that does not lower the residual's norm is cut, down to a
+    # 256th), and where the loops start from their last solution a stiff model's integrator sees the difference
+    # as noise (the MSL's AmplifierWithOpAmpDetailed: off by 4 % of the range past the output's saturation)
+    polished = solver(retried, ca.repmat(c, 1, NEWTON_ITERATIONS))
+    retried = ca.if_else(test(polished, c), polished, retried)
     retrying = otherwise(f"retry{k}", ca.vertcat(v, 1), ca.vertcat(retried, test(retried, c)), [v, c])
 
     def newton_from(start):
