@@ -78,7 +78,10 @@ def check_divisions(model, source):
         # Only those of parameters and constants: NaN for x, u, t and the memory would not do, as a condition
         # NaN is true (a Boolean's both values in one expression, at an impossible combination, gave 0).
         others = ca.vertcat(*(i for k, i in enumerate(inputs) if k != 2))
-        denominators = [d for d in denominators if not ca.depends_on(d, others)]
+        # one sparsity pass over the graph, not one per denominator (a model's unrolled Newton iterations hold
+        # thousands of them)
+        uses_others = set(ca.jacobian_sparsity(ca.vertcat(*denominators), others).row())
+        denominators = [d for k, d in enumerate(denominators) if k not in uses_others]
         if not denominators:
             continue
         values = [np.zeros(i.numel()) for i in inputs]
