@@ -42,17 +42,36 @@ def reference_models(refs):
                   if any(p.parent.glob("*.csv")))
 
 
+def _models_in(block, prefix):
+    """The models of a ``package Examples ... end Examples;`` block by full name, those of its nested packages
+    too (by their indentation), but a package of utilities, base classes or components."""
+    found, packages = [], []
+    for indent, kind, name in re.findall(r"^( *)(package|model) (\w+)", block, re.M)[1:]:
+        packages = [(i, n) for i, n in packages if i < len(indent)]
+        if kind == "package":
+            packages.append((len(indent), name))
+        elif not any(n.endswith("Utilities") or n in ("BaseClasses", "Components") for _, n in packages):
+            found.append(".".join([prefix, *(n for _, n in packages), name]))
+    return found
+
+
 def example_models(msl, package):
     """The example models of ``package`` (``Modelica.Thermal.HeatTransfer``) in the library at ``msl``: one per
-    file of its Examples folders, or per top-level model of an Examples.mo; partial models and the Utilities
-    and BaseClasses folders left out."""
+    file of its Examples folders, or per top-level model of an Examples.mo or of a ``package Examples`` written
+    inside a package's file (``Modelica.Blocks``); partial models and the Utilities and BaseClasses folders left
+    out."""
     root = Path(msl).joinpath(*package.split("."))
     found = []
     for mo in sorted(root.rglob("*.mo")):
         parts = mo.relative_to(Path(msl)).with_suffix("").parts
-        if "Examples" not in parts or {"Utilities", "BaseClasses", "Components"} & set(parts):
+        if {"Utilities", "BaseClasses", "Components"} & set(parts):
             continue
         text = mo.read_text(encoding="utf-8", errors="replace")
+        if "Examples" not in parts:
+            prefix = ".".join(parts[:-1] if mo.name == "package.mo" else parts)
+            for inner in re.finditer(r"^( *)package Examples\b.*?^\1end Examples;", text, re.M | re.S):
+                found += _models_in(inner.group(0), f"{prefix}.Examples")
+            continue
         if mo.name == "package.mo" or mo.stem == "Examples":
             prefix = ".".join(parts[:-1] if mo.name == "package.mo" else parts)
             found += [f"{prefix}.{name}" for name in re.findall(r"^  model (\w+)", text, re.M)]

@@ -139,6 +139,19 @@ def test_msl_example_without_reference_builds_and_runs(model, tmp_path):
     assert row.stage == "ran", f"{row.stage}: {row.cause}"
 
 
+def test_the_examples_listed_beyond_the_references_hold_every_referenced_example_of_their_packages():
+    # benchmarks/msl.py --examples counts the examples beyond ../shared/msl from a listing of the library's
+    # source; the Modelica Association's reference folders are an independent list of examples of the same
+    # packages, nested ones (Blocks.Examples.Noise) and those written inside a package's file (Blocks) among them
+    from msl import example_models, reference_models
+
+    referenced = reference_models(REFS)
+    for package in ("Modelica.Mechanics", "Modelica.Electrical.Analog", "Modelica.Blocks", "Modelica.Thermal"):
+        listed = set(example_models(MSL, package))
+        assert {m for m in referenced if m.startswith(package + ".")} <= listed, package
+    assert "Modelica.Blocks.Examples.Noise.Densities" in example_models(MSL, "Modelica.Blocks")
+
+
 @pytest.mark.slow
 def test_front_end_refusal_of_an_msl_example_names_its_file_and_the_validation_run(tmp_path):
     # rumoca 0.10.2 refuses Translational.Examples.Friction (docs/dev/rumoca-upstream.md); the user is told it is the
