@@ -178,3 +178,141 @@ def test_a_loop_whose_newton_iterations_cycle_is_solved_by_the_damped_retry(tmp_
     result = fmpy.simulate_fmu(str(fmu), stop_time=2.0, output_interval=0.01, output=["v", "c"])
     c = result["c"]
     np.testing.assert_allclose(result["v"], np.where(c > 1.01, (c - 1) / 0.01, c / 1.01), rtol=0, atol=1e-9)
+# A comparator with positive feedback: y = tanh(k (u + a y)) with k a = 2 > 1 has, for |u| below U_SWITCH, two
+# stable solutions (a lower and an upper branch) and an unstable one between. Its branches in closed form:
+# u = atanh(y)/k - a y; a branch ends where du/dy = 0, at |y| = sqrt(1 - 1/(k a)).
+COMPARATOR = """
+  model M
+    parameter Real k = 2;
+    parameter Real a = 1;
+    input Real u(start = -2);
+    Real y(start = -1) "on the lower branch at the start";
+    output Real out = y;
+  equation
+    y = tanh(k*(u + a*y));
+  end M;"""
+Y_FOLD = np.sqrt(1 - 1 / 2.0)
+U_SWITCH = np.arctanh(Y_FOLD) / 2 - Y_FOLD  # where the upper branch ends (-0.266); the lower ends at -U_SWITCH
+
+
+def _on_branch(u, upper):
+    """The comparator's solution on its upper or lower branch at u (scipy's brentq on the closed form u(y))."""
+    f = lambda y: np.arctanh(y) / 2 - y - u  # noqa: E731
+    return brentq(f, Y_FOLD, 1 - 1e-15) if upper else brentq(f, -1 + 1e-15, -Y_FOLD)
+
+
+class _Comparator:
+    """The comparator's FMU as a Co-Simulation instance (FMI 3.0): set the input, step 0.01 s (a step ends at an
+    accepted point), read the output."""
+
+    def __init__(self, tmp_path):
+        from fmpy.fmi3 import FMU3Slave
+
+        fmu = build_fmu(write_package(tmp_path, COMPARATOR), "T.M", out_dir=tmp_path / "out")
+        md = fmpy.read_model_description(str(fmu))
+        self.slave = FMU3Slave(guid=md.guid, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="c",
+                               unzipDirectory=fmpy.extract(str(fmu), unzipdir=str(tmp_path / "unzipped")))
+        self.slave.instantiate()
+        self.vrs = {v.name: v.valueReference for v in md.modelVariables}
+        self.start()
+
+    def start(self):
+        self.slave.enterInitializationMode(startTime=0.0)
+        self.slave.exitInitializationMode()
+        self.time = 0.0
+
+    def out_at(self, u):
+        self.slave.setFloat64([self.vrs["u"]], [u])
+        self.slave.doStep(self.time, 0.01)
+        self.time += 0.01
+        return self.slave.getFloat64([self.vrs["out"]])[0]
+
+    def close(self):
+        self.slave.terminate()
+        self.slave.freeInstance()
+
+
+def test_a_loop_with_two_solutions_follows_its_branch_from_the_last_solution(tmp_path):
+    """u swept up from -2 to 2 and back in steps of 0.05: the output stays on the lower branch up to -U_SWITCH,
+    on the upper one down to U_SWITCH (hysteresis), each value the closed form's root on that branch."""
+    comparator = _Comparator(tmp_path)
+    out_at = comparator.out_at
+    sweep = np.round(np.concatenate([np.arange(-2, 2, 0.05), np.arange(2, -2, -0.05)]), 10)
+    upper = False
+    for k, u in enumerate(sweep):
+        rising = k < len(sweep) // 2
+        upper = (upper or u > -U_SWITCH) if rising else (upper and u >= U_SWITCH)
+        assert out_at(u) == pytest.approx(_on_branch(u, upper), abs=1e-9), (u, rising)
+    # both branches were met inside the band, each from its side
+    assert out_at(0.0) == pytest.approx(_on_branch(0.0, upper=False), abs=1e-9)
+    comparator.close()
+
+
+def test_fmu_state_and_reset_restore_the_branch_the_loop_was_on(tmp_path):
+    """Inside the band (u = 0) the output is the branch the last solution was on: the one at the saved state after
+    fmi3SetFMUState (serialised too), the start values' (lower) after fmi3Reset."""
+    comparator = _Comparator(tmp_path)
+    slave, out_at = comparator.slave, comparator.out_at
+    lower_0, upper_0 = _on_branch(0.0, upper=False), _on_branch(0.0, upper=True)
+    assert out_at(0.0) == pytest.approx(lower_0, abs=1e-9)
+    state, lower_time = slave.getFMUState(), comparator.time
+    assert out_at(2.0) == pytest.approx(_on_branch(2.0, upper=True), abs=1e-9)
+    assert out_at(0.0) == pytest.approx(upper_0, abs=1e-9)
+    saved_upper, upper_time = slave.serializeFMUState(slave.getFMUState()), comparator.time
+    slave.setFMUState(state)
+    comparator.time = lower_time
+    assert out_at(0.0) == pytest.approx(lower_0, abs=1e-9)
+    slave.setFMUState(slave.deserializeFMUState(saved_upper))
+    comparator.time = upper_time
+    assert out_at(0.0) == pytest.approx(upper_0, abs=1e-9)
+    slave.reset()
+    comparator.start()
+    assert out_at(0.0) == pytest.approx(lower_0, abs=1e-9)
+    comparator.close()
+
+
+def test_homotopy_starts_a_loop_on_the_solution_its_simplified_model_continues_to(tmp_path):
+    """The comparator at u = 0 from y = 0 (its unstable middle solution is 0) with homotopy(actual, simplified =
+    1): the build continues from the simplified model's y = 1 to the upper branch, as Modelica tools initialise;
+    without homotopy() Newton's method from 0 stays at the middle solution."""
+    body = COMPARATOR.replace("input Real u(start = -2);", "input Real u(start = 0);").replace(
+        'Real y(start = -1) "on the lower branch at the start";', "Real y(start = 0);")
+    continued = body.replace("y = tanh(k*(u + a*y));", "y = homotopy(tanh(k*(u + a*y)), 1);")
+    for text, expected in ((continued, _on_branch(0.0, upper=True)), (body, 0.0)):
+        fmu = build_fmu(write_package(tmp_path, text), "T.M", out_dir=tmp_path / "out")
+        result = fmpy.simulate_fmu(str(fmu), stop_time=0.1, output_interval=0.1, output=["out"])
+        np.testing.assert_allclose(result["out"], expected, rtol=0, atol=1e-9)
+
+
+def test_a_solve_at_an_earlier_time_starts_from_the_branch_that_was_on_then(tmp_path):
+    """Model Exchange: an integrator's trial point past the branch's end (u = 2 at t = 1) moves the loop to the
+    upper branch for later points only: a retry at t = 0.5 (a rejected step) sees the lower branch as it was,
+    the same calls giving the same numbers; after fmi3CompletedIntegratorStep at u = 2 the upper branch holds."""
+    from fmpy.fmi3 import FMU3Model
+
+    fmu = build_fmu(write_package(tmp_path, COMPARATOR), "T.M", out_dir=tmp_path / "out")
+    md = fmpy.read_model_description(str(fmu))
+    model = FMU3Model(guid=md.guid, modelIdentifier=md.modelExchange.modelIdentifier, instanceName="m",
+                      unzipDirectory=fmpy.extract(str(fmu), unzipdir=str(tmp_path / "unzipped")))
+    model.instantiate()
+    model.enterInitializationMode(startTime=0.0)
+    model.exitInitializationMode()
+    model.enterContinuousTimeMode()
+    vrs = {v.name: v.valueReference for v in md.modelVariables}
+
+    def out(t, u):
+        model.setTime(t)
+        model.setFloat64([vrs["u"]], [u])
+        return model.getFloat64([vrs["out"]])[0]
+
+    lower_0, upper_0 = _on_branch(0.0, upper=False), _on_branch(0.0, upper=True)
+    for _ in range(2):
+        assert out(1.0, 2.0) == pytest.approx(_on_branch(2.0, upper=True), abs=1e-9)
+        assert out(1.2, 0.0) == pytest.approx(upper_0, abs=1e-9)  # later than the trial point: its branch
+        assert out(0.5, 0.0) == pytest.approx(lower_0, abs=1e-9)  # earlier: the branch before it
+    out(1.0, 2.0)
+    model.completedIntegratorStep()
+    assert out(1.5, 0.0) == pytest.approx(upper_0, abs=1e-9)
+    assert out(1.2, 0.0) == pytest.approx(upper_0, abs=1e-9)  # before nothing kept now: the accepted point's
+    model.terminate()
+    model.freeInstance()

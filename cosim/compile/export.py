@@ -129,11 +129,17 @@ def _symbols(f, n_memory=None):
     return sym, args
 
 
-def _named(f, name, n_memory=None):
+def _named(f, name, n_memory=None, n_guess=None):
     """``f`` as a function called ``name`` with dense results; with ``n_memory``, an extra (ignored) memory
-    argument, so that the C core calls every model function as f(x, u, p, t, m)."""
-    _, args = _symbols(f, n_memory)
-    results = f.call(args[:f.n_in()])
+    argument after (x, u, p, t), and with ``n_guess`` an extra (ignored) last argument g (a model without nonlinear
+    loops), so that the C core calls every model function as f(x, u, p, t, m[, g])."""
+    sym, args = _symbols(f)
+    inputs = list(args)
+    if n_memory is not None:
+        args.insert(4, sym.sym("m", n_memory))
+    if n_guess is not None:
+        args.append(sym.sym("g", n_guess))
+    results = f.call(inputs)
     return ca.Function(name, args, [ca.densify(r) for r in results])
 
 
@@ -149,9 +155,9 @@ def _continuous_events(model):
 
 
 def _derivative_functions(ode, out):
-    """Exact derivatives for the C core, from CasADi's algorithmic differentiation: ``cosim_jac_x(x, u, p, t, m)``
+    """Exact derivatives for the C core, from CasADi's algorithmic differentiation: ``cosim_jac_x(x, u, p, t, m, g)``
     the dense Jacobian of ode w.r.t. x (the implicit solver's Newton), ``cosim_dode`` and ``cosim_dout(x, u, p,
-    t, m, dx, du)`` the forward derivatives of ode and out along seeds dx, du (directional derivatives)."""
+    t, m, g, dx, du)`` the forward derivatives of ode and out along seeds dx, du (directional derivatives)."""
     sym, args = _symbols(ode)
     x, u = args[0], args[1]
     dx, du = sym.sym("dx", x.numel()), sym.sym("du", u.numel())
@@ -167,10 +173,11 @@ def _c_functions(model):
     true; one that changes nothing when the model does not use terminal()), then the derivatives
     (:func:`_derivative_functions`), then cosim_observe (the local variables), cosim_loops (which nonlinear
     loops converged), cosim_mixed(x, u, p, t, m_pre, c) (:func:`_mixed`) and, last, cosim_calculated (the
-    dependent parameters), all but cosim_mixed f(x, u, p, t, m)."""
+    dependent parameters), all but cosim_mixed f(x, u, p, t, m); those that solve the nonlinear loops take their
+    Newton iterations' starting point g last (:func:`_carried`)."""
     events = model.events
     memory = 0 if events is None else None  # a continuous model's functions get an empty memory argument
-    ode, out = _named(model.ode, "cosim_ode", memory), _named(model.out, "cosim_out", memory)
+    ode, out, observe, loops = _carried(model, memory)
     functions = [ode, out, _named(model.x0, "cosim_x0")]
     if events is None:
         functions += _continuous_events(model)
@@ -178,9 +185,7 @@ def _c_functions(model):
         functions += [_named(events.indicators, "cosim_indicators"), _named(events.update, "cosim_update"),
                       _terminal_pass(events), _named(events.initial, "cosim_initial"),
                       _named(events.next_time, "cosim_next_time")]
-    return functions + _derivative_functions(ode, out) + [_named(model.observe, "cosim_observe", memory),
-                                                         _loops(model, memory), _mixed(model),
-                                                         _calculated(model, memory)]
+    return functions + _derivative_functions(ode, out) + [observe, loops, _mixed(model), _calculated(model, memory)]
 
 
 def _mixed(model):
@@ -201,13 +206,21 @@ def _calculated(model, memory):
     return ca.Function("cosim_calculated", args, [ca.densify(q)])
 
 
-def _loops(model, memory):
-    """cosim_loops(x, u, p, t, m): 1 per nonlinear algebraic loop whose Newton iterations converged, 0 per loop
-    that did not (``model.loops``); none for a model without such loops."""
-    if model.loops is None:
-        sym, args = _symbols(model.ode, memory)
-        return ca.Function("cosim_loops", args, [sym(0, 1)])
-    return _named(model.loops, "cosim_loops", memory)
+_CARRIED = ("cosim_ode", "cosim_out", "cosim_observe", "cosim_loops")
+
+
+def _carried(model, memory):
+    """cosim_ode, cosim_out, cosim_observe and cosim_loops as f(x, u, p, t, m, g), g the starting point of the
+    nonlinear loops' Newton iterations (the C core's last solution); the first three also return the loops'
+    solutions g_new there (``model.carried``). A model without such loops has an empty g and no g_new, and its
+    cosim_loops returns nothing."""
+    if model.carried is not None:
+        carried = model.carried
+        return [_named(f, name, memory) for f, name in zip((carried.ode, carried.out, carried.observe, carried.loops),
+                                                           _CARRIED)]
+    sym, args = _symbols(model.ode, memory)
+    loops = ca.Function("cosim_loops", args + [sym.sym("g", 0)], [sym(0, 1)])
+    return [_named(f, name, memory, 0) for f, name in zip((model.ode, model.out, model.observe), _CARRIED)] + [loops]
 
 
 def _terminal_pass(events):
@@ -242,6 +255,7 @@ def _data_header(model, layout, functions, identifier, token, cs_step, cs_method
         "N_Y": len(model.outputs), "N_M": n_memory, "N_D": len(discretes),
         "N_Z": events.n_indicators if events else 0, "N_MSG": len(messages), "N_LOOPS": len(model.loop_names),
         "N_CAND": len(events.candidates) if events and events.mixed is not None else 0,
+        "N_G": 0 if model.carried is None else len(model.carried.guess),
         "VR_P": layout.p, "VR_U": layout.u, "VR_X": layout.x, "VR_DX": layout.dx, "VR_Y": layout.y,
         "VR_D": layout.d, "VR_Z": layout.z, "VR_CS": layout.cs, "N_VR": layout.end,
         "N_OBS": len(model.observed), "N_V": len(layout.v_index), "N_Q": len(model.dependent),
@@ -260,6 +274,7 @@ def _data_header(model, layout, functions, identifier, token, cs_step, cs_method
         _c_array("X_NOMINAL", "double", [repr(float(v.nominal or 1.0)) for v in model.states]),
         _c_array("M_START", "double", [repr(float(v)) for v in memory_start]),
         _c_array("M_CAND", "int", [str(k) for k in (events.candidates if events else ())]),
+        _c_array("G_START", "double", [] if model.carried is None else [repr(float(v)) for v in model.carried.guess]),
         _c_array("Y_INDEX", "int", [str(k) for k in layout.y_index]),
         _c_array("D_KIND", "int", [str(_KINDS[d.kind][1]) for d in discretes]),
         _c_array("V_INDEX", "int", [str(k) for k in layout.v_index]),

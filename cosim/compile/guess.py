@@ -1,6 +1,8 @@
 """The starting point of the Newton iterations that solve a nonlinear algebraic loop in the generated code.
 
-The code starts every solve from the loop's start values. Where the loop's unknowns carry no start value (0),
+The FMU starts a loop's first solve from its start values (later ones from its last solution), and, where the
+loop's equations hold homotopy(), from its simplified model's solution continued to the actual one
+(:func:`continued_guess`). Where the loop's unknowns carry no start value (0),
 that point can be one where Newton's method cannot move: a resistor heated through a thermal conductor has
 ``v = R_actual*i`` with ``R_actual`` guessed 0, a singular Jacobian, and every evaluation returns NaN. So the
 lowering tries the start values at the model's start point (initial states, default parameters, inputs at their
@@ -16,12 +18,15 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import least_squares
 
-from cosim.compile.newton import NEWTON_ITERATIONS
+from cosim.compile.causalise import symbol_names
+from cosim.compile.newton import NEWTON_ITERATIONS, newton
+from cosim.compile.translate import HOMOTOPY
 from cosim.errors import LoopWarning
 
-__all__ = ["better_guess"]
+__all__ = ["better_guess", "continued_guess"]
 
 _TOLERANCE = 1e-9  # residual norm, relative to the unknowns' size, of a converged solve
+HOMOTOPY_STEPS = 4  # continuation from the simplified model: HOMOTOPY = 0, 1/4, ..., 1
 
 
 def _converged(residual, solution):
@@ -30,6 +35,26 @@ def _converged(residual, solution):
     scale = 1.0 + float(np.max(np.abs(solution))) if len(solution) else 1.0
     return bool(np.all(np.isfinite(solution)) and np.all(np.isfinite(value))
                 and np.max(np.abs(value), initial=0.0) <= _TOLERANCE * scale)
+
+
+def continued_guess(k, unknowns, written, context, context_value, guess):
+    """The loop's starting point continued from the solution of its simplified model (each homotopy() at its
+    simplified argument, HOMOTOPY = 0) to the actual one (HOMOTOPY = 1) in HOMOTOPY_STEPS steps at the model's
+    start point, as Modelica tools initialise: of a loop with several solutions, the one the model's author
+    chose (the MSL's op-amp multivibrator starts at its lower limit). ``guess`` (the start values) where the
+    loop has no homotopy() (``written`` None) or a step does not converge."""
+    extended = ca.vertcat(context, HOMOTOPY)
+    if written is None or not symbol_names(written) <= symbol_names(ca.vertcat(extended, unknowns)):
+        return guess  # none, or one that reads an unknown the run-time model solves in another block
+    solver = newton(f"{k}_homotopy", unknowns, written, extended, damped=True)
+    residual = ca.Function("loop_residual", [unknowns, extended], [written])
+    point = guess
+    for homotopy in np.linspace(0.0, 1.0, HOMOTOPY_STEPS + 1):
+        at = np.append(context_value, homotopy)
+        point = np.asarray(solver(point, np.tile(at[:, None], (1, NEWTON_ITERATIONS))), dtype=float).ravel()
+        if not _converged(lambda v: np.asarray(residual(v, at), dtype=float).ravel(), point):  # noqa: B023
+            return guess
+    return point
 
 
 def better_guess(solver, unknowns, residual, context, context_value, guess, name):

@@ -7,10 +7,11 @@ import numpy as np
 
 from cosim.compile import events as hybrid
 from cosim.compile.causalise import causalise, depends, file_line, generic_rank, symbol_names
-from cosim.compile.guess import better_guess
+from cosim.compile.guess import better_guess, continued_guess
 from cosim.compile.initial import initial_state
-from cosim.compile.model import LoweredModel, ModelVariable
-from cosim.compile.newton import NEWTON_ITERATIONS, RETRY_ITERATIONS, converged, newton
+from cosim.compile.model import Carried, LoweredModel, ModelVariable
+from cosim.compile.newton import NEWTON_ITERATIONS, RETRY_ITERATIONS, converged, loop_solvers
+from cosim.compile.translate import HOMOTOPY, Equation
 from cosim.errors import StructureError, UnsupportedConstructError
 
 __all__ = ["lower_system"]
@@ -221,6 +222,7 @@ def lower_system(system):
         The equations cannot be made explicit: over- or under-determined, structurally singular, or a
         constraint between states that involves an input (it would need the input's derivative).
     """
+    written = _actual_model(system)
     params = _Parameters(system)
     notes = list(params.notes)
     states = system.by_role("state")
@@ -232,6 +234,7 @@ def lower_system(system):
     states, algebraics = _without_vanished(system, equations, states, algebraics, notes)
     ders = [system.derivatives[s.name] for s in states]
     blocks, demoted, reduction_notes = _reduce_index(system, equations, states, ders, algebraics, input_names)
+    simplified = _homotopy_residuals(system, params, written, blocks, (states, ders, algebraics, input_names))
     notes += reduction_notes
     active = [s for k, s in enumerate(states) if k not in demoted]
     solved = blocks.solved
@@ -271,11 +274,11 @@ def lower_system(system):
     start_of = {v.name: _start_at_defaults(v, params, P, p_defaults) for v in system.variables}
     loop_names = tuple(f"nonlinear algebraic loop in {', '.join(u.name() for u in ca.vertsplit(vs))} (equations "
                        f"at {', '.join(sorted(set(locs)))})" for vs, _, locs in blocks.nonlinear)
-    ode, out, observe, loops, guess_notes = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, start_of, M,
-                                                       start_point, loop_names)
+    ode, out, observe, loops, carried, guess_notes = _functions(X, U, P, T, xdot, y, obs, blocks.nonlinear, start_of, M,
+                                                                start_point, (loop_names, simplified))
     notes += guess_notes
-    notes += [f"{name} solved by Newton's method ({NEWTON_ITERATIONS} iterations from the start values)"
-              for name in loop_names]
+    notes += [f"{name} solved by Newton's method ({NEWTON_ITERATIONS} iterations; in the FMU from the loop's last "
+              "solution, from its start values at first)" for name in loop_names]
     if system.events is not None:
         notes += [f"sample(start = {start:g} s, interval = {interval:g} s) is fixed at build time (rumoca evaluates "
                   "its arguments): a parameter in them does not follow its run-time value"
@@ -291,10 +294,43 @@ def lower_system(system):
         ode=ode, out=out, observe=observe,
         observed=tuple(ModelVariable(v.name, v.unit, v.description, _start(v)) for v in observed),
         x0=x0, constants=dict(params.constants), notes=tuple(notes), **_parameter_variables(params, P),
-        loops=loops, loop_names=loop_names,
+        loops=loops, loop_names=loop_names, carried=carried,
         events=None if M is None else _event_part(system, params, active, outputs, observed, (X, U, P, T, M),
                                                   (ode, out, observe), (p_defaults, x0_values)),
     )
+
+
+def _actual_model(system):
+    """Substitute HOMOTOPY = 1 (the actual model of each homotopy(), as at run time) into ``system``; return its
+    continuous equations as they were when they hold homotopy() (else None): the loops' starting points are
+    continued from the simplified model's solution (:func:`cosim.compile.guess.continued_guess`)."""
+    if not any(ca.depends_on(e.residual, HOMOTOPY) for e in system.equations):
+        written = None
+    else:
+        written = system.equations
+        system.equations = [Equation(ca.substitute(e.residual, HOMOTOPY, ca.SX(1)), e.location) for e in written]
+    system.initial_equations = [Equation(ca.substitute(e.residual, HOMOTOPY, ca.SX(1)), e.location)
+                                if ca.depends_on(e.residual, HOMOTOPY) else e for e in system.initial_equations]
+    for v in system.variables:
+        v.start, v.binding = (None if e is None else ca.substitute(e, HOMOTOPY, ca.SX(1)) for e in (v.start, v.binding))
+    return written
+
+
+def _homotopy_residuals(system, params, written, blocks, unknowns):
+    """Per nonlinear block of ``blocks``, its residual with homotopy() as written (a function of HOMOTOPY), or None
+    where it has none: the blocks of the equations as written, matched by their unknowns."""
+    if written is None:
+        return [None] * len(blocks.nonlinear)
+    _, equations = _hybrid_memory(system, [(params.substitute(e.residual), e.location) for e in written])
+    try:
+        as_written, _, _ = _reduce_index(system, equations, *unknowns)
+    except StructureError:  # the blend sorts differently: the loops start from their start values
+        return [None] * len(blocks.nonlinear)
+    by_unknowns = {tuple(u.name() for u in ca.vertsplit(vs)): (vs, residual)
+                   for vs, residual, _ in as_written.nonlinear}
+    found = [by_unknowns.get(tuple(u.name() for u in ca.vertsplit(vs))) for vs, _, _ in blocks.nonlinear]
+    return [None if f is None or not ca.depends_on(f[1], HOMOTOPY) else ca.substitute(f[1], f[0], vs)
+            for f, (vs, _, _) in zip(found, blocks.nonlinear)]
 
 
 def _parameter_variables(params, P):
@@ -358,49 +394,97 @@ def _start(var):
     return float(ca.evalf(var.start))
 
 
-def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, loop_names):
+def _functions(X, U, P, T, xdot, y, obs, nonlinear, start_of, M, start_point, names_simplified):
     """CasADi functions of (x, u, p, t), and the event memory m for a hybrid model; nonlinear blocks are
-    solved by a generated Newton iteration, from the start values (``start_of``: name -> value at the default
+    solved by a generated Newton iteration from a starting point g: in the :class:`Carried` functions an argument
+    (the FMU's last solution), in the others the start values (``start_of``: name -> value at the default
     parameters; a der() in a block has none and starts at 0) or, where it does not converge from them at
-    ``start_point`` (numeric x, u, p, t[, m]), from the block's solution there (:mod:`cosim.compile.guess`).
-    Where the iterations did not converge, RETRY_ITERATIONS more run from where they ended, damped (a step that
-    does not lower the residual is halved: full steps can cycle on a piecewise-linear limiter); a block that still
-    did not gives NaN, and ``loops`` says which (1 converged, 0 not, in ``loop_names`` order; None without
-    blocks), so that the FMU reports an error, not a number.
-    Returns the three functions, ``loops`` and notes."""
+    ``start_point`` (numeric x, u, p, t[, m]), the block's solution there (:mod:`cosim.compile.guess`), which is
+    also the Carried functions' first g. Where the iterations did not converge, RETRY_ITERATIONS more run from where
+    they ended, damped (a step that does not lower the residual is halved: full steps can cycle on a
+    piecewise-linear limiter), then the chord method from g (:func:`~cosim.compile.newton.loop_solvers`), then
+    Newton's again from the start values; a block that still did not gives NaN, and ``loops`` says which (1
+    converged, 0 not, in ``loop_names`` order; None without blocks), so that the FMU reports an error, not a number.
+    ``names_simplified``: the loops' names, and their residuals with homotopy() (or None), from whose simplified
+    model's solution their starting points are continued (:func:`cosim.compile.guess.continued_guess`).
+    Returns the three functions, ``loops``, the :class:`Carried` functions (None without blocks) and notes."""
+    loop_names, simplified = names_simplified
     names = ["x", "u", "p", "t"] + ([] if M is None else ["m"])
     args = [X, U, P, T] + ([] if M is None else [M])
     if not nonlinear:
         return (ca.Function("ode", args, [xdot], names, ["xdot"]),
                 ca.Function("out", args, [y], names, ["y"]),
-                ca.Function("observe", args, [obs], names, ["v"]), None, [])
+                ca.Function("observe", args, [obs], names, ["v"]), None, None, [])
     block_syms = [vs for vs, _, _ in nonlinear]
     explicit = ca.Function("explicit", [*args, *block_syms], [xdot, y, obs])
     margs = [ca.MX.sym(n, s.shape[0]) for n, s in zip(names, args)]
-    solved, flags, notes = [], [], []
+    G = ca.MX.sym("g", sum(vs.shape[0] for vs in block_syms))
+    solved, flags, guesses, notes = [], [], [], []
     context_value = np.concatenate([np.ravel(v) for v in start_point])
     for k, (vs, residual, _) in enumerate(nonlinear):
         context = ca.vertcat(*args, *block_syms[:k])
-        solver = newton(k, vs, residual, context)
+        solvers = loop_solvers(k, vs, residual, context)
         guess = np.array([start_of.get(u.name(), 0.0) for u in ca.vertsplit(vs)], dtype=float)
-        guess, note, at_start = better_guess(solver, vs, residual, context, context_value, guess, loop_names[k])
+        guess = continued_guess(k, vs, simplified[k], context, context_value, guess)
+        guess, note, at_start = better_guess(solvers[0], vs, residual, context, context_value, guess,
+                                             loop_names[k])
         notes += [note] if note else []
         context_value = np.concatenate([context_value, at_start])
         ctx_value = ca.vertcat(*margs, *solved)
-        test = converged(k, vs, residual, context)
-        first = solver(ca.DM(guess), ca.repmat(ctx_value, 1, NEWTON_ITERATIONS))
-        retried = newton(f"{k}_retry", vs, residual, context, damped=True, iterations=RETRY_ITERATIONS)(
-            first, ca.repmat(ctx_value, 1, RETRY_ITERATIONS))
-        # (solution, converged): the retry and its test evaluated only where the first iterations did not converge
-        outcome = ca.if_else(test(first, ctx_value), ca.vertcat(first, 1),
-                             ca.vertcat(retried, test(retried, ctx_value)), True)
+        offset = sum(len(g) for g in guesses)
+        guesses.append(guess)
+        outcome = _block_solver(k, solvers, converged(k, vs, residual, context), guess)(
+            G[offset:offset + vs.shape[0]], ctx_value)
         flags.append(outcome[-1])
         solved.append(ca.if_else(flags[-1], outcome[:-1], ca.DM.nan(vs.shape[0], 1)))
     xd, yy, oo = explicit(*margs, *solved)
-    return (ca.Function("ode", margs, [xd], names, ["xdot"]),
-            ca.Function("out", margs, [yy], names, ["y"]),
-            ca.Function("observe", margs, [oo], names, ["v"]),
-            ca.Function("loops", margs, [ca.vertcat(*flags)], names, ["converged"]), notes)
+    solution = ca.vertcat(*solved)
+    carried = Carried(ca.Function("ode", margs + [G], [xd, solution], names + ["g"], ["xdot", "g_new"]),
+                      ca.Function("out", margs + [G], [yy, solution], names + ["g"], ["y", "g_new"]),
+                      ca.Function("observe", margs + [G], [oo, solution], names + ["g"], ["v", "g_new"]),
+                      ca.Function("loops", margs + [G], [ca.vertcat(*flags)], names + ["g"], ["converged"]),
+                      np.concatenate(guesses))
+    start = ca.DM(carried.guess)
+    fixed = [ca.Function(f.name(), margs, [f(*margs, start)[0]], names, [f.name_out(0)])
+             for f in (carried.ode, carried.out, carried.observe, carried.loops)]
+    return (*fixed, carried, notes)
+
+
+def _block_solver(k, solvers, test, guess):
+    """A function of (g, context) -> (solution, 1 where it converged else 0) of block ``k``: NEWTON_ITERATIONS of
+    Newton's method from g; where they did not converge, RETRY_ITERATIONS damped ones more from where they ended
+    (their end polished by Newton's), then the chord method from g (``solvers``:
+    :func:`~cosim.compile.newton.loop_solvers`; ``test``: their convergence), then both Newton attempts from the
+    start values ``guess`` (as the code did before it carried the last solution). Each fallback is a branch of a
+    CasADi conditional, evaluated only where the one before did not converge, and each attempt once."""
+    solver, retry, chord = solvers
+    n, n_context = test.size1_in(0), test.size1_in(1)
+    v, w, g, c = ca.MX.sym("v", n), ca.MX.sym("w", n + 1), ca.MX.sym("g", n), ca.MX.sym("c", n_context)
+
+    def otherwise(name, value, fallback, args):
+        """A conditional of (flag, *args): value (the last row its flag) where flag is 1, else fallback."""
+        return ca.Function.conditional(name, [ca.Function(f"{name}_else", args, [fallback])],
+                                       ca.Function(f"{name}_then", args, [value]))
+
+    retried = retry(v, ca.repmat(c, 1, RETRY_ITERATIONS))
+    # the damped retry's end polished by Newton's steps where those converge: it can stop within the convergence
+    # test's tolerance but not at the root (a step that does not lower the residual's norm is cut, down to a
+    # 256th), and where the loops start from their last solution a stiff model's integrator sees the difference
+    # as noise (the MSL's AmplifierWithOpAmpDetailed: off by 4 % of the range past the output's saturation)
+    polished = solver(retried, ca.repmat(c, 1, NEWTON_ITERATIONS))
+    retried = ca.if_else(test(polished, c), polished, retried)
+    retrying = otherwise(f"retry{k}", ca.vertcat(v, 1), ca.vertcat(retried, test(retried, c)), [v, c])
+
+    def newton_from(start):
+        first = solver(start, ca.repmat(c, 1, NEWTON_ITERATIONS))
+        return retrying(test(first, c), first, c)
+
+    held = chord(g, c)
+    from_start = otherwise(f"held{k}", ca.vertcat(v, 1), newton_from(ca.DM(guess)), [v, g, c])(
+        test(held, c), held, g, c)
+    from_last = newton_from(g)
+    outcome = otherwise(f"fallback{k}", w, from_start, [w, g, c])(from_last[-1], from_last, g, c)
+    return ca.Function(f"solve{k}", [g, c], [outcome])
 
 
 def _start_at_defaults(var, params, P, p_defaults):

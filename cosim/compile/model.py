@@ -4,7 +4,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["ModelVariable", "DiscreteVariable", "EventPart", "LoweredModel"]
+__all__ = ["ModelVariable", "DiscreteVariable", "EventPart", "Carried", "LoweredModel"]
 
 
 @dataclass(frozen=True)
@@ -121,6 +121,24 @@ class EventPart:
 
 
 @dataclass(frozen=True)
+class Carried:
+    """A model's functions with the starting point of its nonlinear loops' Newton iterations an argument: every
+    Modelica tool solves a loop from its last solution, so that a loop with several solutions (a Schmitt
+    trigger's hysteresis) stays on the branch it is on. The FMU keeps that point in its state.
+
+    ``ode``, ``out`` and ``observe`` are f(x, u, p, t[, m], g) -> (value, g_new), g_new the loops' solutions
+    there (NaN in a loop that did not converge); ``loops(x, u, p, t[, m], g)`` as ``LoweredModel.loops``;
+    ``guess`` the starting point at instantiation (the loops' start values), whose concatenated unknowns g is.
+    """
+
+    ode: object
+    out: object
+    observe: object
+    loops: object
+    guess: object
+
+
+@dataclass(frozen=True)
 class LoweredModel:
     """An explicit ODE ``der(x) = f(x, u, p, t)`` with outputs ``y = h(x, u, p, t)``.
 
@@ -161,6 +179,9 @@ class LoweredModel:
         when the model has no such loop.
     loop_names : tuple of str
         The loops, in ``loops`` order: their unknowns and equations' lines.
+    carried : Carried or None
+        The same functions with the Newton iterations' starting point an argument, for the FMU, which starts each
+        solve from the last solution (None when the model has no such loop).
     experiment : dict
         The model's ``experiment`` annotation (``StartTime``, ``StopTime``, ``Interval``, ``Tolerance``, those
         it gives), the FMU's DefaultExperiment.
@@ -184,6 +205,7 @@ class LoweredModel:
     constant_variables: tuple = ()
     loops: object = None
     loop_names: tuple = ()
+    carried: object = None
     experiment: dict = field(default_factory=dict)
 
     @property

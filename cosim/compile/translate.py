@@ -15,7 +15,11 @@ from cosim.compile.functions import inline
 from cosim.compile.guards import Guards
 from cosim.errors import UnsupportedConstructError
 
-__all__ = ["Variable", "Equation", "DaeSystem", "translate"]
+__all__ = ["Variable", "Equation", "DaeSystem", "translate", "HOMOTOPY"]
+
+# The parameter of homotopy(actual, simplified): 1 at run time (the lowering substitutes it), 0 for the simplified
+# model, from whose solution the lowering continues a nonlinear loop's starting point to the actual one.
+HOMOTOPY = ca.SX.sym("$homotopy")
 
 _BINARY = {
     "add": lambda a, b: a + b,
@@ -344,8 +348,8 @@ class _Translator:
             return args[0]
         if name == "smooth":
             return args[-1]
-        if name == "homotopy":
-            return args[0]
+        if name == "homotopy":  # actual where HOMOTOPY is 1, as it is at run time (cosim.compile.lower)
+            return ca.if_else(HOMOTOPY == 1, args[0], args[1] + HOMOTOPY * (args[0] - args[1]))
         if name in _BUILTIN_1 and len(args) == 1:
             return _BUILTIN_1[name](args[0])
         if name in _BUILTIN_2 and len(args) == 2:

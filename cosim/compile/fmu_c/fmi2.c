@@ -262,10 +262,10 @@ fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
 
 fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
                                        fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation) {
-    (void)c, (void)noSetFMUStatePriorToCurrentPoint;
+    (void)noSetFMUStatePriorToCurrentPoint;
     *enterEventMode = fmi2False;
     *terminateSimulation = fmi2False;
-    return fmi2OK;
+    return status(model_accept(((Fmu2 *)c)->model));
 }
 
 fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {

@@ -158,10 +158,10 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
 
 fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
                                        fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation) {
-    (void)instance, (void)noSetFMUStatePriorToCurrentPoint;
+    (void)noSetFMUStatePriorToCurrentPoint;
     *enterEventMode = fmi3False;
     *terminateSimulation = fmi3False;
-    return fmi3OK;
+    return status(model_accept(((Fmu3 *)instance)->model));
 }
 
 fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventIndicators) {

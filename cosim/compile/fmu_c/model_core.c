@@ -1,6 +1,9 @@
 /* The model core: see model_core.h. The CasADi functions all take (x, u, p, t, m); a continuous model has an
- * empty m, no indicators, an update that changes nothing and next_time = inf. Below the FMI-independent
- * services, the Co-Simulation ones: event iteration, the embedded solver, directional derivatives, the state. */
+ * empty m, no indicators, an update that changes nothing and next_time = inf. Those that solve the nonlinear
+ * loops (ode, out, observe, loops, the derivatives) also take g, where the loops' Newton iterations start: the
+ * last solution (as every Modelica tool does, so that a loop with several solutions stays on its branch).
+ * Below the FMI-independent services, the Co-Simulation ones: event iteration, the embedded solver, directional
+ * derivatives, the state. */
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
@@ -19,13 +22,37 @@ static void logf_(Model *s, int error, const char *format, double t, const char 
     s->log(s->log_env, error, buffer);
 }
 
-/* Evaluate f(x, u, p, t, m) into up to three results; nonzero when the generated code failed. */
-static int call(Model *s, casadi_fn f, const double *m, double *r0, double *r1, double *r2) {
+/* Where the loops' iterations at the current time start: the last solution at or before it (those after it
+ * belong to an integrator's rejected step, and are forgotten); the first kept when all are after it. */
+static const double *start_point(Model *s) {
+    while (s->g_count > 1 && s->g_time[s->g_count - 1] > s->t) s->g_count--;
+    return s->g[s->g_count - 1];
+}
+
+/* The loops' solutions g_new at the current time, where finite (a loop that did not converge is NaN). */
+static void keep_solution(Model *s, const double *g_new) {
+    int k, top = s->g_count - 1;
+    if (s->g_time[top] != s->t) {
+        if (s->g_count == G_CHAIN) {
+            memmove(s->g, s->g + 1, (G_CHAIN - 1) * sizeof s->g[0]);
+            memmove(s->g_time, s->g_time + 1, (G_CHAIN - 1) * sizeof(double));
+        } else top = s->g_count++;
+        memcpy(s->g[top], s->g[top - 1], N_G * sizeof(double));
+        s->g_time[top] = s->t;
+    }
+    for (k = 0; k < N_G; k++)
+        if (isfinite(g_new[k])) s->g[top][k] = g_new[k];
+}
+
+/* Evaluate f(x, u, p, t, m[, extra]) into up to three results; nonzero when the generated code failed. */
+static int call_with(Model *s, casadi_fn f, const double *m, const double *extra, double *r0, double *r1,
+                     double *r2) {
     s->arg[0] = s->x;
     s->arg[1] = s->u;
     s->arg[2] = s->p;
     s->arg[3] = &s->t;
     s->arg[4] = m;
+    s->arg[5] = extra;  /* read only by the functions with a sixth argument */
     s->res[0] = r0;
     s->res[1] = r1;
     s->res[2] = r2;
@@ -34,6 +61,11 @@ static int call(Model *s, casadi_fn f, const double *m, double *r0, double *r1, 
         return CORE_ERROR;
     }
     return CORE_OK;
+}
+
+/* f(x, u, p, t, m[, g]): g the loops' starting point (start_point), read by the functions that take it. */
+static int call(Model *s, casadi_fn f, const double *m, double *r0, double *r1, double *r2) {
+    return call_with(s, f, m, start_point(s), r0, r1, r2);
 }
 
 Model *model_new(core_logger log, void *log_env) {
@@ -54,6 +86,9 @@ void model_reset(Model *s) {
     memcpy(s->u, U_START, N_U * sizeof(double));
     memcpy(s->p, P_START, N_P * sizeof(double));
     memcpy(s->m, M_START, N_M * sizeof(double));
+    memcpy(s->g[0], G_START, N_G * sizeof(double));
+    s->g_time[0] = -INFINITY;
+    s->g_count = 1;
     memset(s->x_set, 0, sizeof s->x_set);
     memset(s->z_side, 0, sizeof s->z_side);
     s->last_event = -INFINITY;
@@ -64,7 +99,7 @@ void model_reset(Model *s) {
 }
 
 /* Something the results depend on changed: recompute them when next asked. */
-void model_touch(Model *s) { s->fresh_xdot = s->fresh_y = s->fresh_z = s->fresh_v = s->fresh_q = 0; }
+void model_touch(Model *s) { s->fresh_xdot = s->fresh_y = s->fresh_z = s->fresh_v = s->fresh_q = s->fresh_g = 0; }
 
 /* A result of n values that is not a number where a nonlinear loop's Newton iterations did not converge (the
  * lowering makes it NaN there): an error naming the first such loop. A NaN of another cause is left as it is. */
@@ -82,10 +117,15 @@ static int loops_failed(Model *s, const double *result, int n) {
     return 0;
 }
 
-/* The result of a model function at the current t, x, u, p, m: computed once, then kept until model_touch. */
+/* The result of a model function at the current t, x, u, p, m: computed once, then kept until model_touch.
+ * cosim_ode, cosim_out and cosim_observe also give the loops' solutions there (keep_solution). */
 static const double *cached(Model *s, casadi_fn f, double *result, int n, int *fresh) {
+    double g_new[N_G + 1];
+    int solves = f != cosim_calculated;
     if (!*fresh) {
-        if (call(s, f, s->m, result, NULL, NULL) || loops_failed(s, result, n)) return NULL;
+        if (call(s, f, s->m, result, solves ? g_new : NULL, NULL) || loops_failed(s, result, n)) return NULL;
+        if (solves && N_G) keep_solution(s, g_new);
+        s->fresh_g |= solves;
         *fresh = 1;
     }
     return result;
@@ -99,6 +139,17 @@ static const double *outputs(Model *s) { return cached(s, cosim_out, s->y, N_Y, 
 static const double *observed(Model *s) { return cached(s, cosim_observe, s->v, N_OBS, &s->fresh_v); }
 
 static const double *calculated(Model *s) { return cached(s, cosim_calculated, s->q, 0, &s->fresh_q); }
+
+int model_accept(Model *s) {
+    if (!N_G) return CORE_OK;
+    if (!s->fresh_g && !model_derivatives(s)) return CORE_ERROR;
+    if (s->g_count > 1) {
+        memcpy(s->g[0], s->g[s->g_count - 1], N_G * sizeof(double));
+        s->g_time[0] = s->g_time[s->g_count - 1];
+        s->g_count = 1;
+    }
+    return CORE_OK;
+}
 
 /* An indicator exactly 0 is reported on the side it was on when continuous time began (as +-DBL_MIN): a
  * solver that locates a root exactly at 0 (CVode can) has then not yet crossed, and goes on to where the
@@ -115,11 +166,13 @@ const double *model_indicators(Model *s) {
     return s->z;
 }
 
-/* Continuous time begins: remember the side of each indicator (see model_indicators). */
+/* Continuous time begins: the point is accepted (model_accept), and the side of each indicator remembered (see
+ * model_indicators). */
 void model_settle_indicators(Model *s) {
-    const double *z = model_indicators(s);
+    const double *z;
     int k;
-    if (!z) return;
+    model_accept(s);  /* a loop that did not converge is reported by the next evaluation */
+    if (!(z = model_indicators(s))) return;
     for (k = 0; k < N_Z; k++) s->z_side[k] = z[k] > 0.0 ? 1.0 : z[k] < 0.0 ? -1.0 : 0.0;
 }
 
@@ -234,9 +287,8 @@ int model_initialize(Model *s) {
 static int mixed_at(Model *s, const double *c, double *x_new, double *m_new, double *status, double *fresh,
                     int *solved) {
     int k;
-    s->arg[5] = c;  /* the sixth argument and the fourth result; call() sets the others */
-    s->res[3] = fresh;
-    if (call(s, cosim_mixed, s->m, x_new, m_new, status)) return CORE_ERROR;
+    s->res[3] = fresh;  /* the fourth result; call_with() sets the others */
+    if (call_with(s, cosim_mixed, s->m, c, x_new, m_new, status)) return CORE_ERROR;
     *solved = 1;
     for (k = 0; k < N_CAND; k++)
         if (fresh[M_CAND[k]] != m_new[M_CAND[k]]) *solved = 0;
@@ -571,7 +623,7 @@ int model_do_step(Model *s, double t_end, int *terminated) {
     next_event = model_next_time(s);
     while (s->t < t_end) {
         if (next_event <= s->t) next_event = INFINITY;  /* next_time is strictly later; never step backward */
-        if (internal_step(s, t_end, next_event, &event)) return CORE_ERROR;
+        if (internal_step(s, t_end, next_event, &event) || model_accept(s)) return CORE_ERROR;
         if (!event) continue;
         if (model_count_event(s)) return CORE_ERROR;
         if (model_event_iteration(s, terminated)) return CORE_ERROR;
@@ -596,15 +648,16 @@ static int seed_of(Model *s, unsigned vr, double value, double *dx, double *du) 
     return CORE_OK;
 }
 
-/* Forward derivative of f (cosim_dode or cosim_dout: f(x, u, p, t, m, dx, du)) into r. */
+/* Forward derivative of f (cosim_dode or cosim_dout: f(x, u, p, t, m, g, dx, du)) into r. */
 static int forward(Model *s, casadi_fn f, const double *dx, const double *du, double *r) {
     s->arg[0] = s->x;
     s->arg[1] = s->u;
     s->arg[2] = s->p;
     s->arg[3] = &s->t;
     s->arg[4] = s->m;
-    s->arg[5] = dx;
-    s->arg[6] = du;
+    s->arg[5] = start_point(s);
+    s->arg[6] = dx;
+    s->arg[7] = du;
     s->res[0] = r;
     if (f(s->arg, s->res, (casadi_int *)s->iw, s->w, 0)) {
         logf_(s, 1, "t = %.17g: evaluation of the directional derivative failed%s", s->t, "");
@@ -645,9 +698,9 @@ int model_directional(Model *s, const unsigned *unknown, size_t n_unknown, const
 
 /* ---- the state as a flat array ---- */
 
-#define N_SIZES 5
+#define N_SIZES 6
 
-size_t model_state_size(void) { return N_SIZES + 1 + 2 * N_X + N_U + N_P + N_M + N_Z + 2; }
+size_t model_state_size(void) { return N_SIZES + 1 + 2 * N_X + N_U + N_P + N_M + 1 + G_CHAIN * (N_G + 2) + N_Z + 2; }
 
 static double *put(double *to, const double *from, int n) {
     if (n) memcpy(to, from, (size_t)n * sizeof(double));
@@ -660,7 +713,7 @@ static const double *take(double *to, const double *from, int n) {
 }
 
 void model_state_save(const Model *s, double *buf) {
-    const double sizes[N_SIZES] = {N_X, N_U, N_P, N_M, N_Z};
+    const double sizes[N_SIZES] = {N_X, N_U, N_P, N_M, N_Z, N_G};
     int i;
     buf = put(buf, sizes, N_SIZES);
     *buf++ = s->t;
@@ -668,6 +721,9 @@ void model_state_save(const Model *s, double *buf) {
     buf = put(buf, s->u, N_U);
     buf = put(buf, s->p, N_P);
     buf = put(buf, s->m, N_M);
+    *buf++ = s->g_count;
+    buf = put(buf, s->g_time, G_CHAIN);
+    buf = put(buf, s->g[0], G_CHAIN * (N_G + 1));
     for (i = 0; i < N_X; i++) *buf++ = s->x_set[i];
     buf = put(buf, s->z_side, N_Z);
     *buf++ = s->cs_step;
@@ -675,7 +731,7 @@ void model_state_save(const Model *s, double *buf) {
 }
 
 int model_state_load(Model *s, const double *buf) {
-    const double sizes[N_SIZES] = {N_X, N_U, N_P, N_M, N_Z};
+    const double sizes[N_SIZES] = {N_X, N_U, N_P, N_M, N_Z, N_G};
     int i;
     if (memcmp(buf, sizes, sizeof sizes) != 0) {
         logf_(s, 1, "t = %.17g: the FMU state was saved by another model (its sizes differ)%s", s->t, "");
@@ -687,6 +743,10 @@ int model_state_load(Model *s, const double *buf) {
     buf = take(s->u, buf, N_U);
     buf = take(s->p, buf, N_P);
     buf = take(s->m, buf, N_M);
+    s->g_count = (int)*buf++;
+    if (s->g_count < 1 || s->g_count > G_CHAIN) s->g_count = 1;  /* not a state of this build */
+    buf = take(s->g_time, buf, G_CHAIN);
+    buf = take(s->g[0], buf, G_CHAIN * (N_G + 1));
     for (i = 0; i < N_X; i++) s->x_set[i] = *buf++ != 0.0;
     buf = take(s->z_side, buf, N_Z);
     s->cs_step = *buf++;

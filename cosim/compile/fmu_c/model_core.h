@@ -12,6 +12,9 @@
 
 #include "model_data.h"
 
+/* Solutions of the nonlinear loops kept along an integration between accepted points (model_accept). */
+#define G_CHAIN 16
+
 /* Result codes of the core (the API layers map them to their status enums). */
 #define CORE_OK 0
 #define CORE_ERROR 1
@@ -46,11 +49,15 @@ typedef struct {
     double x[N_X + 1], u[N_U + 1], p[N_P + 1], m[N_M + 1];
     double xdot[N_X + 1], y[N_Y + 1], z[N_Z + 1];
     double v[N_OBS + 1], q[N_Q + 1];  /* the local variables (observe) and the calculated parameters */
+    /* The nonlinear loops' solutions along the current integration: at g_time[k] (increasing), g[k]; a solve at
+     * t starts from the last at or before t (model_accept keeps only the last). */
+    double g[G_CHAIN][N_G + 1], g_time[G_CHAIN];
+    int g_count;
     int x_set[N_X + 1];          /* state set by the importer before initialisation (x0 does not override) */
     double z_side[N_Z + 1];      /* sign of each indicator when continuous time last began (0: not known) */
     double last_event;           /* time of the last event (model_count_event), -inf before the first */
     int events_in_a_row;         /* events since the last that was over CHATTER_WINDOW after its predecessor */
-    int fresh_xdot, fresh_y, fresh_z, fresh_v, fresh_q;  /* cached results valid for the current t, x, u, p, m */
+    int fresh_xdot, fresh_y, fresh_z, fresh_v, fresh_q, fresh_g;  /* results valid for the current t, x, u, p, m */
     double cs_step;              /* internal step of model_do_step, s (value reference VR_CS: _cs_step) */
     int cs_method;               /* CS_RK4 or CS_IMPLICIT_EULER (value reference VR_CS + 1: _cs_method) */
     double mixed_tried[MAX_MIXED_ITERATIONS][N_M + 1];  /* candidates of an event pass's mixed system */
@@ -78,6 +85,12 @@ int model_set(Model *s, unsigned int vr, int type, double value, int initialisin
 const double *model_derivatives(Model *s);
 const double *model_indicators(Model *s);
 void model_settle_indicators(Model *s);
+
+/* The nonlinear loops' Newton iterations start from their last solution at or before the current time: an
+ * integrator's trial point beyond a branch's end moves a loop to its other branch for later points only, so that
+ * a step it rejects and retries shorter sees the branch as it was. model_accept: the current point is accepted
+ * (an integrator step completed, continuous time begins), the solutions before it are forgotten. */
+int model_accept(Model *s);
 int model_initialize(Model *s);
 int model_event_pass(Model *s, EventFlags *flags);
 int model_terminal(Model *s);
@@ -100,8 +113,8 @@ int model_directional(Model *s, const unsigned *unknown, size_t n_unknown, const
                       size_t n_known, const double *seed, double *sensitivity);
 
 /* The instance's state as model_state_size() doubles: the sizes (to check a buffer belongs to this model),
- * t, x, u, p, m, x_set, z_side, cs_step, cs_method. Serialisation is the buffer's bytes. model_state_load
- * fails (and changes nothing) when the sizes differ. */
+ * t, x, u, p, m, the loops' solutions (g_count, g_time, g), x_set, z_side, cs_step, cs_method. Serialisation
+ * is the buffer's bytes. model_state_load fails (and changes nothing) when the sizes differ. */
 size_t model_state_size(void);
 void model_state_save(const Model *s, double *buf);
 int model_state_load(Model *s, const double *buf);
