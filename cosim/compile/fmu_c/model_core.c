@@ -22,16 +22,22 @@ static void logf_(Model *s, int error, const char *format, double t, const char 
     s->log(s->log_env, error, buffer);
 }
 
-/* Where the loops' iterations at the current time start: the last solution at or before it (those after it
- * belong to an integrator's rejected step, and are forgotten); the first kept when all are after it. */
-static const double *start_point(Model *s) {
-    while (s->g_count > 1 && s->g_time[s->g_count - 1] > s->t) s->g_count--;
-    return s->g[s->g_count - 1];
+/* Where the loops' iterations at the current time start: the last solution at or before it; the first kept when
+ * all are after it. Reading forgets nothing: an evaluation at an earlier time that solves nothing (an event
+ * indicator at an output point the integrator has passed) must not drop the solutions of its accepted steps. */
+static const double *start_point(const Model *s) {
+    int k = s->g_count - 1;
+    while (k > 0 && s->g_time[k] > s->t) k--;
+    return s->g[k];
 }
 
-/* The loops' solutions g_new at the current time, where finite (a loop that did not converge is NaN). */
+/* The loops' solutions g_new at the current time, where finite (a loop that did not converge is NaN). Those kept
+ * for later times are forgotten (they belong to an integrator's rejected step, or to one an output point lies
+ * before), and the new one is the start of the next solves. */
 static void keep_solution(Model *s, const double *g_new) {
-    int k, top = s->g_count - 1;
+    int k, top;
+    while (s->g_count > 1 && s->g_time[s->g_count - 1] > s->t) s->g_count--;
+    top = s->g_count - 1;
     if (s->g_time[top] != s->t) {
         if (s->g_count == G_CHAIN) {
             memmove(s->g, s->g + 1, (G_CHAIN - 1) * sizeof s->g[0]);
