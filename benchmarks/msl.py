@@ -184,6 +184,8 @@ def main(argv=None):
     parser.add_argument("--examples", nargs="*", default=[], metavar="PACKAGE",
                         help="also the example models of these packages that have no reference results (built "
                              "and run to their StopTime), e.g. Modelica.Thermal.HeatTransfer")
+    parser.add_argument("--examples-only", action="store_true",
+                        help="only the --examples models, not those with reference results")
     parser.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--timeout", type=int, default=600, help="s a model may take (default 600)")
     parser.add_argument("--rows", help="also write every row to this file (JSON lines)")
@@ -196,7 +198,8 @@ def main(argv=None):
         return _worker(args.models, args.msl, args.refs, args.worker, args.timeout)
     referenced = reference_models(args.refs)
     others = [m for package in args.examples for m in example_models(args.msl, package) if m not in referenced]
-    models = [m for m in referenced + others if not args.only or any(o in m for o in args.only)]
+    models = [m for m in ([] if args.examples_only else referenced) + others
+              if not args.only or any(o in m for o in args.only)]
     print(f"{len(models)} models, {args.jobs} workers; verified when every comparison signal is within "
           f"{TOLERANCE:g} of its range", flush=True)
     start = time.perf_counter()
@@ -209,24 +212,39 @@ def main(argv=None):
     if args.rows:
         Path(args.rows).write_text("".join(json.dumps(r.as_dict()) + "\n" for r in rows), encoding="utf-8")
     if args.validation:
-        _write_validation(rows, table)
+        _write_validation(rows, set(referenced))
 
 
-def _write_validation(rows, table):
+def _write_validation(rows, referenced):
+    """The dev set's rows (the models with reference results) into sections msl and msl-models, the others
+    (``--examples``) into msl-examples, each section only when the run has such rows; every row into the shipped
+    status file (write_status)."""
     from validation import write_section
 
     header = ["package", "verified", *(f"stopped: {s}" for s in STAGES[:-1])]
-    model_rows = [[r.model.removeprefix("Modelica."), r.stage, r.worst_signal,
-                   "" if r.worst_error != r.worst_error else f"{r.worst_error:.1e}", f"{r.seconds:.0f}",
-                   r.cause.replace("|", "/")[:200]] for r in rows]
-    write_section("msl", header, table, notes=[
-        f"Verified: every comparison signal within {TOLERANCE:g} of its range, away from events "
-        "(benchmarks/msl_verify.py). Stages: rumoca = the front end rejected it; lower = cosim's lowering; export "
-        "= C code; simulate = the FMU failed under fmpy's CVode; signals = comparison signals not in the FMU; "
-        "compare = a signal off the reference; uncompared = a signal with every instant near an event (nothing to "
-        "compare); ran = built and ran to its StopTime (no reference results)."])
-    write_section("msl-models", ["model", "stage", "worst signal", "error", "time [s]", "cause"], model_rows)
+    stages_note = (f"Verified: every comparison signal within {TOLERANCE:g} of its range, away from events "
+                   "(benchmarks/msl_verify.py). Stages: rumoca = the front end rejected it; lower = cosim's lowering; "
+                   "export = C code; simulate = the FMU failed under fmpy's CVode; signals = comparison signals not "
+                   "in the FMU; compare = a signal off the reference; uncompared = a signal with every instant near "
+                   "an event (nothing to compare); ran = built and ran to its StopTime (no reference results).")
+    dev = [r for r in rows if r.model in referenced]
+    others = [r for r in rows if r.model not in referenced]
+    if dev:
+        write_section("msl", header, counts(dev), notes=[stages_note])
+        write_section("msl-models", MODEL_HEADER, _model_rows(dev))
+    if others:
+        write_section("msl-examples", header, counts(others), notes=[stages_note])
+        write_section("msl-examples-models", MODEL_HEADER, _model_rows(others))
     write_status(rows)
+
+
+MODEL_HEADER = ["model", "stage", "worst signal", "error", "time [s]", "cause"]
+
+
+def _model_rows(rows):
+    return [[r.model.removeprefix("Modelica."), r.stage, r.worst_signal,
+             "" if r.worst_error != r.worst_error else f"{r.worst_error:.1e}", f"{r.seconds:.0f}",
+             r.cause.replace("|", "/")[:200]] for r in rows]
 
 
 STATUS_FILE = HERE.parent / "cosim" / "data" / "msl_validation.csv"
@@ -234,11 +252,17 @@ STATUS_FILE = HERE.parent / "cosim" / "data" / "msl_validation.csv"
 
 def write_status(rows, path=STATUS_FILE):
     """Every model's stage and cause as the package ships them (cosim.compile.refusal reads them): a user whose
-    MSL example the front end refuses is told whether this run saw it refused too."""
+    MSL example the front end refuses is told whether this run saw it refused too. The run's models replace their
+    rows; the others' (a run of the dev set alone, then one of --examples) stay."""
+    kept = {}
+    if Path(path).is_file():
+        with open(path, encoding="utf-8", newline="") as given:
+            kept = {line["model"]: [line["model"], line["stage"], line["cause"]] for line in csv.DictReader(given)}
+    kept.update({r.model: [r.model, r.stage, r.cause[:200]] for r in rows})
     with open(path, "w", encoding="utf-8", newline="") as out:
         table = csv.writer(out, lineterminator="\n")
         table.writerow(["model", "stage", "cause"])
-        table.writerows([r.model, r.stage, r.cause[:200]] for r in sorted(rows, key=lambda r: r.model))
+        table.writerows(kept[model] for model in sorted(kept))
 
 
 if __name__ == "__main__":

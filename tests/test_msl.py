@@ -156,6 +156,22 @@ def test_the_examples_listed_beyond_the_references_hold_every_referenced_example
     assert "Modelica.Blocks.Examples.Noise.Densities" in example_models(MSL, "Modelica.Blocks")
 
 
+def test_a_run_of_the_examples_beyond_the_references_keeps_the_dev_sets_rows_in_the_shipped_status_file(tmp_path):
+    # cosim.compile.refusal reads the status file for every model a run saw; a later run of other models (the
+    # --examples-only run after the dev set's) replaces its own rows and keeps the rest
+    import csv
+
+    from msl import write_status
+    from msl_verify import Row
+
+    status = tmp_path / "msl_validation.csv"
+    write_status([Row("M.A", "verified"), Row("M.B", "rumoca", cause="refused")], status)
+    write_status([Row("M.B", "ran", cause="ran to 1 s"), Row("M.C", "simulate", cause="CVode")], status)
+    with status.open(encoding="utf-8", newline="") as lines:
+        rows = [(r["model"], r["stage"], r["cause"]) for r in csv.DictReader(lines)]
+    assert rows == [("M.A", "verified", ""), ("M.B", "ran", "ran to 1 s"), ("M.C", "simulate", "CVode")]
+
+
 @pytest.mark.slow
 def test_front_end_refusal_of_an_msl_example_names_its_file_and_the_validation_run(tmp_path):
     # rumoca 0.10.2 refuses Translational.Examples.Friction (docs/dev/rumoca-upstream.md); the user is told it is the
