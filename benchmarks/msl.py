@@ -31,8 +31,9 @@ sys.path.insert(0, str(HERE))
 
 from msl_verify import STAGES, TOLERANCE, Row, verify  # noqa: E402
 
-PACKAGES = ("Modelica.Mechanics.Rotational", "Modelica.Mechanics.Translational", "Modelica.Electrical.Analog",
-            "Modelica.Blocks")
+PACKAGES = ("Modelica.Mechanics.Rotational", "Modelica.Mechanics.Translational", "Modelica.Mechanics.MultiBody",
+            "Modelica.Electrical.Analog", "Modelica.Electrical.Machines", "Modelica.Thermal.HeatTransfer",
+            "Modelica.Thermal.FluidHeatFlow", "Modelica.Blocks")
 
 
 def reference_models(refs):

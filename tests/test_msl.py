@@ -173,6 +173,16 @@ def test_a_run_of_the_examples_beyond_the_references_keeps_the_dev_sets_rows_in_
 
 
 @pytest.mark.slow
+def test_a_pre_of_a_name_the_flattened_model_does_not_hold_is_refused_with_the_name():
+    # the Polyphase.Ideal switches of five Machines examples: a bare KeyError from the lowering before
+    from cosim.compile.build import lower
+    from cosim.errors import UnsupportedConstructError
+
+    with pytest.raises(UnsupportedConstructError, match=r"pre\(\) of idealCloser\.control, a name"):
+        lower(None, "Modelica.Electrical.Machines.Examples.SynchronousMachines.SMR_DOL", [MSL])
+
+
+@pytest.mark.slow
 def test_front_end_refusal_of_an_msl_example_names_its_file_and_the_validation_run(tmp_path):
     # rumoca 0.10.2 refuses Translational.Examples.Friction (docs/dev/rumoca-upstream.md); the user is told it is the
     # front end's known limit, at the example's own file (the user's, not cosim's transformed copy of the MSL)

@@ -351,6 +351,19 @@ def _parameter_variables(params, P):
     }
 
 
+def _check_pre_names(events, variables, equations):
+    """Refuse a pre() of a name the lowered model holds no variable of (the MSL's Polyphase.Ideal switches'
+    ``control``), named, with the first equation that reads it where one does."""
+    missing = sorted(n for n in events.pre if n not in variables)
+    if not missing:
+        return
+    reading = [loc for e, loc in equations if ca.depends_on(e, ca.vertcat(*[events.pre[n] for n in missing]))]
+    where = file_line(reading[0]) if reading else (None, None)
+    names = "a name" if len(missing) == 1 else "names"
+    raise UnsupportedConstructError(f"pre() of {', '.join(missing)}, {names} the flattened model holds no variable "
+                                    "of: the lowering cannot give its value between events", *where)
+
+
 def _hybrid_memory(system, equations):
     """The event memory's symbols (None for a continuous model) and the continuous equations as they hold
     between events."""
@@ -361,7 +374,9 @@ def _hybrid_memory(system, equations):
         if ca.depends_on(e, system.events.terminal):
             raise UnsupportedConstructError("terminal() in an equation that holds in continuous time (it is "
                                             "supported as the condition of a when-clause)", *file_line(loc))
-    pre_from, pre_to = hybrid.between_events(system.events, {v.name: v.sym for v in system.variables})
+    variables = {v.name: v.sym for v in system.variables}
+    _check_pre_names(system.events, variables, equations)
+    pre_from, pre_to = hybrid.between_events(system.events, variables)
     equations = [(ca.substitute(e, ca.vertcat(*pre_from), ca.vertcat(*pre_to)), loc) for e, loc in equations]
     return (ca.vertcat(*memory) if memory else ca.SX(0, 1)), equations
 
