@@ -342,6 +342,13 @@ static int search_mixed(Model *s, double tried[][N_M + 1], int n, double *x_out,
     return 0;
 }
 
+/* The results of a solved pass become the pass's. */
+static void take_pass(double *x_new, double *m_new, double *status, const double *x, const double *m, double st) {
+    memcpy(x_new, x, N_X * sizeof(double));
+    memcpy(m_new, m, N_M * sizeof(double));
+    *status = st;
+}
+
 /* The mixed system of one pass (Modelica's event iteration at one instant, pre() held): the discrete variables
  * and the continuous unknowns that decide each other are solved together. From the relations' and steps' values
  * the pass gave (m_new), the candidates are iterated (each the values the last gave) until they reproduce
@@ -355,9 +362,7 @@ static int solve_mixed(Model *s, double *x_new, double *m_new, double *status) {
         if (mixed_at(s, tried[n - 1], x_try, m_try, &st, n < MAX_MIXED_ITERATIONS ? tried[n] : spare, &solved))
             return CORE_ERROR;
         if (solved) {
-            memcpy(x_new, x_try, N_X * sizeof(double));
-            memcpy(m_new, m_try, N_M * sizeof(double));
-            *status = st;
+            take_pass(x_new, m_new, status, x_try, m_try, st);
             return CORE_OK;
         }
         for (j = 0; j < n && n < MAX_MIXED_ITERATIONS; j++)
@@ -365,11 +370,7 @@ static int solve_mixed(Model *s, double *x_new, double *m_new, double *status) {
     }
     found = search_mixed(s, tried, n - 1 + repeated, x_try, m_try, &st);
     if (found < 0) return CORE_ERROR;
-    if (found) {
-        memcpy(x_new, x_try, N_X * sizeof(double));
-        memcpy(m_new, m_try, N_M * sizeof(double));
-        *status = st;
-    }
+    if (found) take_pass(x_new, m_new, status, x_try, m_try, st);
     return CORE_OK;
 }
 
