@@ -68,13 +68,12 @@ def example_models(msl, package):
         if {"Utilities", "BaseClasses", "Components"} & set(parts):
             continue
         text = mo.read_text(encoding="utf-8", errors="replace")
+        prefix = ".".join(parts[:-1] if mo.name == "package.mo" else parts)
         if "Examples" not in parts:
-            prefix = ".".join(parts[:-1] if mo.name == "package.mo" else parts)
             for inner in re.finditer(r"^( *)package Examples\b.*?^\1end Examples;", text, re.M | re.S):
                 found += _models_in(inner.group(0), f"{prefix}.Examples")
             continue
         if mo.name == "package.mo" or mo.stem == "Examples":
-            prefix = ".".join(parts[:-1] if mo.name == "package.mo" else parts)
             found += [f"{prefix}.{name}" for name in re.findall(r"^  model (\w+)", text, re.M)]
         elif re.search(rf"^(?:encapsulated )?model {re.escape(mo.stem)}\b", text, re.M):
             found.append(".".join(parts))
@@ -218,8 +217,8 @@ def main(argv=None):
 
 def _write_validation(rows, referenced):
     """The dev set's rows (the models with reference results) into sections msl and msl-models, the others
-    (``--examples``) into msl-examples, each section only when the run has such rows; every row into the shipped
-    status file (write_status)."""
+    (``--examples``) into msl-examples and msl-examples-models, each pair only when the run has such rows; every
+    row into the shipped status file (write_status)."""
     from validation import write_section
 
     header = ["package", "verified", *(f"stopped: {s}" for s in STAGES[:-1])]

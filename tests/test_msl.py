@@ -174,7 +174,7 @@ def test_a_run_of_the_examples_beyond_the_references_keeps_the_dev_sets_rows_in_
 
 @pytest.mark.slow
 def test_a_pre_of_a_name_the_flattened_model_does_not_hold_is_refused_with_the_name():
-    # the Polyphase.Ideal switches of five Machines examples: a bare KeyError from the lowering before
+    # the Polyphase.Ideal switches of seven Machines examples: a bare KeyError from the lowering before
     from cosim.compile.build import lower
     from cosim.errors import UnsupportedConstructError
 

@@ -357,8 +357,9 @@ def _check_pre_names(events, variables, equations):
     missing = sorted(n for n in events.pre if n not in variables)
     if not missing:
         return
-    reading = [loc for e, loc in equations if ca.depends_on(e, ca.vertcat(*[events.pre[n] for n in missing]))]
-    where = file_line(reading[0]) if reading else (None, None)
+    pre_missing = ca.vertcat(*[events.pre[n] for n in missing])
+    reading = next((loc for e, loc in equations if ca.depends_on(e, pre_missing)), None)
+    where = (None, None) if reading is None else file_line(reading)
     names = "a name" if len(missing) == 1 else "names"
     raise UnsupportedConstructError(f"pre() of {', '.join(missing)}, {names} the flattened model holds no variable "
                                     "of: the lowering cannot give its value between events", *where)
