@@ -25,9 +25,12 @@ gripping force ``GAIN*T``):
 not of the first truth's successes) and the noise level.
 """
 
+import re
+
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
+from scipy.stats import binomtest
 
 from cosim.diagnose import EFFECTS
 from diagnose_truth import F_GUIDE, GAIN, K_T, staircase
@@ -248,26 +251,44 @@ def _effects_named(row):
     return [f for f in _findings(row) if not EFFECTS[f].is_form]
 
 
+def _forms_named(row):
+    """The forms of laws among a row's findings."""
+    return [f for f in _findings(row) if EFFECTS[f].is_form]
+
+
+# The verdict's words when a gap is left above the noise (cosim.diagnose.answer.verdict and rounds' verdict): "a gap
+# of 2.1 noise levels remains ...", "a diffuse gap of 1.2 noise levels RMS remains"; not "what remains is within
+# the noise (1.4 noise levels RMS)".
+_GAP_LEFT = re.compile(r"gap of [0-9.]+ noise levels (RMS )?remains")
+
+
+def gap_left(row):
+    """Whether a row's answer says that a gap above the noise remains unexplained (after its findings, if any)."""
+    return bool(_GAP_LEFT.search(row["verdict"]))
+
+
+def wilson(k, n):
+    """The Wilson score 95 % interval of ``k`` successes in ``n`` (nan, nan when ``n`` is 0)."""
+    if n == 0:
+        return (float("nan"), float("nan"))
+    ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+    return (float(ci.low), float(ci.high))
+
+
 def count_rows(rows, shown=SHOWN_ON_STAIRCASE):
     """Counts over diagnosed rows (:func:`diagnose_case2`): per truth effect, named right / cases; false alarms
     on ``none``; named with at least 80 % of the gap removed; each with its Wilson 95 % interval. The target
     "named right" counts only the effects the experiment is said to show (``shown``). After rounds (issue 42) an
     effect is named right when it is among a case's findings, and a false alarm is an effect (not a form of a law
-    the model has) among the findings of a case without one."""
-    def wilson(k, n):
-        if n == 0:
-            return (float("nan"), float("nan"))
-        p, z = k / n, 1.96
-        centre, half = (p + z * z / (2 * n)) / (1 + z * z / n), z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) \
-            / (1 + z * z / n)
-        return (float(centre - half), float(centre + half))
-
+    the model has) among the findings of a case without one; a form named is counted apart (``forms_named``), as
+    are the answers that leave a gap unexplained (``gap_left``)."""
     out = {}
     for effect in sorted({r["truth"] for r in rows}):
         mine = [r for r in rows if r["truth"] == effect]
         right = [r for r in mine if (not _effects_named(r) if effect == "none" else effect in _findings(r))]
         entry = {"cases": len(mine), "named_right": len(right), "interval": wilson(len(right), len(mine)),
-                 "named": sorted("+".join(_findings(r)) or "none" for r in mine)}
+                 "named": sorted("+".join(_findings(r)) or "none" for r in mine),
+                 "forms_named": sum(bool(_forms_named(r)) for r in mine), "gap_left": sum(map(gap_left, mine))}
         if effect != "none":
             entry["gap_removed_80"] = sum(r["gap_removed"] >= 0.8 for r in right)
         out[effect] = entry
@@ -276,6 +297,8 @@ def count_rows(rows, shown=SHOWN_ON_STAIRCASE):
     shown_rows = [r for r in rows if r["truth"] in shown]
     named = sum(r["truth"] in _findings(r) for r in shown_rows)
     out["summary"] = {"false_alarms": alarms, "none_cases": len(none), "false_alarm_interval": wilson(alarms, len(none)),
+                      "forms_on_none": sum(bool(_forms_named(r)) for r in none),
                       "named_right_shown": named, "shown_cases": len(shown_rows),
-                      "named_right_interval": wilson(named, len(shown_rows))}
+                      "named_right_interval": wilson(named, len(shown_rows)),
+                      "gap_left": sum(map(gap_left, rows)), "cases": len(rows)}
     return out
