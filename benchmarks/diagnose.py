@@ -365,27 +365,28 @@ def run_experiment(experiment, args, seed):
     done = rows_done(args.rows, commit_of_checkout()) if args.resume else None
     rows = draw_rows(experiment, args.truths, effects, args.cases, seed, args.workers, args.rows, done)
     print(f"\n{experiment}: {time.time() - start:.0f} s")
-    _show_table(experiment, rows, args.forms, [seed], DOC if args.validation else None)
+    section = _show_table(experiment, rows, args.forms, [seed])
+    if args.validation:
+        write_section(*section)
 
 
-def _show_table(experiment, rows, forms, seeds, doc=None, notes=()):
-    """Print an experiment's counts ({truth: [row, ...]}) and, given a ``doc`` (docs/validation.md), write its
-    section there."""
+def _show_table(experiment, rows, forms, seeds, notes=()):
+    """Print an experiment's counts ({truth: [row, ...]}); returns its section of docs/validation.md as
+    :func:`write_section` takes it (name, header, table, seeds, notes)."""
     table, summary = count_table(rows, EXPERIMENTS[experiment][0], TARGETS[forms])
     header = TABLE_HEADER + (["first finding shown by"] if len(table[0]) > len(TABLE_HEADER) else [])
     print("  ".join(header))
     for row in table:
         print("  ".join(map(str, row)))
     print("\n".join(summary), flush=True)
-    if doc:
-        write_section(section_name(experiment, forms), header, table, seeds=seeds, notes=[*summary, *notes], doc=doc)
+    return section_name(experiment, forms), header, table, seeds, [*summary, *notes]
 
 
 def tables_from_rows(rows_file, doc=None):
     """Count the rows of an evaluation (``--rows`` of earlier runs, every row of one commit) and print each
     experiment's table, then the counts over the experiments of each truth; given a ``doc`` (docs/validation.md),
-    write them there. No case
-    is diagnosed: a run of many hours, done in parts, is counted once all its rows are in."""
+    write them there, every section or none. No case is diagnosed: a run of many hours, done in parts, is counted
+    once all its rows are in."""
     rows = [json.loads(line) for line in rows_file.read_text(encoding="utf-8").splitlines() if line.strip()]
     commits = sorted({r["commit"] for r in rows})
     if len(commits) != 1:
@@ -397,17 +398,23 @@ def tables_from_rows(rows_file, doc=None):
     groups = {}
     for r in rows:
         groups.setdefault((r["experiment"], r.get("forms", False)), {}).setdefault(r["truth_set"], []).append(r)
+    sections = []
     for (experiment, forms), by_truth in groups.items():
         print(f"\n{experiment}{' (forms offered)' if forms else ''}: {sum(map(len, by_truth.values()))} rows")
-        _show_table(experiment, dict(sorted(by_truth.items())), forms, seeds, doc, [source])
+        sections.append(_show_table(experiment, dict(sorted(by_truth.items())), forms, seeds, [source]))
     for forms in sorted({forms for _, forms in groups}):
         table = _overall_table({e: t for (e, f), t in groups.items() if f == forms})
         print(f"\nover the experiments{' (forms offered)' if forms else ''}:\n" + "  ".join(OVERALL_HEADER))
         for row in table:
             print("  ".join(map(str, row)))
-        if doc:
-            write_section(section_name("summary", forms), OVERALL_HEADER, table, seeds=seeds, notes=[source],
-                          doc=doc)
+        sections.append((section_name("summary", forms), OVERALL_HEADER, table, seeds, [source]))
+    if doc:
+        text = Path(doc).read_text(encoding="utf-8")
+        missing = [name for name, *_ in sections if f"<!-- validation:{name} -->" not in text]
+        if missing:
+            sys.exit(f"{doc}: no section for {', '.join(missing)} (add its markers by hand); nothing written")
+        for section in sections:
+            write_section(*section, doc=doc)
 
 
 OVERALL_HEADER = ["truth", "experiments", "named right (effects shown)", "95 % interval", "false alarms",

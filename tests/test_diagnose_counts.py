@@ -80,6 +80,17 @@ def test_tables_from_rows_write_the_experiment_and_overall_sections(tmp_path):
     assert "8 rows, every one diagnosed at commit abc1234" in text and "target >= 70 %" in text
 
 
+def test_tables_write_nothing_when_a_section_is_missing(tmp_path):
+    rows_file = tmp_path / "rows.jsonl"
+    rows_file.write_text("".join(json.dumps(r) + "\n" for r in ROWS))
+    doc = tmp_path / "validation.md"
+    before = "<!-- validation:diagnose-impact-forms -->\n<!-- /validation:diagnose-impact-forms -->\n"
+    doc.write_text(before)
+    with pytest.raises(SystemExit, match="no section for diagnose-summary-forms"):
+        bench.tables_from_rows(rows_file, doc)
+    assert doc.read_text() == before
+
+
 def test_tables_refuse_rows_of_two_commits(tmp_path):
     rows_file = tmp_path / "rows.jsonl"
     rows_file.write_text(json.dumps(ROWS[0]) + "\n" + json.dumps({**ROWS[1], "commit": "def5678"}) + "\n")
