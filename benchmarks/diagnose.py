@@ -80,7 +80,7 @@ from diagnose_truth2_impact import (SHOWN_BY, diagnose_case_impact1, diagnose_ca
                                    diagnose_experiments_case)
 
 from cosim.diagnose import load_diagnose_job  # noqa: E402
-from validation import DOC, write_section  # noqa: E402
+from validation import DOC, write_section, write_sections  # noqa: E402
 
 # Noise sd [N] of the first staircase truth's load cell (the second draws its own).
 STAIRCASE_NOISE = 0.3
@@ -320,11 +320,12 @@ TARGETS = {False: (85, 5), True: (70, 10)}
 
 
 def count_table(rows, shown, targets=TARGETS[False]):
-    """Rows of the validation table and the summary lines, from {truth: [row, ...]}; ``shown``: the effects the
-    experiment shows; ``targets``: (named right, false alarms) in %. Rows that say which records showed their
-    first finding (``impact+slide``) add that column."""
+    """The validation table's header and rows and the summary lines, from {truth: [row, ...]}; ``shown``: the
+    effects the experiment shows; ``targets``: (named right, false alarms) in %. Rows that say which records showed
+    their first finding (``impact+slide``) add that column."""
     table, notes = [], []
     by_record = any("shown_by" in r for mine in rows.values() for r in mine)
+    header = TABLE_HEADER + (["first finding shown by"] if by_record else [])
     for truth, mine in rows.items():
         counts = count_rows(mine, shown)
         for effect, entry in counts.items():
@@ -343,7 +344,7 @@ def count_table(rows, shown, targets=TARGETS[False]):
                      f"<= {targets[1]} %), a form named on {su['forms_on_none']} of those; a gap left unexplained in "
                      f"{su['gap_left']}/{su['cases']}; median time a case "
                      f"{np.median([r['seconds'] for r in mine]):.0f} s.")
-    return table, notes
+    return header, table, notes
 
 
 def _shown_by(rows):
@@ -373,11 +374,8 @@ def run_experiment(experiment, args, seed):
 def _show_table(experiment, rows, forms, seeds, notes=()):
     """Print an experiment's counts ({truth: [row, ...]}); returns its section of docs/validation.md as
     :func:`write_section` takes it (name, header, table, seeds, notes)."""
-    table, summary = count_table(rows, EXPERIMENTS[experiment][0], TARGETS[forms])
-    header = TABLE_HEADER + (["first finding shown by"] if len(table[0]) > len(TABLE_HEADER) else [])
-    print("  ".join(header))
-    for row in table:
-        print("  ".join(map(str, row)))
+    header, table, summary = count_table(rows, EXPERIMENTS[experiment][0], TARGETS[forms])
+    _print_table(header, table)
     print("\n".join(summary), flush=True)
     return section_name(experiment, forms), header, table, seeds, [*summary, *notes]
 
@@ -404,17 +402,18 @@ def tables_from_rows(rows_file, doc=None):
         sections.append(_show_table(experiment, dict(sorted(by_truth.items())), forms, seeds, [source]))
     for forms in sorted({forms for _, forms in groups}):
         table = _overall_table({e: t for (e, f), t in groups.items() if f == forms})
-        print(f"\nover the experiments{' (forms offered)' if forms else ''}:\n" + "  ".join(OVERALL_HEADER))
-        for row in table:
-            print("  ".join(map(str, row)))
+        print(f"\nover the experiments{' (forms offered)' if forms else ''}:")
+        _print_table(OVERALL_HEADER, table)
         sections.append((section_name("summary", forms), OVERALL_HEADER, table, seeds, [source]))
     if doc:
-        text = Path(doc).read_text(encoding="utf-8")
-        missing = [name for name, *_ in sections if f"<!-- validation:{name} -->" not in text]
-        if missing:
-            sys.exit(f"{doc}: no section for {', '.join(missing)} (add its markers by hand); nothing written")
-        for section in sections:
-            write_section(*section, doc=doc)
+        write_sections(sections, doc)
+
+
+def _print_table(header, table):
+    """A table's header and rows, one line each, cells two spaces apart."""
+    print("  ".join(header))
+    for row in table:
+        print("  ".join(map(str, row)))
 
 
 OVERALL_HEADER = ["truth", "experiments", "named right (effects shown)", "95 % interval", "false alarms",

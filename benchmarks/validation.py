@@ -12,7 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-__all__ = ["DOC", "write_section"]
+__all__ = ["DOC", "write_section", "write_sections"]
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "validation.md"
@@ -66,16 +66,32 @@ def write_section(name, header, rows, seeds=(), notes=(), doc=DOC):
     SystemExit
         When the page has no such section (its markers must be added by hand, with the prose around them).
     """
+    write_sections([(name, header, rows, seeds, notes)], doc)
+
+
+def write_sections(sections, doc=DOC):
+    """Replace several sections of ``doc`` (each the arguments of :func:`write_section`: name, header, rows, seeds,
+    notes), every one or none: the markers of all are checked before the page is written.
+
+    Raises
+    ------
+    SystemExit
+        When the page lacks a section's markers; the page is left as it was.
+    """
     doc = Path(doc)
     text = doc.read_text(encoding="utf-8")
-    begin, end = f"<!-- validation:{name} -->", f"<!-- /validation:{name} -->"
-    if text.count(begin) != 1 or text.count(end) != 1 or text.index(begin) > text.index(end):
-        raise SystemExit(f"{doc}: expected one section {begin} ... {end}; found {text.count(begin)} start and "
-                         f"{text.count(end)} end markers")
-    lines = [begin, "", _stamp(seeds), "",
-             "| " + " | ".join(map(str, header)) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(map(str, row)) + " |" for row in rows]
-    lines += ["", *notes, ""] if notes else [""]
-    body = "\n".join(lines) + end
-    doc.write_text(text[:text.index(begin)] + body + text[text.index(end) + len(end):], encoding="utf-8")
-    print(f"wrote section {name!r} of {doc}")
+    for name, *_ in sections:
+        begin, end = f"<!-- validation:{name} -->", f"<!-- /validation:{name} -->"
+        if text.count(begin) != 1 or text.count(end) != 1 or text.index(begin) > text.index(end):
+            raise SystemExit(f"{doc}: expected one section {begin} ... {end}; found {text.count(begin)} start and "
+                             f"{text.count(end)} end markers; nothing written")
+    for name, header, rows, seeds, notes in sections:
+        begin, end = f"<!-- validation:{name} -->", f"<!-- /validation:{name} -->"
+        lines = [begin, "", _stamp(seeds), "",
+                 "| " + " | ".join(map(str, header)) + " |", "|" + "---|" * len(header)]
+        lines += ["| " + " | ".join(map(str, row)) + " |" for row in rows]
+        lines += ["", *notes, ""] if notes else [""]
+        text = text[:text.index(begin)] + "\n".join(lines) + end + text[text.index(end) + len(end):]
+    doc.write_text(text, encoding="utf-8")
+    for name, *_ in sections:
+        print(f"wrote section {name!r} of {doc}")
