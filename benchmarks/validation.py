@@ -69,6 +69,11 @@ def write_section(name, header, rows, seeds=(), notes=(), doc=DOC):
     write_sections([(name, header, rows, seeds, notes)], doc)
 
 
+def _markers(name):
+    """The comments that open and close section ``name`` of the page."""
+    return f"<!-- validation:{name} -->", f"<!-- /validation:{name} -->"
+
+
 def write_sections(sections, doc=DOC):
     """Replace several sections of ``doc`` (each the arguments of :func:`write_section`: name, header, rows, seeds,
     notes), every one or none: the markers of all are checked before the page is written.
@@ -81,12 +86,12 @@ def write_sections(sections, doc=DOC):
     doc = Path(doc)
     text = doc.read_text(encoding="utf-8")
     for name, *_ in sections:
-        begin, end = f"<!-- validation:{name} -->", f"<!-- /validation:{name} -->"
+        begin, end = _markers(name)
         if text.count(begin) != 1 or text.count(end) != 1 or text.index(begin) > text.index(end):
             raise SystemExit(f"{doc}: expected one section {begin} ... {end}; found {text.count(begin)} start and "
                              f"{text.count(end)} end markers; nothing written")
     for name, header, rows, seeds, notes in sections:
-        begin, end = f"<!-- validation:{name} -->", f"<!-- /validation:{name} -->"
+        begin, end = _markers(name)
         lines = [begin, "", _stamp(seeds), "",
                  "| " + " | ".join(map(str, header)) + " |", "|" + "---|" * len(header)]
         lines += ["| " + " | ".join(map(str, row)) + " |" for row in rows]
