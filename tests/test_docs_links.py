@@ -1,5 +1,6 @@
 """Every relative link in the user docs and the README reaches a file, and every ``#anchor`` into a Markdown page
 reaches one of its headings (GitHub's rule for heading anchors), so a renamed section cannot leave a dead link."""
+import functools
 import pathlib
 import re
 
@@ -15,8 +16,9 @@ def heading_anchor(heading):
     return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
 
 
+@functools.cache
 def anchors(page):
-    """The anchors of ``page``'s headings, outside fenced code."""
+    """The anchors of ``page``'s headings, outside fenced code (read once a page, however many links name it)."""
     found, fenced = set(), False
     for line in page.read_text().splitlines():
         if line.startswith("```"):
